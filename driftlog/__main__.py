@@ -1,0 +1,3 @@
+from driftlog.cli import main
+
+raise SystemExit(main())

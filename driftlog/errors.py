@@ -1,0 +1,28 @@
+"""Exceptions raised for bad input; each names the key or file, the value and what is allowed."""
+
+__all__ = ["DriftlogError", "MeshError", "FlowFileError", "ScenarioError", "FlowDomainError"]
+
+
+class DriftlogError(Exception):
+    """Base class of driftlog's errors about user input."""
+
+
+class MeshError(DriftlogError, ValueError):
+    """A mesh that cannot be used (degenerate faces, bad connectivity, unreadable file)."""
+
+
+class FlowFileError(DriftlogError, ValueError):
+    """A flow file or hydro-model output that cannot be read (missing variable, NaN, bad times)."""
+
+
+class ScenarioError(DriftlogError, ValueError):
+    """A scenario value that is not allowed; the message names the key, the value and the rule."""
+
+    def __init__(self, key: str, value, allowed: str, source: str | None = None):
+        self.key, self.value, self.allowed, self.source = key, value, allowed, source
+        where = f"{source}: " if source else ""
+        super().__init__(f"{where}[{key}] = {value!r}: {allowed}")
+
+
+class FlowDomainError(DriftlogError, ValueError):
+    """A request outside the flow's time span or domain."""

@@ -1,0 +1,382 @@
+"""Flow fields: a mesh, a bed and snapshots of h, hu, hv, sampled at arrays of points in numba.
+
+Every flow field, on a mesh or analytic, answers ``sample(x, y, t)`` with the same columns
+(``FlowSample``): depth, velocity, its local time derivative, the velocity gradient
+J_ij = dU_i/dx_j, the free-surface gradient, and a wet / dry / outside flag.
+
+Spatial reconstruction on meshes (``MeshFlowField``): piecewise linear (P1) on the faces, split
+into triangles (quadrilaterals fanned from their first node), from node values that are
+least-squares linear fits of the surrounding face values (``Mesh.node_interpolator``).  We chose
+it over a per-face least-squares gradient because it is continuous (a log crossing a face edge
+sees no jump in velocity, which event-driven contact and the integrators' step control need),
+and it reproduces a linear field exactly, as the per-face fit does.  The price is that the
+gradient J is piecewise constant (kinks at edges), which cuts RK4 to second order on mesh
+fields: measured in benchmarks/integrator_convergence.py.
+
+Time: linear between the two snapshots around t; only those two are held in memory, so a flow
+file larger than memory works.  Depth, velocity and free surface are each interpolated on
+their own; velocity on a face is hu/h where h > ``dry_depth`` and 0 elsewhere (no division by
+zero on dry faces).
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+from driftlog.errors import FlowDomainError, FlowFileError
+from driftlog.locate import locate_one
+
+__all__ = [
+    "FlowField", "FlowSample", "MeshFlowField", "InMemorySnapshots", "SAMPLE_COLUMNS",
+    "H", "U", "V", "DUDT", "DVDT", "DUDX", "DUDY", "DVDX", "DVDY", "DETADX", "DETADY", "ETA",
+    "NVAR", "OUTSIDE", "DRY", "WET",
+]
+
+# columns of a sample
+H, U, V, DUDT, DVDT, DUDX, DUDY, DVDX, DVDY, DETADX, DETADY, ETA = range(12)
+NVAR = 12
+SAMPLE_COLUMNS = ("water_depth", "velocity_x", "velocity_y", "dudt", "dvdt", "dudx", "dudy",
+                  "dvdx", "dvdy", "detadx", "detady", "water_level")
+# flag values
+OUTSIDE, DRY, WET = 0, 1, 2
+FLAG_MEANINGS = "outside dry wet"
+
+
+@dataclass
+class FlowSample:
+    """Flow sampled at n points: ``values`` (n, NVAR) in the column order of SAMPLE_COLUMNS."""
+
+    values: np.ndarray
+    flag: np.ndarray
+    face: np.ndarray
+
+    @classmethod
+    def empty(cls, n):
+        return cls(np.zeros((n, NVAR)), np.zeros(n, np.int8), np.full(n, -1, np.int64))
+
+    h = property(lambda s: s.values[:, H], doc="water depth (m)")
+    u = property(lambda s: s.values[:, U], doc="x velocity (m/s)")
+    v = property(lambda s: s.values[:, V], doc="y velocity (m/s)")
+    eta = property(lambda s: s.values[:, ETA], doc="water level (m)")
+    dudt = property(lambda s: s.values[:, DUDT:DVDT + 1], doc="local dU/dt (n, 2) (m/s2)")
+    grad_eta = property(lambda s: s.values[:, DETADX:DETADY + 1], doc="free-surface slope (n, 2)")
+
+    @property
+    def jacobian(self):
+        """Velocity gradient J_ij = dU_i/dx_j, shape (n, 2, 2) (1/s)."""
+        return self.values[:, DUDX:DVDY + 1].reshape(-1, 2, 2)
+
+    @property
+    def omega(self):
+        """Flow rotation rate omega_w = (dv/dx - du/dy) / 2 (rad/s)."""
+        return 0.5 * (self.values[:, DVDX] - self.values[:, DUDY])
+
+    @property
+    def wet(self):
+        return self.flag == WET
+
+
+class FlowField:
+    """What every flow field offers: sampling at points and its time span."""
+
+    mesh = None
+    dry_depth = 1e-3
+    name = "flow"
+
+    @property
+    def time_span(self) -> tuple[float, float]:
+        """(first, last) time the field covers (s); infinite for steady analytic fields."""
+        return (-np.inf, np.inf)
+
+    @property
+    def times(self) -> np.ndarray:
+        """Snapshot times (s); the hydrodynamic steps that sub-steps must land on."""
+        return np.empty(0)
+
+    def sample(self, x, y, t, face=None) -> FlowSample:
+        """Sample the flow at points (x, y) and time(s) t; ``face`` are location hints."""
+        x = np.ascontiguousarray(x, dtype=np.float64).ravel()
+        y = np.ascontiguousarray(y, dtype=np.float64).ravel()
+        s = FlowSample.empty(x.size)
+        if face is not None:
+            s.face[:] = face
+        t = np.asarray(t, dtype=np.float64)
+        if t.ndim == 0:
+            self.sample_into(x, y, float(t), s.face, s.values, s.flag)
+            return s
+        t = np.broadcast_to(t.ravel(), x.shape)
+        for tk in np.unique(t):  # one call per distinct time, not per point
+            idx = np.flatnonzero(t == tk)
+            sub = FlowSample(np.empty((idx.size, NVAR)), np.empty(idx.size, np.int8),
+                             s.face[idx].copy())
+            self.sample_into(x[idx], y[idx], float(tk), sub.face, sub.values, sub.flag)
+            s.values[idx], s.flag[idx], s.face[idx] = sub.values, sub.flag, sub.face
+        return s
+
+    def sample_into(self, x, y, t, face, out, flag) -> None:
+        """Kernel entry: fill ``out`` (n, NVAR) and ``flag`` (n,), update hints ``face``."""
+        raise NotImplementedError
+
+    def check_time(self, t):
+        t0, t1 = self.time_span
+        span = max(t1 - t0, 1.0) if np.isfinite(t1 - t0) else 1.0
+        if not (t0 - 1e-9 * span <= t <= t1 + 1e-9 * span):
+            raise FlowDomainError(f"{self.name}: time {t} s is outside the flow's span "
+                                  f"[{t0}, {t1}] s")
+
+
+# --------------------------------------------------------------------- mesh sampling kernel
+@nb.njit(cache=True, inline="always")
+def _triangle_weights(px, py, xa, ya, xb, yb, xc, yc):
+    d = (xb - xa) * (yc - ya) - (xc - xa) * (yb - ya)
+    inv = 1.0 / d
+    la = ((xb - px) * (yc - py) - (xc - px) * (yb - py)) * inv
+    lb = ((xc - px) * (ya - py) - (xa - px) * (yc - py)) * inv
+    lc = 1.0 - la - lb
+    # gradients of the barycentric coordinates
+    gax, gay = (yb - yc) * inv, (xc - xb) * inv
+    gbx, gby = (yc - ya) * inv, (xa - xc) * inv
+    gcx, gcy = -gax - gbx, -gay - gby
+    return la, lb, lc, gax, gay, gbx, gby, gcx, gcy
+
+
+@nb.njit(cache=True, inline="always")
+def _p1(nodevals, q, n0, n1, n2, a, b, inv_dt, w):
+    """Value, gradient and time derivative of column q on the triangle (n0, n1, n2)."""
+    la, lb, lc, gax, gay, gbx, gby, gcx, gcy = w
+    va = b * nodevals[n0, q] + a * nodevals[n0, q + 4]
+    vb = b * nodevals[n1, q] + a * nodevals[n1, q + 4]
+    vc = b * nodevals[n2, q] + a * nodevals[n2, q + 4]
+    td = inv_dt * (la * (nodevals[n0, q + 4] - nodevals[n0, q])
+                   + lb * (nodevals[n1, q + 4] - nodevals[n1, q])
+                   + lc * (nodevals[n2, q + 4] - nodevals[n2, q]))
+    return (la * va + lb * vb + lc * vc, gax * va + gbx * vb + gcx * vc,
+            gay * va + gby * vb + gcy * vc, td)
+
+
+@nb.njit(cache=True, parallel=True)
+def sample_mesh_kernel(px, py, face, out, flag, a, inv_dt, nodevals, dry_depth,
+                       face_nodes, face_n, face_nbr, node_x, node_y,
+                       x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces):
+    """Locate and sample n points; nodevals (n_nodes, 8) = h, u, v, eta at t0 then at t1."""
+    b = 1.0 - a
+    for i in nb.prange(px.shape[0]):
+        x, y = px[i], py[i]
+        f = locate_one(x, y, face[i], face_nodes, face_n, face_nbr, node_x, node_y,
+                       x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
+        face[i] = f
+        if f < 0:
+            for k in range(NVAR):
+                out[i, k] = 0.0
+            flag[i] = OUTSIDE
+            continue
+        # fan triangle (n0, nk, nk+1) that holds the point
+        n0 = face_nodes[f, 0]
+        k = 1
+        while k < face_n[f] - 2:
+            nk1 = face_nodes[f, k + 1]
+            c = ((node_x[nk1] - node_x[n0]) * (y - node_y[n0])
+                 - (node_y[nk1] - node_y[n0]) * (x - node_x[n0]))
+            if c <= 0.0:
+                break
+            k += 1
+        n1 = face_nodes[f, k]
+        n2 = face_nodes[f, k + 1]
+        la, lb, lc, gax, gay, gbx, gby, gcx, gcy = _triangle_weights(
+            x, y, node_x[n0], node_y[n0], node_x[n1], node_y[n1], node_x[n2], node_y[n2])
+        w = (la, lb, lc, gax, gay, gbx, gby, gcx, gcy)
+        hval, _, _, _ = _p1(nodevals, 0, n0, n1, n2, a, b, inv_dt, w)
+        uval, ux, uy, ut = _p1(nodevals, 1, n0, n1, n2, a, b, inv_dt, w)
+        vval, vx, vy, vt = _p1(nodevals, 2, n0, n1, n2, a, b, inv_dt, w)
+        eval_, ex, ey, _ = _p1(nodevals, 3, n0, n1, n2, a, b, inv_dt, w)
+        h = max(hval, 0.0)
+        out[i, H] = h
+        out[i, U] = uval
+        out[i, V] = vval
+        out[i, DUDT] = ut
+        out[i, DVDT] = vt
+        out[i, DUDX] = ux
+        out[i, DUDY] = uy
+        out[i, DVDX] = vx
+        out[i, DVDY] = vy
+        out[i, DETADX] = ex
+        out[i, DETADY] = ey
+        out[i, ETA] = eval_
+        flag[i] = WET if h > dry_depth else DRY
+
+
+# --------------------------------------------------------------------- snapshot sources
+class InMemorySnapshots:
+    """Snapshots held as arrays (n_times, n_faces) of h, hu, hv."""
+
+    def __init__(self, times, h, hu, hv, name="in-memory flow"):
+        self.times = np.asarray(times, dtype=np.float64).ravel()
+        self.h = np.atleast_2d(np.asarray(h, dtype=np.float64))
+        self.hu = np.atleast_2d(np.asarray(hu, dtype=np.float64))
+        self.hv = np.atleast_2d(np.asarray(hv, dtype=np.float64))
+        self.name = name
+        nt = self.times.size
+        for arr, nm in ((self.h, "h"), (self.hu, "hu"), (self.hv, "hv")):
+            if arr.shape[0] != nt:
+                raise FlowFileError(f"{name}: {nm} has {arr.shape[0]} snapshots for {nt} times")
+
+    def read(self, i):
+        return self.h[i], self.hu[i], self.hv[i]
+
+
+def check_times(times, name):
+    """Snapshot times must be finite and strictly increasing."""
+    times = np.asarray(times, dtype=np.float64)
+    if times.size == 0:
+        raise FlowFileError(f"{name}: no snapshots (empty time axis)")
+    if not np.all(np.isfinite(times)):
+        raise FlowFileError(f"{name}: non-finite snapshot times at {np.flatnonzero(~np.isfinite(times))[:5].tolist()}")
+    bad = np.flatnonzero(np.diff(times) <= 0)
+    if bad.size:
+        i = int(bad[0])
+        raise FlowFileError(f"{name}: times not increasing: t[{i}] = {times[i]} then "
+                            f"t[{i + 1}] = {times[i + 1]}")
+    return times
+
+
+class MeshFlowField(FlowField):
+    """Flow on a mesh: bed on faces and a time series of (h, hu, hv) snapshots on faces.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    bed : array (n_faces,)
+        Bed elevation on faces (m).
+    source : object with ``times`` and ``read(i) -> (h, hu, hv)``
+        Where snapshots come from (``InMemorySnapshots``, a flow file, another model's output).
+    dry_depth : float
+        Depth (m) below which a face is dry: velocity 0 there, and samples flagged dry.
+    attrs : dict
+        Provenance (source model, scenario), written to flow files.
+    """
+
+    def __init__(self, mesh, bed, source, dry_depth=1e-3, name=None, attrs=None):
+        self.mesh = mesh
+        self.bed = np.ascontiguousarray(bed, dtype=np.float64)
+        if self.bed.shape != (mesh.n_faces,):
+            raise FlowFileError(f"{name or 'flow'}: bed has shape {self.bed.shape}, the mesh "
+                                f"has {mesh.n_faces} faces")
+        self.source = source
+        self.name = name or getattr(source, "name", "flow")
+        self._times = check_times(source.times, self.name)
+        self.dry_depth = float(dry_depth)
+        self.attrs = dict(attrs or {})
+        self._snap = OrderedDict()  # i -> (h, hu, hv, nodevals(n_nodes, 4)); two at most
+        self._pair = None
+        self._pair_vals = None
+        self._P = None
+
+    @classmethod
+    def from_arrays(cls, mesh, bed, times, h, hu, hv, **kwargs):
+        """A field from arrays (n_times, n_faces) held in memory."""
+        return cls(mesh, bed, InMemorySnapshots(times, h, hu, hv, kwargs.get("name", "flow")),
+                   **kwargs)
+
+    @property
+    def times(self):
+        return self._times
+
+    @property
+    def time_span(self):
+        return (float(self._times[0]), float(self._times[-1])) if self._times.size > 1 else \
+            (-np.inf, np.inf)
+
+    @property
+    def steady(self) -> bool:
+        """One snapshot: the flow is the same at all times."""
+        return self._times.size == 1
+
+    # ----------------------------------------------------------------- snapshots
+    def snapshot(self, i):
+        """Face arrays of snapshot i: dict of h, hu, hv, u, v, eta (read and checked once)."""
+        h, hu, hv, _ = self._load(i)
+        u, v = self._velocity(h, hu, hv)
+        return {"h": h, "hu": hu, "hv": hv, "u": u, "v": v, "eta": h + self.bed}
+
+    def _velocity(self, h, hu, hv):
+        wet = h > self.dry_depth
+        safe = np.where(wet, h, 1.0)
+        return np.where(wet, hu / safe, 0.0), np.where(wet, hv / safe, 0.0)
+
+    def _load(self, i):
+        if i in self._snap:
+            self._snap.move_to_end(i)
+            return self._snap[i]
+        h, hu, hv = (np.ascontiguousarray(a, dtype=np.float64) for a in self.source.read(i))
+        nf = self.mesh.n_faces
+        for arr, nm in ((h, "h"), (hu, "hu"), (hv, "hv")):
+            if arr.shape != (nf,):
+                raise FlowFileError(f"{self.name}: snapshot {i} {nm} has shape {arr.shape}, "
+                                    f"the mesh has {nf} faces")
+            if not np.all(np.isfinite(arr)):
+                bad = np.flatnonzero(~np.isfinite(arr))
+                raise FlowFileError(f"{self.name}: snapshot {i} (t = {self._times[i]} s): "
+                                    f"{bad.size} non-finite {nm} values, first at faces "
+                                    f"{bad[:5].tolist()}")
+        if np.any(h < 0):
+            bad = np.flatnonzero(h < 0)
+            raise FlowFileError(f"{self.name}: snapshot {i}: negative depth at faces "
+                                f"{bad[:5].tolist()} (min {h.min()})")
+        if self._P is None:
+            self._P = self.mesh.node_interpolator()
+        u, v = self._velocity(h, hu, hv)
+        nodes = self._P @ np.column_stack([h, u, v, h + self.bed])
+        np.maximum(nodes[:, 0], 0.0, out=nodes[:, 0])
+        self._snap[i] = (h, hu, hv, nodes)
+        while len(self._snap) > 2:
+            self._snap.popitem(last=False)
+        return self._snap[i]
+
+    def _interval(self, t):
+        """Snapshot pair (i, i+1) around t, and the weight of i+1."""
+        nt = self._times.size
+        if nt == 1:
+            return 0, 0, 0.0, 0.0
+        self.check_time(t)
+        i = int(np.searchsorted(self._times, t, side="right")) - 1
+        i = min(max(i, 0), nt - 2)
+        dt = self._times[i + 1] - self._times[i]
+        a = min(max((t - self._times[i]) / dt, 0.0), 1.0)
+        return i, i + 1, a, 1.0 / dt
+
+    def node_values(self, t):
+        """(n_nodes, 8) node values h, u, v, eta at the snapshots around t; the time weight."""
+        i, j, a, inv_dt = self._interval(t)
+        if self._pair != (i, j):
+            ni = self._load(i)[3]
+            nj = self._load(j)[3]
+            self._pair_vals = np.ascontiguousarray(np.hstack([ni, nj]))
+            self._pair = (i, j)
+        return self._pair_vals, a, inv_dt
+
+    def sample_into(self, x, y, t, face, out, flag):
+        vals, a, inv_dt = self.node_values(t)
+        sample_mesh_kernel(x, y, face, out, flag, a, inv_dt, vals, self.dry_depth,
+                           *self.mesh.locator_args())
+
+    # ----------------------------------------------------------------- derived fields
+    def face_values(self, t):
+        """Face arrays (h, u, v) linearly interpolated in time at t."""
+        i, j, a, _ = self._interval(t)
+        si, sj = self.snapshot(i), self.snapshot(j)
+        return {k: (1 - a) * si[k] + a * sj[k] for k in ("h", "u", "v", "hu", "hv", "eta")}
+
+    def freeze(self, t) -> MeshFlowField:
+        """The flow at time t as a steady field (one snapshot)."""
+        fv = self.face_values(t)
+        src = InMemorySnapshots([t], fv["h"], fv["hu"], fv["hv"], name=f"{self.name} at t={t}")
+        return MeshFlowField(self.mesh, self.bed, src, self.dry_depth, attrs=self.attrs)
+
+    def __repr__(self):
+        t0, t1 = self._times[0], self._times[-1]
+        return (f"<MeshFlowField {self.name!r}: {self.mesh.n_faces} faces, "
+                f"{self._times.size} snapshots from {t0} to {t1} s>")

@@ -1,0 +1,489 @@
+"""Scenario files (TOML): a self-describing schema, validated up front.
+
+Every key carries its type, default, units, allowed range or choices and a description (as
+OpenDrift's configuration does); ``driftlog scenario keys`` prints them all.  Validation names
+the key, the value and what is allowed for every bad value, before anything runs.  The
+validated scenario (defaults filled in) is written into every output, so a run can be
+reproduced from its output alone.
+
+Sections: ``[flow]``, ``[time]``, ``[[logs]]``, ``[physics]``, ``[integrator]``, ``[contact]``,
+``[[obstacles]]``, ``[output]``, and ``[solver]`` for flows computed by driftlog's solver.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from driftlog.errors import ScenarioError
+
+__all__ = ["Key", "Section", "SECTIONS", "Scenario", "load_scenario", "register_section",
+           "describe_keys"]
+
+REQUIRED = object()
+
+
+@dataclass
+class Key:
+    """One scenario key: type, default, units, rules and description."""
+
+    name: str
+    type: str  # float, int, bool, str, path, floats, point, points, table, float_or_str, any
+    default: Any = None
+    doc: str = ""
+    units: str = ""
+    choices: tuple = ()
+    min: float | None = None
+    max: float | None = None
+    exclusive_min: bool = False
+    length: int | None = None  # exact list length for floats
+    must_exist: bool = False  # path keys: the file must exist
+    when: str | None = None  # documentation: which setting the key applies to
+
+    def describe(self):
+        rule = []
+        if self.choices:
+            rule.append("one of " + ", ".join(repr(c) for c in self.choices))
+        if self.min is not None:
+            rule.append(f"{'>' if self.exclusive_min else '>='} {self.min}")
+        if self.max is not None:
+            rule.append(f"<= {self.max}")
+        return "; ".join(rule)
+
+
+@dataclass
+class Section:
+    """A table of the scenario file; ``repeated`` for arrays of tables ([[logs]])."""
+
+    name: str
+    keys: list[Key]
+    doc: str = ""
+    repeated: bool = False
+    check: Any = None  # extra cross-key validation: f(table, prefix, scenario)
+    by_name: dict = field(init=False)
+
+    def __post_init__(self):
+        self.by_name = {k.name: k for k in self.keys}
+
+
+SECTIONS: dict[str, Section] = {}
+TOP_KEYS = [
+    Key("title", "str", "", "a short name for the scenario"),
+    Key("description", "str", "", "what the scenario shows"),
+]
+
+
+def register_section(section: Section) -> Section:
+    """Add or replace a section of the schema."""
+    SECTIONS[section.name] = section
+    return section
+
+
+# --------------------------------------------------------------------- checking values
+def _type_error(key, value, what):
+    return ScenarioError(key, value, f"must be {what}")
+
+
+def _check_number(k: Key, key, value, integer=False):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise _type_error(key, value, "an integer" if integer else "a number")
+    if integer and not isinstance(value, int):
+        raise _type_error(key, value, "an integer")
+    if not math.isfinite(value):
+        raise _type_error(key, value, "a finite number")
+    if k.min is not None and (value <= k.min if k.exclusive_min else value < k.min):
+        raise ScenarioError(key, value, f"must be {'>' if k.exclusive_min else '>='} {k.min}"
+                            + (f" {k.units}" if k.units else ""))
+    if k.max is not None and value > k.max:
+        raise ScenarioError(key, value, f"must be <= {k.max}" + (f" {k.units}" if k.units else ""))
+    return int(value) if integer else float(value)
+
+
+def _check_value(k: Key, key: str, value, base_dir: Path):
+    t = k.type
+    if t == "any":
+        return value
+    if t == "float":
+        return _check_number(k, key, value)
+    if t == "int":
+        return _check_number(k, key, value, integer=True)
+    if t == "bool":
+        if not isinstance(value, bool):
+            raise _type_error(key, value, "true or false")
+        return value
+    if t == "str":
+        if not isinstance(value, str):
+            raise _type_error(key, value, "a string")
+        if k.choices and value not in k.choices:
+            close = difflib.get_close_matches(value, k.choices, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise ScenarioError(key, value, "must be one of "
+                                + ", ".join(repr(c) for c in k.choices) + hint)
+        return value
+    if t == "float_or_str":
+        if isinstance(value, str):
+            if k.choices and value not in k.choices:
+                raise ScenarioError(key, value, "must be a number or one of "
+                                    + ", ".join(repr(c) for c in k.choices))
+            return value
+        return _check_number(k, key, value)
+    if t == "path":
+        if not isinstance(value, str) or not value:
+            raise _type_error(key, value, "a file path (string)")
+        p = Path(value).expanduser()
+        p = p if p.is_absolute() else (base_dir / p)
+        if k.must_exist and not p.exists():
+            raise ScenarioError(key, value, f"file not found (looked for {p})")
+        return str(p)
+    if t in ("floats", "point"):
+        if not isinstance(value, list) or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+            raise _type_error(key, value, "a list of numbers")
+        n = 2 if t == "point" else k.length
+        if n is not None and len(value) != n:
+            raise _type_error(key, value, f"a list of {n} numbers")
+        out = []
+        for i, v in enumerate(value):
+            out.append(_check_number(k, f"{key}[{i}]", v))
+        return out
+    if t == "points":
+        if not isinstance(value, list) or not all(
+                isinstance(p, list) and len(p) == 2
+                and all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in p)
+                for p in value):
+            raise _type_error(key, value, "a list of [x, y] pairs")
+        if k.length is not None and len(value) < k.length:
+            raise _type_error(key, value, f"at least {k.length} [x, y] pairs")
+        return [[float(a), float(b)] for a, b in value]
+    if t == "table":
+        if not isinstance(value, dict):
+            raise _type_error(key, value, "a table")
+        return value
+    raise AssertionError(f"unknown key type {t}")
+
+
+def _check_table(section: Section, table, prefix: str, base_dir: Path):
+    if not isinstance(table, dict):
+        raise _type_error(prefix, table, "a table")
+    out = {}
+    for name, value in table.items():
+        k = section.by_name.get(name)
+        if k is None:
+            allowed = sorted(section.by_name)
+            close = difflib.get_close_matches(name, allowed, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise ScenarioError(f"{prefix}.{name}", value,
+                                f"unknown key{hint}; the keys of [{section.name}] are: "
+                                + ", ".join(allowed))
+        out[name] = _check_value(k, f"{prefix}.{name}", value, base_dir)
+    for k in section.keys:
+        if k.name not in out:
+            if k.default is REQUIRED:
+                raise ScenarioError(f"{prefix}.{k.name}", None, "is required: " + k.doc)
+            out[k.name] = k.default
+    return out
+
+
+# --------------------------------------------------------------------- the scenario
+@dataclass
+class Scenario:
+    """A validated scenario: ``data`` has every section with defaults filled in."""
+
+    data: dict
+    path: Path | None = None
+    text: str = ""
+
+    @property
+    def base_dir(self) -> Path:
+        return self.path.parent if self.path else Path.cwd()
+
+    def __getitem__(self, name):
+        return self.data[name]
+
+    def get(self, name, default=None):
+        return self.data.get(name, default)
+
+    def to_json(self) -> str:
+        return json.dumps(self.data, sort_keys=True, default=str)
+
+    def attrs(self) -> dict:
+        """Global attributes that make a run reproducible from its output."""
+        return {"scenario": self.text or self.to_json(), "scenario_resolved": self.to_json(),
+                "scenario_path": str(self.path) if self.path else ""}
+
+
+def load_scenario(source, overrides: dict | None = None) -> Scenario:
+    """Read and validate a scenario from a TOML file path, TOML text or a dict.
+
+    ``overrides`` is a nested dict merged over the file (used by ensembles and the CLI's --set).
+    """
+    path, text = None, ""
+    if isinstance(source, dict):
+        raw = json.loads(json.dumps(source))
+    else:
+        p = Path(source)
+        if p.suffix == ".toml" or p.exists():
+            if not p.is_file():
+                raise ScenarioError("scenario", str(p), "file not found")
+            path, text = p.resolve(), p.read_text()
+        else:
+            text = str(source)
+        try:
+            raw = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise ScenarioError("scenario", str(path or "<text>"),
+                                f"is not valid TOML: {exc}") from None
+    if overrides:
+        raw = merge(raw, overrides)
+    base = path.parent if path else Path.cwd()
+    data = {}
+    for k in TOP_KEYS:
+        if k.name in raw:
+            data[k.name] = _check_value(k, k.name, raw[k.name], base)
+        else:
+            data[k.name] = k.default
+    for name, value in raw.items():
+        if name in data:
+            continue
+        sec = SECTIONS.get(name)
+        if sec is None:
+            allowed = sorted(list(SECTIONS) + [k.name for k in TOP_KEYS])
+            close = difflib.get_close_matches(name, allowed, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise ScenarioError(name, value if not isinstance(value, dict) else "{...}",
+                                f"unknown section{hint}; allowed: " + ", ".join(allowed))
+        if sec.repeated:
+            items = value if isinstance(value, list) else [value]
+            data[name] = [_check_table(sec, t, f"{name}[{i}]", base) for i, t in enumerate(items)]
+        else:
+            data[name] = _check_table(sec, value, name, base)
+    for name, sec in SECTIONS.items():
+        if name not in data:
+            data[name] = [] if sec.repeated else _check_table(sec, {}, name, base)
+    scen = Scenario(data, path, text)
+    for name, sec in SECTIONS.items():
+        if sec.check is not None:
+            items = data[name] if sec.repeated else [data[name]]
+            for i, t in enumerate(items):
+                sec.check(t, f"{name}[{i}]" if sec.repeated else name, scen)
+    return scen
+
+
+def merge(base: dict, over: dict) -> dict:
+    """Nested merge of ``over`` into a copy of ``base`` (lists and scalars replace)."""
+    out = dict(base)
+    for k, v in over.items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = merge(out[k], v)
+        else:
+            out[k] = v
+    return out
+
+
+def describe_keys(section: str | None = None) -> str:
+    """A text table of every key: name, type, default, units, rule, description."""
+    lines = []
+    for name, sec in SECTIONS.items():
+        if section and name != section:
+            continue
+        head = f"[[{name}]]" if sec.repeated else f"[{name}]"
+        lines.append(f"{head}  {sec.doc}")
+        for k in sec.keys:
+            default = "(required)" if k.default is REQUIRED else repr(k.default)
+            rule = k.describe()
+            units = f" [{k.units}]" if k.units else ""
+            when = f" ({k.when})" if k.when else ""
+            lines.append(f"  {k.name:<22} {k.type:<8} default {default}{units}{when}")
+            if k.doc:
+                lines.append(f"      {k.doc}" + (f"; {rule}" if rule else ""))
+        lines.append("")
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------- the sections
+FLOW_SOURCES = ("file", "solver", "analytic", "openfoam", "ugrid", "anuga", "cf_grid")
+ANALYTIC_KINDS = ("uniform", "solid_body_rotation", "free_vortex")
+
+
+def _check_flow(t, prefix, scen):
+    src = t["source"]
+    if src in ("file", "openfoam", "ugrid", "anuga", "cf_grid") and not t["path"]:
+        raise ScenarioError(f"{prefix}.path", None,
+                            f"is required when source = {src!r}: the flow file or case to read")
+    if src in ("file", "openfoam", "ugrid", "anuga", "cf_grid") and not Path(t["path"]).exists():
+        raise ScenarioError(f"{prefix}.path", t["path"], "file not found")
+    if src == "analytic" and t["kind"] not in ANALYTIC_KINDS:
+        raise ScenarioError(f"{prefix}.kind", t["kind"],
+                            "must be one of " + ", ".join(map(repr, ANALYTIC_KINDS)))
+
+
+register_section(Section("flow", [
+    Key("source", "str", "analytic", "where the flow comes from", choices=FLOW_SOURCES),
+    Key("path", "path", "", "flow file (source = file), or model output to import; for "
+        "source = solver, where the computed flow is stored (reused if present)"),
+    Key("kind", "str", "solid_body_rotation", "analytic flow", choices=ANALYTIC_KINDS,
+        when="source = analytic"),
+    Key("velocity", "point", [1.0, 0.0], "uniform velocity", "m/s", when="kind = uniform"),
+    Key("acceleration", "point", [0.0, 0.0], "uniform acceleration", "m/s2",
+        when="kind = uniform"),
+    Key("omega", "float", 0.0628318530717959, "rotation rate", "rad/s",
+        when="kind = solid_body_rotation"),
+    Key("circulation", "float", 10.0, "circulation Gamma", "m2/s", when="kind = free_vortex"),
+    Key("core_radius", "float", 0.0, "solid-body core radius", "m", min=0.0,
+        when="kind = free_vortex"),
+    Key("center", "point", [0.0, 0.0], "centre of rotation", "m"),
+    Key("depth", "float", 1.0, "water depth of analytic flows", "m", min=0.0,
+        exclusive_min=True),
+    Key("dry_depth", "float", 1e-3, "depth below which a face is dry", "m", min=0.0,
+        exclusive_min=True),
+    Key("steady_at", "float", None, "freeze the flow at this time and treat it as steady", "s"),
+    Key("variables", "table", {}, "map of driftlog names (depth, level, u, v, hu, hv, bed) to "
+        "the variable names of an imported file"),
+    Key("time_range", "floats", None, "import only snapshots in [start, end]", "s", length=2),
+], doc="the hydro source", check=_check_flow))
+
+
+def _check_time(t, prefix, scen):
+    if t["end"] is not None and not t["end"] > t["start"]:
+        raise ScenarioError(f"{prefix}.end", t["end"],
+                            f"must be after time.start = {t['start']} s (time span reversed)")
+
+
+register_section(Section("time", [
+    Key("start", "float", 0.0, "start of the debris run", "s"),
+    Key("end", "float", None, "end of the debris run (default: end of the flow)", "s"),
+    Key("output_interval", "float", 1.0, "interval between trajectory records", "s", min=0.0,
+        exclusive_min=True),
+    Key("hydro_step", "float", 1.0, "hydrodynamic step for flows without snapshots (analytic)",
+        "s", min=0.0, exclusive_min=True),
+], doc="the time span", check=_check_time))
+
+SEEDINGS = ("list", "line", "polygon", "random", "grid")
+
+
+def _check_logs(t, prefix, scen):
+    s = t["seeding"]
+    if s == "list":
+        if not t["x"] or not t["y"] or len(t["x"]) != len(t["y"]):
+            raise ScenarioError(f"{prefix}.x", t["x"],
+                                "seeding = 'list' needs x and y lists of the same length")
+        for key in ("theta",):
+            if isinstance(t[key], list) and len(t[key]) not in (1, len(t["x"])):
+                raise ScenarioError(f"{prefix}.{key}", t[key],
+                                    f"must have 1 or {len(t['x'])} values (one per log)")
+    elif s == "line":
+        for key in ("start", "end"):
+            if t[key] is None:
+                raise ScenarioError(f"{prefix}.{key}", None, "is required for seeding = 'line'")
+    elif s in ("polygon", "random"):
+        if t["polygon"] is None:
+            raise ScenarioError(f"{prefix}.polygon", None,
+                                f"is required for seeding = {s!r} (at least 3 [x, y] points)")
+    if s != "list" and t["count"] < 1:
+        raise ScenarioError(f"{prefix}.count", t["count"], "must be >= 1")
+
+
+register_section(Section("logs", [
+    Key("name", "str", "", "a label for this group of logs"),
+    Key("seeding", "str", "list", "how the logs are placed", choices=SEEDINGS),
+    Key("x", "floats", [], "x of each log centre", "m", when="seeding = list"),
+    Key("y", "floats", [], "y of each log centre", "m", when="seeding = list"),
+    Key("theta", "any", 0.0, "angle of the log axis to the x axis: a number, a list (one per "
+        "log), or 'random'", "rad"),
+    Key("count", "int", 1, "number of logs", min=1, when="seeding = line, polygon, random, grid"),
+    Key("start", "point", None, "first end of the release line", "m", when="seeding = line"),
+    Key("end", "point", None, "second end of the release line", "m", when="seeding = line"),
+    Key("polygon", "points", None, "release area", "m", length=3,
+        when="seeding = polygon, random, grid"),
+    Key("seed", "int", 0, "random seed (the same seed gives the same logs, bit for bit)",
+        min=0),
+    Key("length", "float", 1.0, "log length L", "m", min=0.0, exclusive_min=True),
+    Key("radius", "float", 0.1, "log radius r", "m", min=0.0, exclusive_min=True),
+    Key("density", "float", 720.0, "log density rho_b", "kg/m3", min=0.0, exclusive_min=True),
+    Key("release_time", "float", None, "when the logs enter (default: time.start)", "s"),
+    Key("velocity", "str", "flow", "initial velocity: the flow's at release, or rest",
+        choices=("flow", "rest")),
+], doc="logs to release (repeat [[logs]] for several groups)", repeated=True, check=_check_logs))
+
+PHYSICS_LEVELS = ("tracer", "drag", "full", "auto")
+register_section(Section("physics", [
+    Key("level", "str", "full", "tracer (U_b = U_w), drag only, the full reference model, or "
+        "auto (chosen from the drag relaxation time against the flow time scale)",
+        choices=PHYSICS_LEVELS),
+    Key("rotation", "str", "on", "rotation of the logs (eq. 8-10)", choices=("on", "off", "auto")),
+    Key("fluid_volume", "str", "body", "volume in the pressure-gradient and added-mass terms: "
+        "the paper's V_b, or the submerged volume", choices=("body", "submerged")),
+    Key("surface_slope", "bool", False, "add -rho g V grad(eta) in place of the steady part of "
+        "DU_w/Dt"),
+    Key("drag_law", "str", "ganser", "drag coefficient: Ganser (1993), constant, or linear F = k w",
+        choices=("ganser", "constant", "linear")),
+    Key("drag_area", "str", "paper", "reference area of C_D: the paper's S_eff, Ganser's "
+        "pi d_v^2 / 4, or the wetted projected area", choices=("paper", "ganser", "wetted")),
+    Key("drag_coefficient", "float", 1.0, "C_D when drag_law = constant", min=0.0),
+    Key("linear_drag", "float", 1.0, "k when drag_law = linear", "kg/s", min=0.0),
+    Key("water_density", "float", 1000.0, "rho", "kg/m3", min=0.0, exclusive_min=True),
+    Key("gravity", "float", 9.81, "g", "m/s2", min=0.0, exclusive_min=True),
+    Key("viscosity", "float", 1.0e-3, "dynamic viscosity mu", "Pa s", min=0.0,
+        exclusive_min=True),
+], doc="the log transport model (MODEL.md sections 3-6)"))
+
+register_section(Section("integrator", [
+    Key("method", "str", "rk4", "time integrator: explicit Euler, RK4 (the paper), or "
+        "exponential (RK4 with drag integrated exactly over the step: stable on stiff drag)",
+        choices=("euler", "rk4", "exponential")),
+    Key("length_fraction", "float", 1.0, "dt <= length_fraction * L / |U_b| (paper: 1)",
+        min=0.0, exclusive_min=True),
+    Key("angle_step", "float", math.pi / 4, "dt <= angle_step / |omega_b| (paper: pi/4)", "rad",
+        min=0.0, exclusive_min=True),
+    Key("drag_fraction", "float", 0.5, "dt <= drag_fraction * tau_D for explicit methods (0: no "
+        "bound, as the paper)", min=0.0),
+    Key("max_step", "float", None, "upper bound of the sub-step", "s", min=0.0,
+        exclusive_min=True),
+    Key("min_step", "float", 1e-9, "sub-steps below this are an error (the run stops with a "
+        "message)", "s", min=0.0, exclusive_min=True),
+], doc="time integration (MODEL.md sections 8-9)"))
+
+register_section(Section("contact", [
+    Key("enabled", "bool", False, "contacts between logs and with walls and obstacles"),
+    Key("method", "str", "event", "event-driven impulses (the paper) or time-stepping "
+        "non-smooth contact (Moreau-Jean, for jams)", choices=("event", "moreau")),
+    Key("time_of_impact", "str", "conservative", "contact time: the paper's dichotomy or "
+        "conservative advancement on the capsule distance",
+        choices=("dichotomy", "conservative")),
+    Key("restitution", "float", 1.0, "coefficient of restitution eps", min=0.0, max=1.0),
+    Key("backend", "str", "native", "distance queries: numba kernels or python-fcl",
+        choices=("native", "fcl")),
+    Key("walls", "bool", True, "the mesh's wall boundaries are obstacles"),
+    Key("tolerance", "float", 1e-4, "contact distance tolerance, relative to the log radius",
+        min=0.0, exclusive_min=True),
+    Key("max_events", "int", 10000, "contact events per sub-step above which the event-driven "
+        "method stops with a jam message", min=1),
+], doc="contacts (MODEL.md section 7)"))
+
+register_section(Section("obstacles", [
+    Key("name", "str", "", "label used in hit counts"),
+    Key("type", "str", "circle", "obstacle shape", choices=("circle", "polygon", "segments",
+                                                            "mesh")),
+    Key("center", "point", None, "circle centre", "m", when="type = circle"),
+    Key("radius", "float", None, "circle radius", "m", min=0.0, exclusive_min=True,
+        when="type = circle"),
+    Key("points", "points", None, "polygon vertices or polyline points", "m", length=2,
+        when="type = polygon, segments"),
+    Key("path", "path", "", "3D obstacle mesh file (meshio formats)", must_exist=True,
+        when="type = mesh"),
+    Key("z", "float", 0.0, "elevation of the plane that cuts 3D obstacle meshes", "m",
+        when="type = mesh"),
+], doc="bridge piers, walls and other obstacles", repeated=True))
+
+register_section(Section("output", [
+    Key("path", "path", "trajectories.nc", "trajectory file (CF-1.11 trajectory NetCDF)"),
+    Key("vtk", "bool", False, "also write VTK (ParaView) files beside the trajectory file"),
+    Key("figure", "bool", False, "draw a figure of the trajectories"),
+    Key("animation", "bool", False, "write an animation (MP4 if ffmpeg is there, else GIF)"),
+    Key("flush_interval", "int", 10, "records between flushes to disk", min=1),
+], doc="what is written"))

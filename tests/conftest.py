@@ -1,0 +1,67 @@
+import os
+
+import numpy as np
+import pytest
+
+
+def pytest_addoption(parser):
+    parser.addoption("--runslow", action="store_true", default=False, help="run slow tests")
+
+
+def pytest_collection_modifyitems(config, items):
+    if config.getoption("--runslow") or os.environ.get("DRIFTLOG_SLOW") == "1":
+        return
+    skip = pytest.mark.skip(reason="slow: use --runslow or DRIFTLOG_SLOW=1")
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(skip)
+
+
+MALPASSET = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "malpasset")
+
+
+def malpasset_dir():
+    """The Malpasset data: ../shared/data/malpasset beside the checkout, or a copy in the repo."""
+    for d in (os.environ.get("DRIFTLOG_MALPASSET"), MALPASSET,
+              os.path.join(os.path.dirname(__file__), "..", "cases", "malpasset", "data")):
+        if d and os.path.isfile(os.path.join(d, "malpasset_mesh.nc")):
+            return os.path.abspath(d)
+    return None
+
+
+@pytest.fixture(scope="session")
+def malpasset_mesh():
+    d = malpasset_dir()
+    if d is None:
+        pytest.skip("Malpasset data not found")
+    from driftlog.mesh import read_mesh
+
+    return read_mesh(os.path.join(d, "malpasset_mesh.nc"))
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(12345)
+
+
+@pytest.fixture(scope="session")
+def mixed_mesh():
+    """A mesh of triangles and quadrilaterals: a 6 x 4 grid with the right half split."""
+    from driftlog.mesh import Mesh
+
+    g = Mesh.regular_grid(6, 4, 1.0)
+    faces = []
+    for f in g.face_nodes:
+        cx = g.node_x[f].mean()
+        if cx > 3:
+            faces.append([f[0], f[1], f[2], -1])
+            faces.append([f[0], f[2], f[3], -1])
+        else:
+            faces.append(list(f))
+    # jitter interior nodes so that the mesh is not a grid
+    x, y = g.node_x.copy(), g.node_y.copy()
+    inner = (x > 0) & (x < 6) & (y > 0) & (y < 4)
+    r = np.random.default_rng(1)
+    x[inner] += r.uniform(-0.2, 0.2, inner.sum())
+    y[inner] += r.uniform(-0.2, 0.2, inner.sum())
+    return Mesh(x, y, np.array(faces))

@@ -1,0 +1,42 @@
+import subprocess
+import sys
+
+import pytest
+
+from driftlog import __version__
+from driftlog.cli import build_parser, main
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", "driftlog", *args], capture_output=True, text=True)
+
+
+def test_version_and_help():
+    out = run("--version")
+    assert out.stdout.strip() == f"driftlog {__version__}"
+    out = run("--help")
+    assert out.returncode == 0 and "commands" in out.stdout
+
+
+def test_every_command_has_help_with_an_example(capsys):
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+    assert len(sub.choices) >= 2
+    for name, p in sub.choices.items():
+        assert "example:" in (p.epilog or ""), f"driftlog {name} --help lacks an example"
+        assert f"driftlog {name}" in p.epilog
+
+
+def test_scenario_keys_and_check(tmp_path, capsys):
+    assert main(["scenario", "keys", "--section", "physics"]) == 0
+    assert "drag_area" in capsys.readouterr().out
+    f = tmp_path / "s.toml"
+    f.write_text("[physics]\nlevel = 'wrong'\n")
+    assert main(["scenario", "check", str(f)]) == 2
+    err = capsys.readouterr().err
+    assert "[physics.level] = 'wrong'" in err and "'tracer'" in err
+
+
+def test_info_missing_file(capsys):
+    assert main(["info", "/nonexistent/flow.nc"]) == 2
+    assert "not found" in capsys.readouterr().err
