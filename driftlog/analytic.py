@@ -1,9 +1,11 @@
 """Analytic flow fields with exact gradients and time derivatives, for tests and cases.
 
 Each has the sampling interface of every flow field (``FlowField.sample``).  Depth is constant;
-the free-surface slope is the one that balances the flow's steady acceleration
-(g grad(eta) = -(U . grad) U - dU/dt, frictionless), so that the ``surface_slope`` physics
-option and the pressure-gradient term agree on these fields.
+the free-surface slope is the one that balances the flow's steady (advective) acceleration,
+g grad(eta) = -(U . grad) U, as in frictionless steady flow, so that the ``surface_slope``
+physics option (MODEL.md section 4: -g grad(eta) in place of the steady part of DU_w/Dt) and
+the pressure-gradient term agree on these fields.  A uniform flow may be given a surface slope
+of its own (a sloping uniform flow held by bed friction, where DU_w/Dt = 0 but g S is not).
 """
 
 from __future__ import annotations
@@ -27,15 +29,15 @@ def _sample_analytic(kind, p, px, py, t, out, flag):
             out[i, k] = 0.0
         flag[i] = WET
         if kind == UNIFORM:
-            # p = u0, v0, ax, ay, depth, g
+            # p = u0, v0, ax, ay, depth, g, slope x, slope y
             out[i, H] = p[4]
             out[i, U] = p[0] + p[2] * t
             out[i, V] = p[1] + p[3] * t
             out[i, DUDT] = p[2]
             out[i, DVDT] = p[3]
-            out[i, DETADX] = -p[2] / p[5]
-            out[i, DETADY] = -p[3] / p[5]
-            out[i, ETA] = p[4] + out[i, DETADX] * px[i] + out[i, DETADY] * py[i]
+            out[i, DETADX] = p[6]
+            out[i, DETADY] = p[7]
+            out[i, ETA] = p[4] + p[6] * px[i] + p[7] * py[i]
         elif kind == SOLID_BODY:
             # p = omega, xc, yc, depth, g
             om = p[0]
@@ -95,12 +97,14 @@ class AnalyticField(FlowField):
 
 
 class UniformFlow(AnalyticField):
-    """U = (u + ax t, v + ay t), depth constant."""
+    """U = (u + ax t, v + ay t), depth constant, free surface with gradient ``surface_slope``."""
 
     kind = UNIFORM
 
-    def __init__(self, u=1.0, v=0.0, depth=1.0, acceleration=(0.0, 0.0), g=G):
-        super().__init__([u, v, acceleration[0], acceleration[1], depth, g],
+    def __init__(self, u=1.0, v=0.0, depth=1.0, acceleration=(0.0, 0.0), surface_slope=(0.0, 0.0),
+                 g=G):
+        super().__init__([u, v, acceleration[0], acceleration[1], depth, g, surface_slope[0],
+                          surface_slope[1]],
                          f"uniform flow ({u}, {v}) m/s")
 
 
