@@ -426,6 +426,10 @@ register_section(Section("physics", [
         "pi d_v^2 / 4, or the wetted projected area", choices=("paper", "ganser", "wetted")),
     Key("drag_coefficient", "float", 1.0, "C_D when drag_law = constant", min=0.0),
     Key("linear_drag", "float", 1.0, "k when drag_law = linear", "kg/s", min=0.0),
+    Key("torque_force", "str", "total", "force applied at the centre of pressure (eq. 8): the "
+        "total hydrodynamic force (MODEL.md 6), or the drag alone (pressure-gradient and "
+        "added-mass forces then act at the centre of mass; well posed when the log moves with "
+        "the flow)", choices=("total", "drag")),
     Key("water_density", "float", 1000.0, "rho", "kg/m3", min=0.0, exclusive_min=True),
     Key("gravity", "float", 9.81, "g", "m/s2", min=0.0, exclusive_min=True),
     Key("viscosity", "float", 1.0e-3, "dynamic viscosity mu", "Pa s", min=0.0,

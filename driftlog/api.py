@@ -1,0 +1,187 @@
+"""The Python API: load a scenario, get its flow, track its logs, read the results.
+
+    import driftlog
+    result = driftlog.track("cases/vortex/scenario.toml")
+    ds = result.dataset()          # xarray, CF trajectories
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from driftlog.errors import DriftlogError, ScenarioError
+from driftlog.logs import Logs, logs_from_scenario
+from driftlog.physics import PhysicsOptions, rhs_kernel, log_parameters, NLIN
+from driftlog.scenario import Scenario, load_scenario
+from driftlog.sources import flow_from_scenario
+from driftlog.tracker import StepOptions, Tracker
+from driftlog.trajectory import TrajectoryWriter, open_trajectories, write_vtk
+
+__all__ = ["track", "TrackResult", "choose_physics", "as_scenario", "cases_dir", "find_case"]
+
+
+@dataclass
+class TrackResult:
+    """What a tracking run produced."""
+
+    path: Path
+    logs: Logs
+    stats: dict
+    physics: dict
+    scenario: Scenario
+    extra_files: list = field(default_factory=list)
+
+    def dataset(self):
+        """The trajectories as an xarray Dataset (CF contiguous ragged array)."""
+        return open_trajectories(self.path)
+
+
+def as_scenario(scenario, overrides=None) -> Scenario:
+    """A validated Scenario from a path, TOML text, dict or Scenario."""
+    if isinstance(scenario, Scenario):
+        if overrides:
+            from driftlog.scenario import merge
+
+            return load_scenario(merge(json.loads(scenario.to_json()), overrides))
+        return scenario
+    return load_scenario(scenario, overrides)
+
+
+def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool):
+    """Resolve ``auto`` physics level and rotation from dimensionless numbers.
+
+    Stokes number St = tau_D / T_flow, with tau_D the drag relaxation time of a log picking up
+    the flow from rest and T_flow = 1 / |J| the time scale of the flow's velocity gradient at
+    the release points.  St < 0.01 everywhere (and no contacts, which need the logs' inertia):
+    the logs follow the flow, tracer is enough; otherwise the full model.  Rotation is needed
+    when contacts are on, or when a log is long against the flow's length scale |U| / |J|
+    (L |J| / |U| > 0.1).  Returns (level, rotation, reason).
+    """
+    level, rotation = section["level"], section["rotation"]
+    if level != "auto" and rotation != "auto":
+        return level, rotation == "on", ""
+    s = flow.sample(logs.x, logs.y, logs.release_time.min())
+    ok = s.flag > 0
+    n = len(logs)
+    S = np.zeros((n, 6))
+    S[:, 0], S[:, 1], S[:, 2] = logs.x, logs.y, logs.theta
+    P = log_parameters(logs.length, logs.radius, logs.density, logs.float_depth)
+    opt = PhysicsOptions.from_scenario(section, level="full", rotation=True).vector()
+    D, lin = np.zeros((n, 6)), np.zeros((n, NLIN))
+    rhs_kernel(S, s.values, P, opt, D, lin)
+    tau = np.where(lin[:, 1] > 0, 1.0 / np.maximum(lin[:, 1], 1e-300), np.inf)
+    J = np.sqrt((s.jacobian ** 2).sum(axis=(1, 2)))
+    speed = np.hypot(s.u, s.v)
+    st = np.where(J > 0, tau * J, 0.0)[ok]
+    st_max = float(st.max()) if st.size else 0.0
+    reasons = []
+    if level == "auto":
+        if st_max < 0.01 and not contact_enabled:
+            level = "tracer"
+            reasons.append(f"level tracer: Stokes number tau_D |J| <= {st_max:.3g} < 0.01, "
+                           "logs follow the flow")
+        else:
+            level = "full"
+            why = "contacts need the logs' inertia" if contact_enabled and st_max < 0.01 else \
+                f"Stokes number tau_D |J| up to {st_max:.3g} >= 0.01"
+            reasons.append(f"level full: {why}")
+    if rotation == "auto":
+        ratio = np.where(speed > 0, logs.length * J / np.maximum(speed, 1e-300), 0.0)[ok]
+        rmax = float(ratio.max()) if ratio.size else 0.0
+        rotation = bool(contact_enabled or rmax > 0.1)
+        reasons.append(f"rotation {'on' if rotation else 'off'}: "
+                       + ("contacts are on" if contact_enabled else
+                          f"log length against flow length scale L |J| / |U| up to {rmax:.3g}"
+                          f" ({'>' if rotation else '<='} 0.1)"))
+    else:
+        rotation = rotation == "on"
+    return level, rotation, "; ".join(reasons)
+
+
+def _contact_model(scen, flow):
+    if not scen["contact"]["enabled"]:
+        return None
+    try:
+        from driftlog.contact import ContactModel
+    except ImportError as exc:  # pragma: no cover - until the contact package lands
+        raise DriftlogError(f"contact.enabled = true but contacts are not available ({exc})")
+    return ContactModel.from_scenario(scen, mesh=getattr(flow, "mesh", None))
+
+
+def track(scenario, flow=None, output=None, progress=False, overrides=None) -> TrackResult:
+    """Run the debris scenario: flow (given, or from the scenario), logs, tracker, outputs.
+
+    Parameters
+    ----------
+    scenario : path, TOML text, dict or Scenario
+    flow : FlowField, optional
+        Use this flow instead of the scenario's [flow] source (e.g. to compare sources).
+    output : path, optional
+        Trajectory file (default: the scenario's output.path).
+    """
+    scen = as_scenario(scenario, overrides)
+    if flow is None:
+        flow = flow_from_scenario(scen, progress=progress)
+    logs = logs_from_scenario(scen)
+    contact = _contact_model(scen, flow)
+    level, rotation, reason = choose_physics(flow, logs, scen["physics"], contact is not None)
+    physics = PhysicsOptions.from_scenario(scen["physics"], level=level, rotation=rotation)
+    out = Path(output or scen["output"]["path"])
+    tm = scen["time"]
+    attrs = dict(scen.attrs())
+    attrs.update(title=scen["title"] or "driftlog trajectories",
+                 physics_level=physics.level, physics_rotation=int(physics.rotation),
+                 physics_auto_reason=reason or "not auto: as set in the scenario",
+                 physics_options=json.dumps(physics.as_dict()),
+                 integrator=scen["integrator"]["method"],
+                 flow_source=getattr(flow, "name", str(flow)))
+    names = getattr(contact, "obstacle_names", ()) if contact is not None else ()
+    writer = TrajectoryWriter(out, logs, attrs=attrs,
+                              flush_interval=scen["output"]["flush_interval"],
+                              obstacle_names=names)
+    initial = np.array([scen["logs"][g]["velocity"] for g in logs.group])
+    tracker = Tracker(flow, logs, physics, method=scen["integrator"]["method"],
+                      step=StepOptions.from_scenario(scen["integrator"]), contact=contact,
+                      t_start=tm["start"], t_end=tm["end"], output_interval=tm["output_interval"],
+                      hydro_step=tm["hydro_step"], writer=writer, progress=progress,
+                      initial_velocity=initial)
+    try:
+        tracker.run()
+    except BaseException:
+        writer.flush()
+        writer.close(finalize=False)  # keep the partial file: what was computed is not lost
+        raise
+    writer.set_attrs(**{f"stats_{k}": v for k, v in tracker.stats.items()})
+    path = writer.close()
+    extra = []
+    if scen["output"]["vtk"]:
+        extra.append(write_vtk(path))
+    result = TrackResult(path, logs, tracker.stats,
+                         dict(level=level, rotation=rotation, reason=reason), scen, extra)
+    return result
+
+
+def cases_dir() -> Path:
+    """The folder of the scenes (cases/ at the top of the repository, or DRIFTLOG_CASES)."""
+    import os
+
+    env = os.environ.get("DRIFTLOG_CASES")
+    d = Path(env) if env else Path(__file__).resolve().parents[1] / "cases"
+    if not d.is_dir():
+        raise DriftlogError(f"cases folder not found at {d}; set DRIFTLOG_CASES to the "
+                            "repository's cases/ folder")
+    return d
+
+
+def find_case(name: str) -> Path:
+    """The scenario file of a case by name (a folder of cases/ with a scenario.toml)."""
+    d = cases_dir()
+    p = d / name / "scenario.toml"
+    if not p.is_file():
+        known = sorted(c.name for c in d.iterdir() if (c / "scenario.toml").is_file())
+        raise ScenarioError("case", name, "unknown case; known cases: " + ", ".join(known))
+    return p

@@ -1,0 +1,201 @@
+"""Log state as flat arrays (structure of arrays), log properties, and seeding.
+
+A log is a horizontal cylinder (MODEL.md section 2): radius r, length L, density rho_b;
+centre (x, y), axis angle theta, velocity (u, v), angular velocity omega.  In plan view, for
+contacts, it is a capsule: a segment of length L with radius r.
+
+Seeding (explicit lists, along a line, in a polygon, random in a polygon, a grid in a polygon)
+is reproducible bit for bit from the seed.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from driftlog.errors import ScenarioError
+
+__all__ = ["Logs", "STATUS_MEANINGS", "WAITING", "FLOATING", "RESTING", "STRANDED", "LEFT",
+           "seed_logs", "logs_from_scenario", "flotation_depth", "submerged_volume"]
+
+# status codes, written to trajectory files with flag_meanings
+WAITING, FLOATING, RESTING, STRANDED, LEFT = 0, 1, 2, 3, 4
+STATUS_MEANINGS = "waiting floating resting stranded left_domain"
+# columns of the state array
+X, Y, THETA, UB, VB, OMEGA = range(6)
+
+
+@nb.njit(cache=True)
+def submerged_volume(h, r, L):
+    """V_sub(h) = L r^2 (delta - sin delta cos delta), delta = arccos(1 - h / r) (MODEL.md 3)."""
+    if h <= 0.0:
+        return 0.0
+    if h >= 2.0 * r:
+        return np.pi * r * r * L
+    d = np.arccos(1.0 - h / r)
+    return L * r * r * (d - np.sin(d) * np.cos(d))
+
+
+@nb.njit(cache=True)
+def flotation_depth(r, rho_b, rho):
+    """Depth h* at which rho V_sub(h*) = rho_b V_b (infinite if rho_b > rho: never floats)."""
+    if rho_b > rho:
+        return np.inf
+    if rho_b == rho:
+        return 2.0 * r
+    target = rho_b / rho * np.pi  # V_sub / (L r^2) at flotation
+    lo, hi = 0.0, np.pi  # delta
+    for _ in range(200):  # bisection on delta - sin(delta) cos(delta), increasing in delta
+        mid = 0.5 * (lo + hi)
+        if mid - np.sin(mid) * np.cos(mid) < target:
+            lo = mid
+        else:
+            hi = mid
+    return r * (1.0 - np.cos(0.5 * (lo + hi)))
+
+
+class Logs:
+    """All logs of a run as flat arrays.
+
+    ``state`` is (n, 6): x, y, theta, u, v, omega.  Properties are arrays of length n.
+    """
+
+    def __init__(self, x, y, theta=0.0, length=1.0, radius=0.1, density=720.0,
+                 release_time=0.0, group=0, u=0.0, v=0.0, omega=0.0, water_density=1000.0):
+        x = np.atleast_1d(np.asarray(x, dtype=np.float64))
+        n = x.size
+        b = lambda a, dt=np.float64: np.ascontiguousarray(np.broadcast_to(np.asarray(a, dt), n))  # noqa: E731
+        self.id = np.arange(n, dtype=np.int64)
+        self.state = np.zeros((n, 6))
+        self.state[:, X] = x
+        self.state[:, Y] = b(y)
+        self.state[:, THETA] = b(theta)
+        self.state[:, UB] = b(u)
+        self.state[:, VB] = b(v)
+        self.state[:, OMEGA] = b(omega)
+        self.length = b(length)
+        self.radius = b(radius)
+        self.density = b(density)
+        self.release_time = b(release_time)
+        self.group = b(group, np.int32)
+        self.status = np.full(n, WAITING, dtype=np.int8)
+        self.face = np.full(n, -1, dtype=np.int64)
+        self.water_density = float(water_density)
+        for name in ("length", "radius", "density"):
+            a = getattr(self, name)
+            if not np.all(a > 0):
+                i = int(np.flatnonzero(~(a > 0))[0])
+                raise ScenarioError(f"logs.{name}", float(a[i]), f"must be > 0 (log {i})")
+        self.volume = np.pi * self.radius ** 2 * self.length
+        self.mass = self.density * self.volume
+        self.inertia = self.mass * (self.length ** 2 / 12.0 + self.radius ** 2 / 4.0)
+        self.float_depth = np.array([flotation_depth(r, d, self.water_density)
+                                     for r, d in zip(self.radius, self.density)])
+
+    def __len__(self):
+        return self.id.size
+
+    x = property(lambda s: s.state[:, X])
+    y = property(lambda s: s.state[:, Y])
+    theta = property(lambda s: s.state[:, THETA])
+    u = property(lambda s: s.state[:, UB])
+    v = property(lambda s: s.state[:, VB])
+    omega = property(lambda s: s.state[:, OMEGA])
+
+    @classmethod
+    def concatenate(cls, parts):
+        parts = [p for p in parts if len(p)]
+        out = cls.__new__(cls)
+        for name in ("state", "length", "radius", "density", "release_time", "group", "status",
+                     "face", "volume", "mass", "inertia", "float_depth"):
+            setattr(out, name, np.concatenate([getattr(p, name) for p in parts]))
+        out.id = np.arange(out.length.size, dtype=np.int64)
+        out.water_density = parts[0].water_density
+        return out
+
+    def __repr__(self):
+        counts = np.bincount(self.status, minlength=5)
+        names = STATUS_MEANINGS.split()
+        return f"<Logs {len(self)}: " + ", ".join(f"{c} {n}" for c, n in zip(counts, names) if c) + ">"
+
+
+# --------------------------------------------------------------------- seeding
+def _polygon_area_sampler(poly, n, rng):
+    """n points uniformly distributed in a simple polygon (triangle fan by ear clipping)."""
+    import triangle
+
+    poly = np.asarray(poly, dtype=float)
+    m = len(poly)
+    tri = triangle.triangulate({"vertices": poly,
+                                "segments": np.column_stack([np.arange(m), (np.arange(m) + 1) % m])},
+                               "p")
+    v, t = tri["vertices"], tri["triangles"]
+    a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
+    area = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
+                        - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]))
+    k = rng.choice(len(t), size=n, p=area / area.sum())
+    r1, r2 = rng.random(n), rng.random(n)
+    s = np.sqrt(r1)
+    return (1 - s)[:, None] * a[k] + (s * (1 - r2))[:, None] * b[k] + (s * r2)[:, None] * c[k]
+
+
+def seed_positions(group: dict, prefix: str = "logs[0]"):
+    """(x, y, theta) of the logs of one validated [[logs]] group."""
+    rng = np.random.default_rng(group["seed"])
+    s = group["seeding"]
+    if s == "list":
+        x, y = np.array(group["x"], float), np.array(group["y"], float)
+    elif s == "line":
+        n = group["count"]
+        f = (np.arange(n) + 0.5) / n
+        a, b = np.array(group["start"]), np.array(group["end"])
+        x, y = a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])
+    elif s in ("polygon", "random"):
+        p = _polygon_area_sampler(group["polygon"], group["count"], rng)
+        x, y = p[:, 0], p[:, 1]
+    elif s == "grid":
+        poly = np.asarray(group["polygon"], float)
+        from matplotlib.path import Path as MplPath
+
+        lo, hi = poly.min(axis=0), poly.max(axis=0)
+        area = 0.5 * abs(np.dot(poly[:, 0], np.roll(poly[:, 1], -1))
+                         - np.dot(poly[:, 1], np.roll(poly[:, 0], -1)))
+        d = np.sqrt(area / group["count"])
+        gx, gy = np.meshgrid(np.arange(lo[0] + d / 2, hi[0], d), np.arange(lo[1] + d / 2, hi[1], d))
+        pts = np.column_stack([gx.ravel(), gy.ravel()])
+        pts = pts[MplPath(poly).contains_points(pts)][:group["count"]]
+        x, y = pts[:, 0], pts[:, 1]
+    else:  # validated upstream
+        raise ScenarioError(f"{prefix}.seeding", s, "unknown seeding")
+    th = group["theta"]
+    if isinstance(th, str):
+        if th != "random":
+            raise ScenarioError(f"{prefix}.theta", th, "must be a number, a list or 'random'")
+        theta = rng.uniform(0.0, np.pi, x.size)
+    elif isinstance(th, list):
+        theta = np.broadcast_to(np.array(th, float), x.size).copy()
+    elif isinstance(th, (int, float)) and not isinstance(th, bool):
+        theta = np.full(x.size, float(th))
+    else:
+        raise ScenarioError(f"{prefix}.theta", th, "must be a number, a list or 'random'")
+    return x, y, theta
+
+
+def logs_from_scenario(scenario, water_density=None) -> Logs:
+    """All [[logs]] groups of a validated scenario as one Logs."""
+    groups = scenario["logs"]
+    if not groups:
+        raise ScenarioError("logs", [], "a scenario needs at least one [[logs]] group")
+    rho = water_density or scenario["physics"]["water_density"]
+    t0 = scenario["time"]["start"]
+    parts = []
+    for i, g in enumerate(groups):
+        x, y, theta = seed_positions(g, f"logs[{i}]")
+        rt = g["release_time"] if g["release_time"] is not None else t0
+        parts.append(Logs(x, y, theta, g["length"], g["radius"], g["density"], rt, i,
+                          water_density=rho))
+    return Logs.concatenate(parts) if len(parts) > 1 else parts[0]
+
+
+# aliases used by callers who think in terms of the seeding
+seed_logs = seed_positions

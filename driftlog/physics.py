@@ -1,0 +1,290 @@
+"""Forces and torques on a log (MODEL.md sections 3-6), as numba kernels over flat arrays.
+
+``rhs_kernel`` turns the log state (x, y, theta, u, v, omega) and the flow sampled at the log
+centres into the time derivative of the state, and the linearisation of drag that the
+exponential integrator and the explicit step bound use (drag relaxation rates).
+
+Options (``PhysicsOptions``) follow MODEL.md's [choice] items; each default is the paper's
+reading.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numba as nb
+import numpy as np
+
+from driftlog.flow import DETADX, DETADY, DUDT, DUDX, DUDY, DVDT, DVDX, DVDY, H, U, V
+from driftlog.logs import OMEGA, THETA, UB, VB, X, Y, submerged_volume
+
+__all__ = ["PhysicsOptions", "log_parameters", "rhs_kernel", "ganser_cd", "drag_speed_product",
+           "effective_area", "TRACER", "DRAG", "FULL", "NPARAM", "NLIN"]
+
+TRACER, DRAG, FULL = 0, 1, 2
+LEVELS = {"tracer": TRACER, "drag": DRAG, "full": FULL}
+GANSER, CONSTANT, LINEAR = 0, 1, 2
+DRAG_LAWS = {"ganser": GANSER, "constant": CONSTANT, "linear": LINEAR}
+AREA_PAPER, AREA_GANSER, AREA_WETTED = 0, 1, 2
+DRAG_AREAS = {"paper": AREA_PAPER, "ganser": AREA_GANSER, "wetted": AREA_WETTED}
+
+# per-log parameter columns
+P_L, P_R, P_RHOB, P_VOL, P_MASS, P_INERTIA, P_DV, P_PSI, P_K2, P_HSTAR = range(10)
+NPARAM = 10
+# option vector
+(O_LEVEL, O_ROT, O_SUBMERGED, O_SLOPE, O_LAW, O_AREA, O_CD, O_KLIN, O_RHO, O_G, O_MU,
+ O_TORQUE_DRAG) = range(12)
+NOPT = 12
+# linearisation columns: drag rates along and across the relative velocity, its direction,
+# and the rotational rate
+L_PAR, L_PERP, L_WX, L_WY, L_ROT = range(5)
+NLIN = 5
+
+
+@dataclass
+class PhysicsOptions:
+    """The log transport model's options (MODEL.md sections 4-6); defaults are the paper's."""
+
+    level: str = "full"
+    rotation: bool = True
+    fluid_volume: str = "body"
+    surface_slope: bool = False
+    drag_law: str = "ganser"
+    drag_area: str = "paper"
+    drag_coefficient: float = 1.0
+    linear_drag: float = 1.0
+    water_density: float = 1000.0
+    gravity: float = 9.81
+    viscosity: float = 1.0e-3
+    torque_force: str = "total"
+
+    @classmethod
+    def from_scenario(cls, section: dict, level=None, rotation=None):
+        """From a validated [physics] section; ``level``/``rotation`` replace an 'auto' choice."""
+        lv = level or section["level"]
+        rot = rotation if rotation is not None else section["rotation"] == "on"
+        return cls(level=lv, rotation=rot, fluid_volume=section["fluid_volume"],
+                   surface_slope=section["surface_slope"], drag_law=section["drag_law"],
+                   drag_area=section["drag_area"], drag_coefficient=section["drag_coefficient"],
+                   linear_drag=section["linear_drag"], water_density=section["water_density"],
+                   gravity=section["gravity"], viscosity=section["viscosity"],
+                   torque_force=section["torque_force"])
+
+    def vector(self) -> np.ndarray:
+        """The options as the float vector the kernels read."""
+        o = np.zeros(NOPT)
+        o[O_LEVEL] = LEVELS[self.level]
+        o[O_ROT] = 1.0 if self.rotation else 0.0
+        o[O_SUBMERGED] = 1.0 if self.fluid_volume == "submerged" else 0.0
+        o[O_SLOPE] = 1.0 if self.surface_slope else 0.0
+        o[O_LAW] = DRAG_LAWS[self.drag_law]
+        o[O_AREA] = DRAG_AREAS[self.drag_area]
+        o[O_CD] = self.drag_coefficient
+        o[O_KLIN] = self.linear_drag
+        o[O_RHO] = self.water_density
+        o[O_G] = self.gravity
+        o[O_MU] = self.viscosity
+        o[O_TORQUE_DRAG] = 1.0 if self.torque_force == "drag" else 0.0
+        return o
+
+    def as_dict(self):
+        return asdict(self)
+
+
+def log_parameters(length, radius, density, float_depth) -> np.ndarray:
+    """Per-log constants (n, NPARAM): geometry, mass, inertia and Ganser's shape factors."""
+    L = np.asarray(length, float)
+    r = np.asarray(radius, float)
+    rho_b = np.asarray(density, float)
+    n = L.size
+    P = np.empty((n, NPARAM))
+    vol = np.pi * r ** 2 * L
+    mass = rho_b * vol
+    dv = (6.0 * r ** 2 * L) ** (1.0 / 3.0)  # volume-equivalent sphere diameter
+    area = 2 * np.pi * r * L + 2 * np.pi * r ** 2
+    psi = np.pi * dv ** 2 / area  # sphericity
+    P[:, P_L], P[:, P_R], P[:, P_RHOB] = L, r, rho_b
+    P[:, P_VOL], P[:, P_MASS] = vol, mass
+    P[:, P_INERTIA] = mass * (L ** 2 / 12.0 + r ** 2 / 4.0)
+    P[:, P_DV], P[:, P_PSI] = dv, psi
+    # base-10 logarithm (Ganser 1993 eq. 18; public codes often use ln by mistake)
+    P[:, P_K2] = 10.0 ** (1.8148 * (-np.log10(np.minimum(psi, 1.0))) ** 0.5743)
+    P[:, P_HSTAR] = float_depth
+    return P
+
+
+# --------------------------------------------------------------------- drag (MODEL.md 5)
+@nb.njit(cache=True, inline="always")
+def effective_area(r, L, cos_a, sin_a):
+    """S_eff = sqrt((pi r^2 cos a)^2 + (2 r L sin a)^2), the paper's projected area."""
+    a = np.pi * r * r * cos_a
+    b = 2.0 * r * L * sin_a
+    return np.sqrt(a * a + b * b)
+
+
+@nb.njit(cache=True)
+def ganser_cd(re, dv, psi, k2, s_eff):
+    """Ganser's C_D (eq. 18) at Reynolds number re for projected area s_eff."""
+    dn = np.sqrt(4.0 * s_eff / np.pi)
+    k1 = 1.0 / (dn / (3.0 * dv) + (2.0 / 3.0) / np.sqrt(psi))
+    rk = re * k1 * k2
+    return 24.0 / (re * k1) * (1.0 + 0.1118 * rk ** 0.6567) + 0.4305 * k2 / (1.0 + 3305.0 / rk)
+
+
+@nb.njit(cache=True)
+def drag_speed_product(s, dv, psi, k2, s_eff, rho, mu):
+    """C_D * s for Ganser's law, finite as s -> 0 (the Stokes limit) where C_D is not."""
+    dn = np.sqrt(4.0 * s_eff / np.pi)
+    k1 = 1.0 / (dn / (3.0 * dv) + (2.0 / 3.0) / np.sqrt(psi))
+    re = rho * s * dv / mu
+    rk = re * k1 * k2
+    stokes = 24.0 * mu / (rho * dv * k1) * (1.0 + 0.1118 * rk ** 0.6567)
+    return stokes + 0.4305 * k2 * s * rk / (rk + 3305.0)
+
+
+@nb.njit(cache=True, inline="always")
+def _drag_coef(s, cos_a, sin_a, h, p, opt):
+    """k such that the drag force is k w (w relative velocity, s = |w|)."""
+    law = opt[O_LAW]
+    r, L = p[P_R], p[P_L]
+    if law == LINEAR:
+        return opt[O_KLIN]
+    area_kind = opt[O_AREA]
+    s_eff = effective_area(r, L, cos_a, sin_a)
+    if area_kind == AREA_PAPER:
+        area = s_eff
+    elif area_kind == AREA_GANSER:
+        area = 0.25 * np.pi * p[P_DV] * p[P_DV]
+    else:
+        hs = min(max(h, 0.0), 2.0 * r)
+        d = np.arccos(1.0 - hs / r)
+        area = L * hs * sin_a + r * r * (d - np.sin(d) * np.cos(d)) * cos_a
+    if law == CONSTANT:
+        cds = opt[O_CD] * s
+    else:
+        cds = drag_speed_product(s, p[P_DV], p[P_PSI], p[P_K2], s_eff, opt[O_RHO], opt[O_MU])
+    return 0.5 * opt[O_RHO] * area * cds
+
+
+@nb.njit(cache=True, inline="always")
+def _torque(dw, s, p, opt):
+    """Resistance torque T_R for relative rotation dw = omega_w - omega_b (sign corrected)."""
+    law = opt[O_LAW]
+    r, L = p[P_R], p[P_L]
+    if law == LINEAR:
+        return opt[O_KLIN] * L * L / 12.0 * dw  # k/L per unit length, lever s, integrated
+    kr = 2.0 * r * opt[O_RHO] * L ** 4 / 64.0
+    if law == CONSTANT:
+        return kr * opt[O_CD] * abs(dw) * dw
+    # [choice] Ganser's C_D at the relative speed of translation and of the rod's mean
+    # rotational speed L |dw| / 4, so that C_D stays finite when the log does not translate
+    vr = np.sqrt(s * s + (0.25 * L * dw) ** 2)
+    if vr == 0.0:
+        return 0.0
+    s_eff = effective_area(r, L, 0.0, 1.0)  # broadside: a rotating rod moves across its axis
+    cds = drag_speed_product(vr, p[P_DV], p[P_PSI], p[P_K2], s_eff, opt[O_RHO], opt[O_MU])
+    return kr * cds * (abs(dw) / vr) * dw
+
+
+@nb.njit(cache=True, parallel=True)
+def rhs_kernel(S, F, P, opt, D, lin):
+    """Time derivative D of the states S (n, 6) given flow samples F (n, NVAR).
+
+    Also fills ``lin`` (n, NLIN): the drag relaxation rates (1/s) along and across the relative
+    velocity, its direction, and the rotational relaxation rate; the exponential integrator
+    treats these exactly and the explicit ones bound their step by them.
+    """
+    level = opt[O_LEVEL]
+    rot = opt[O_ROT] > 0.0
+    rho = opt[O_RHO]
+    for i in nb.prange(S.shape[0]):
+        p = P[i]
+        h = F[i, H]
+        uw, vw = F[i, U], F[i, V]
+        dudx, dudy, dvdx, dvdy = F[i, DUDX], F[i, DUDY], F[i, DVDX], F[i, DVDY]
+        omega_w = 0.5 * (dvdx - dudy)
+        D[i, X] = S[i, UB]
+        D[i, Y] = S[i, VB]
+        if level == TRACER:  # U_b = U_w: positions follow the flow; velocities are synced
+            D[i, X] = uw
+            D[i, Y] = vw
+            D[i, THETA] = omega_w if rot else 0.0
+            D[i, UB] = 0.0
+            D[i, VB] = 0.0
+            D[i, OMEGA] = 0.0
+            for k in range(NLIN):
+                lin[i, k] = 0.0
+            continue
+        ub, vb = S[i, UB], S[i, VB]
+        th = S[i, THETA]
+        ex, ey = np.cos(th), np.sin(th)
+        wx, wy = uw - ub, vw - vb
+        s = np.sqrt(wx * wx + wy * wy)
+        if s > 0.0:
+            ew = ex * wx + ey * wy
+            cos_a = abs(ew) / s
+            sin_a = abs(ex * wy - ey * wx) / s
+            sgn = 1.0 if ew >= 0.0 else -1.0
+            nwx, nwy = wx / s, wy / s
+        else:
+            cos_a, sin_a, sgn = 1.0, 0.0, 1.0
+            nwx, nwy = 1.0, 0.0
+        vol = p[P_VOL]
+        vf = vol if opt[O_SUBMERGED] == 0.0 else submerged_volume(h, p[P_R], p[P_L])
+        m_eff = p[P_RHOB] * vol + 0.5 * rho * vf  # added mass, C_m = 1/2 (eq. 7)
+        kd = _drag_coef(s, cos_a, sin_a, h, p, opt)
+        fx, fy = kd * wx, kd * wy  # drag (eq. 6)
+        # drag linearisation: F = g(s) w/s, dF/dw = g'(s) w w^T/s^2 + g(s)/s (I - w w^T/s^2)
+        ds = 1e-6 * s + 1e-9
+        kd2 = _drag_coef(s + ds, cos_a, sin_a, h, p, opt)
+        gprime = ((s + ds) * kd2 - s * kd) / ds
+        lin[i, L_PAR] = gprime / m_eff
+        lin[i, L_PERP] = kd / m_eff
+        lin[i, L_WX] = nwx
+        lin[i, L_WY] = nwy
+        if level == FULL:
+            # pressure gradient + added mass (eq. 7): 3/2 rho V dU_w/dt + rho V J (U_b/2 + U_w)
+            ax_, ay_ = 0.5 * ub + uw, 0.5 * vb + vw
+            jx = dudx * ax_ + dudy * ay_
+            jy = dvdx * ax_ + dvdy * ay_
+            if opt[O_SLOPE] > 0.0:
+                # [choice] -g grad(eta) in place of the steady part J U_w of DU_w/Dt
+                jx = dudx * 0.5 * ub + dudy * 0.5 * vb - opt[O_G] * F[i, DETADX]
+                jy = dvdx * 0.5 * ub + dvdy * 0.5 * vb - opt[O_G] * F[i, DETADY]
+            fx += rho * vf * (1.5 * F[i, DUDT] + jx)
+            fy += rho * vf * (1.5 * F[i, DVDT] + jy)
+        axb, ayb = fx / m_eff, fy / m_eff
+        D[i, UB] = axb
+        D[i, VB] = ayb
+        if not rot:
+            D[i, THETA] = 0.0
+            D[i, OMEGA] = 0.0
+            lin[i, L_ROT] = 0.0
+            continue
+        D[i, THETA] = S[i, OMEGA]
+        # force at the centre of pressure: the total hydrodynamic force m_b dU_b/dt (MODEL.md 6),
+        # or the drag alone (drag level, or torque_force = "drag": volume forces act at G)
+        if level == FULL and opt[O_TORQUE_DRAG] == 0.0:
+            ftx, fty = p[P_MASS] * axb, p[P_MASS] * ayb
+        else:
+            ftx, fty = kd * wx, kd * wy
+        # centre of pressure on the axis, on the side facing the relative flow (eq. 9)
+        arm = -0.25 * p[P_L] * cos_a * cos_a * cos_a * sgn
+        gpx, gpy = arm * ex, arm * ey
+        dw = omega_w - S[i, OMEGA]
+        tr = _torque(dw, s, p, opt)
+        tau_d = gpx * fty - gpy * ftx
+        D[i, OMEGA] = (tau_d + tr) / p[P_INERTIA]
+        # rotational relaxation rate d T_R / d omega_b / I.  T_R is quadratic in dw, so its
+        # slope vanishes at dw = 0 although the driving torque tau_d is about to spin the log up
+        # to where T_R balances it: take the slope at that balance |dw*| when it is larger
+        # (a few fixed-point steps on the local quadratic model T_R(x) ~ T_R(g) (x / g)^2).
+        g = max(abs(dw), 1e-6)
+        for _ in range(3):
+            tg = abs(_torque(g, s, p, opt))
+            if tg <= 0.0:
+                break
+            g = max(abs(dw), g * np.sqrt(abs(tau_d) / tg))
+        dd = 1e-6 * g + 1e-9
+        lin[i, L_ROT] = max((_torque(g + dd, s, p, opt) - _torque(g, s, p, opt)) / dd, 0.0) \
+            / p[P_INERTIA]

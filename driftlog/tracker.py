@@ -1,0 +1,404 @@
+"""The tracker: Algorithm 1 of the reference paper (MODEL.md section 8).
+
+Per hydrodynamic step [t_n, t_n+1] the logs are advanced by sub-steps
+
+    dt = min(length_fraction L / |U_b|, angle_step / |omega_b|, drag bound, t_n+1 - t)
+
+over all floating logs, with the integrator of choice; the flow is sampled at the stage times.
+Sub-steps also land exactly on output times and release times.  A contact model (optional)
+takes over each sub-step through a small interface (``state``, ``save``/``restore``,
+``advance``): see ``driftlog.contact``.
+
+The floating logs are held compactly (structure of arrays, only the floating ones), so that
+resting, stranded, waiting or departed logs cost nothing in the integrator.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+from driftlog.errors import DriftlogError, ScenarioError
+from driftlog.flow import DRY, NVAR, OUTSIDE, H, U, V
+from driftlog.integrators import make_integrator
+from driftlog.logs import FLOATING, LEFT, OMEGA, RESTING, STRANDED, UB, VB, WAITING, X, Y
+from driftlog.physics import L_PAR, L_PERP, L_ROT, NLIN, TRACER, PhysicsOptions, log_parameters, rhs_kernel
+
+__all__ = ["Tracker", "StepOptions", "StepTooSmallError", "IntegrationError"]
+
+
+class StepTooSmallError(DriftlogError):
+    """The sub-step fell below integrator.min_step."""
+
+
+class IntegrationError(DriftlogError):
+    """The integration diverged (non-finite state)."""
+
+
+@dataclass
+class StepOptions:
+    """Sub-step control (MODEL.md section 8)."""
+
+    length_fraction: float = 1.0
+    angle_step: float = np.pi / 4
+    drag_fraction: float = 0.5
+    max_step: float | None = None
+    min_step: float = 1e-9
+
+    @classmethod
+    def from_scenario(cls, section):
+        return cls(section["length_fraction"], section["angle_step"], section["drag_fraction"],
+                   section["max_step"], section["min_step"])
+
+
+@nb.njit(cache=True)
+def _step_bound(S, length, lin, lf, ang, drag_fraction, explicit):
+    """Largest sub-step allowed by the paper's bounds (and the drag relaxation bound)."""
+    dt = np.inf
+    for i in range(S.shape[0]):
+        sp = np.sqrt(S[i, UB] ** 2 + S[i, VB] ** 2)
+        if sp > 0.0:
+            dt = min(dt, lf * length[i] / sp)
+        om = abs(S[i, OMEGA])
+        if om > 0.0:
+            dt = min(dt, ang / om)
+        if explicit and drag_fraction > 0.0:
+            lam = max(lin[i, L_PAR], max(lin[i, L_PERP], lin[i, L_ROT]))
+            if lam > 0.0:
+                dt = min(dt, drag_fraction / lam)
+    return dt
+
+
+@nb.njit(cache=True)
+def _classify(F, flag, float_depth, status):
+    """New status from the flow at the logs: left the domain, stranded (dry), resting, floating."""
+    changed = 0
+    for i in range(F.shape[0]):
+        if flag[i] == OUTSIDE:
+            s = LEFT
+        elif flag[i] == DRY:
+            s = STRANDED
+        elif F[i, H] < float_depth[i]:
+            s = RESTING
+        else:
+            s = FLOATING
+        if s != status[i]:
+            changed += 1
+        status[i] = s
+    return changed
+
+
+class Tracker:
+    """Advance logs on a flow field (Algorithm 1) and record their trajectories.
+
+    Parameters
+    ----------
+    flow : FlowField
+    logs : Logs
+    physics : PhysicsOptions
+    method : str
+        Integrator: euler, rk4 or exponential.
+    step : StepOptions
+    contact : object, optional
+        A contact model with ``substep(tracker, dt) -> dt_taken`` and ``drain_hits()``.
+    t_start, t_end : float
+    output_interval : float
+    hydro_step : float
+        Hydrodynamic step for flows without snapshots (analytic fields).
+    writer : TrajectoryWriter, optional
+    progress : bool
+        A progress bar over simulated time.
+    initial_velocity : str or array of str
+        Velocity of a log when released floating: "flow" (the flow's velocity and rotation),
+        "rest", or "given" (the velocity in ``logs``).
+    """
+
+    def __init__(self, flow, logs, physics=None, method="rk4", step=None, contact=None,
+                 t_start=0.0, t_end=None, output_interval=1.0, hydro_step=1.0, writer=None,
+                 progress=False, initial_velocity="flow"):
+        self.flow = flow
+        self.logs = logs
+        self.physics = physics or PhysicsOptions()
+        self.opt = self.physics.vector()
+        self.integrator = make_integrator(method)
+        self.step_options = step or StepOptions()
+        self.contact = contact
+        self.t = float(t_start)
+        t0f, t1f = flow.time_span
+        self.t_end = float(t_end if t_end is not None else t1f)
+        if not np.isfinite(self.t_end):
+            raise ScenarioError("time.end", t_end, "must be given for flows without an end "
+                                "(analytic or steady flows)")
+        if not self.t_end > self.t:
+            raise ScenarioError("time.end", self.t_end, f"must be after time.start = {self.t}")
+        self.output_interval = float(output_interval)
+        self.hydro_step = float(hydro_step)
+        self.writer = writer
+        self.progress = progress
+        self.initial_velocity = (np.broadcast_to(np.asarray(initial_velocity), len(logs))
+                                 if not isinstance(initial_velocity, str)
+                                 else np.full(len(logs), initial_velocity))
+        self.P_all = log_parameters(logs.length, logs.radius, logs.density, logs.float_depth)
+        self.stats = dict(substeps=0, rhs_evaluations=0, min_dt=np.inf, max_dt=0.0,
+                          rejected=0, wall_seconds=0.0)
+        self._recorded_left = np.zeros(len(logs), dtype=bool)
+        self._set_active(np.empty(0, dtype=np.int64))
+        self._stops = self._landing_times()
+
+    # ----------------------------------------------------------------- compact arrays
+    def _set_active(self, idx):
+        """Gather the floating logs ``idx`` into the compact arrays the kernels use."""
+        self.act = np.asarray(idx, dtype=np.int64)
+        L = self.logs
+        self.state = np.ascontiguousarray(L.state[self.act])
+        self.face = L.face[self.act].copy()
+        self.P = np.ascontiguousarray(self.P_all[self.act])
+        self.ids = L.id[self.act]
+        self.length = L.length[self.act]
+        self.radius = L.radius[self.act]
+        self.mass = L.mass[self.act]
+        self.inertia = L.inertia[self.act]
+        n = self.act.size
+        self.F = np.zeros((n, NVAR))
+        self.flag = np.zeros(n, np.int8)
+        self._F_valid = False
+        self._stage_F = np.zeros((n, NVAR))
+        self._stage_flag = np.zeros(n, np.int8)
+        self._stage_face = np.empty(n, np.int64)
+        self._next = np.empty((n, 6))
+        self.D0, self.lin0 = self.integrator.prepare(n)
+
+    def _scatter(self):
+        """Write the compact state back into the full arrays."""
+        self.logs.state[self.act] = self.state
+        self.logs.face[self.act] = self.face
+
+    # ----------------------------------------------------------------- flow at the logs
+    def _sample_current(self):
+        if not self._F_valid:
+            self.flow.sample_into(self.state[:, X], self.state[:, Y], self.t, self.face,
+                                  self.F, self.flag)
+            self._F_valid = True
+
+    def _rhs(self, S, t, D, lin):
+        """Derivative of states S at time t: flow sampled at S's positions (stage sampling)."""
+        if S is self.state and t == self.t:
+            self._sample_current()
+            F = self.F
+        else:
+            np.copyto(self._stage_face, self.face)
+            self.flow.sample_into(S[:, X], S[:, Y], t, self._stage_face, self._stage_F,
+                                  self._stage_flag)
+            F = self._stage_F
+        rhs_kernel(S, F, self.P, self.opt, D, lin)
+        self.stats["rhs_evaluations"] += 1
+
+    # ----------------------------------------------------------------- contact interface
+    def save(self):
+        """A copy of what ``advance`` changes (state, time, hints, flow at the logs)."""
+        return (self.state.copy(), self.t, self.face.copy(), self.F.copy(), self.flag.copy(),
+                self._F_valid)
+
+    def restore(self, saved):
+        state, t, face, F, flag, valid = saved
+        np.copyto(self.state, state)
+        self.t = t
+        np.copyto(self.face, face)
+        np.copyto(self.F, F)
+        np.copyto(self.flag, flag)
+        self._F_valid = valid
+
+    def advance(self, dt):
+        """Integrate the free motion of the floating logs over dt (no contacts)."""
+        if self.state.shape[0]:
+            self._rhs(self.state, self.t, self.D0, self.lin0)
+            self.integrator.step(self.state, self.t, dt, self._rhs, self._next, have_d0=True)
+            self.state, self._next = self._next, self.state
+        self.t += dt
+        self._F_valid = False
+        if self.state.shape[0]:
+            self._sample_current()
+            if self.physics.level == "tracer":
+                self._sync_tracer()
+
+    def _sync_tracer(self):
+        self.state[:, UB] = self.F[:, U]
+        self.state[:, VB] = self.F[:, V]
+        self.state[:, OMEGA] = 0.5 * (self.F[:, 7] - self.F[:, 6]) if self.physics.rotation else 0.0
+
+    def max_step(self):
+        """The sub-step bound at the current state."""
+        so = self.step_options
+        dt = so.max_step if so.max_step else np.inf
+        if self.state.shape[0]:
+            self._rhs(self.state, self.t, self.D0, self.lin0)
+            explicit = not self.integrator.stiff_stable and self.physics.level != "tracer"
+            dt = min(dt, _step_bound(self.state, self.length, self.lin0, so.length_fraction,
+                                     so.angle_step, so.drag_fraction, explicit))
+        return dt
+
+    # ----------------------------------------------------------------- statuses
+    def _update_status(self):
+        """Re-classify floating logs (left, stranded, resting) and the resting ones (refloat)."""
+        L = self.logs
+        changed = scattered = False
+        if self.act.size:
+            self._sample_current()
+            st = np.full(self.act.size, FLOATING, np.int8)
+            if _classify(self.F, self.flag, L.float_depth[self.act], st):
+                self._scatter()
+                scattered = changed = True
+                L.status[self.act] = st
+                L.state[self.act[st != FLOATING], UB:] = 0.0  # resting logs do not move (MODEL.md 3)
+        idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
+        # on a steady flow an idle log can only change when it has just stopped
+        if idle.size and (not self._steady or changed or self._first_check):
+            changed |= self._check_idle(idle)
+        self._first_check = False
+        if changed:
+            if not scattered and self.act.size:
+                self._scatter()
+            self._set_active(np.flatnonzero(L.status == FLOATING))
+
+    def _check_idle(self, idx):
+        L = self.logs
+        s = self.flow.sample(L.state[idx, X], L.state[idx, Y], self.t, face=L.face[idx])
+        L.face[idx] = s.face
+        st = L.status[idx].copy()
+        n = _classify(s.values, s.flag, L.float_depth[idx], st)
+        if n:
+            lifted = idx[(st == FLOATING)]
+            L.state[lifted, UB:] = 0.0  # a lifted log starts from rest
+            L.status[idx] = st
+        return n > 0
+
+    def _release(self):
+        """Logs whose release time has come: floating, resting, stranded, or an error outside."""
+        L = self.logs
+        due = np.flatnonzero((L.status == WAITING) & (L.release_time <= self.t + 1e-9))
+        if due.size == 0:
+            return False
+        if self.act.size:
+            self._scatter()
+        s = self.flow.sample(L.state[due, X], L.state[due, Y], self.t)
+        out = due[s.flag == OUTSIDE]
+        if out.size:
+            i = int(out[0])
+            raise ScenarioError(f"logs[{L.group[i]}].x", [float(L.state[i, X]), float(L.state[i, Y])],
+                                f"log {i} is seeded outside the flow domain "
+                                f"({out.size} logs in all); logs must start inside the mesh")
+        L.face[due] = s.face
+        st = np.full(due.size, WAITING, np.int8)
+        _classify(s.values, s.flag, L.float_depth[due], st)
+        L.status[due] = st
+        fl = st == FLOATING
+        L.state[due[fl & (self.initial_velocity[due] == "rest")], UB:] = 0.0
+        with_flow = fl & (self.initial_velocity[due] == "flow")
+        L.state[due[with_flow], UB] = s.u[with_flow]
+        L.state[due[with_flow], VB] = s.v[with_flow]
+        if self.physics.rotation:
+            L.state[due[with_flow], OMEGA] = s.omega[with_flow]
+        self._set_active(np.flatnonzero(L.status == FLOATING))
+        return True
+
+    # ----------------------------------------------------------------- landing times
+    def _landing_times(self):
+        t0, t1 = self.t, self.t_end
+        hydro = np.asarray(self.flow.times, float)
+        self._steady = hydro.size <= 1
+        if hydro.size <= 1:
+            n = int(np.ceil((t1 - t0) / self.hydro_step - 1e-9))
+            hydro = t0 + self.hydro_step * np.arange(n + 1)
+        n_out = int(np.floor((t1 - t0) / self.output_interval + 1e-9))
+        outs = t0 + self.output_interval * np.arange(n_out + 1)
+        self._outputs = np.unique(np.append(outs, t1))
+        rel = self.logs.release_time
+        stops = np.concatenate([hydro, self._outputs, rel, [t1]])
+        stops = np.unique(stops[(stops > t0) & (stops <= t1)])
+        # merge stops closer than round-off
+        keep = np.ones(stops.size, bool)
+        keep[1:] = np.diff(stops) > 1e-9 * max(1.0, abs(t1))
+        return stops[keep]
+
+    # ----------------------------------------------------------------- recording
+    def _record(self):
+        if self.writer is None:
+            return
+        if self.act.size:
+            self._scatter()
+        L = self.logs
+        idx = np.flatnonzero((L.status != WAITING) & ~self._recorded_left)
+        if idx.size == 0:
+            return
+        s = self.flow.sample(L.state[idx, X], L.state[idx, Y], self.t, face=L.face[idx])
+        cols = {"x": L.state[idx, 0], "y": L.state[idx, 1], "theta": L.state[idx, 2],
+                "u": L.state[idx, 3], "v": L.state[idx, 4], "omega": L.state[idx, 5],
+                "status": L.status[idx], "water_depth": s.h, "flow_u": s.u, "flow_v": s.v}
+        self.writer.record(self.t, idx, cols)
+        self._recorded_left[idx[L.status[idx] == LEFT]] = True
+        if self.contact is not None:
+            self.writer.hits(self.contact.drain_hits())
+
+    # ----------------------------------------------------------------- the loop
+    def run(self):
+        """Run to t_end; returns the Logs (their final state)."""
+        wall = _time.perf_counter()
+        bar = None
+        if self.progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=self.t_end - self.t, unit="s", unit_scale=True, desc="tracking",
+                       bar_format="{l_bar}{bar}| {n:.4g}/{total:.4g} s [{elapsed}<{remaining}]")
+        self._first_check = True
+        self._release()
+        self._update_status()
+        self._record()
+        out_i = 1
+        so = self.step_options
+        try:
+            for stop in self._stops:
+                while self.t < stop:
+                    t_before = self.t
+                    dt = min(self.max_step(), stop - self.t)
+                    if self.act.size == 0:
+                        dt = stop - self.t
+                    if dt < so.min_step and stop - self.t > so.min_step:
+                        raise StepTooSmallError(
+                            f"sub-step {dt:.3g} s below integrator.min_step = {so.min_step} s at "
+                            f"t = {self.t} s; a log spins or moves too fast for its length "
+                            "(check the flow at the logs) or lower integrator.min_step")
+                    if self.contact is not None and self.act.size:
+                        self.contact.substep(self, dt)
+                    else:
+                        self.advance(dt)
+                    if not np.all(np.isfinite(self.state)):
+                        bad = self.ids[~np.isfinite(self.state).all(axis=1)]
+                        raise IntegrationError(
+                            f"the {self.integrator.name} integration diverged at t = {self.t:.6g} s "
+                            f"(logs {bad[:5].tolist()}): the step is too long for the drag "
+                            "relaxation time; use integrator.method = 'exponential' or set "
+                            "integrator.drag_fraction > 0")
+                    if stop - self.t <= 1e-9 * max(1.0, abs(stop)):
+                        self.t = stop  # land exactly
+                    taken = self.t - t_before
+                    st = self.stats
+                    st["substeps"] += 1
+                    st["min_dt"] = min(st["min_dt"], taken)
+                    st["max_dt"] = max(st["max_dt"], taken)
+                    self._release()
+                    self._update_status()
+                    if bar is not None:
+                        bar.update(taken)
+                while out_i < self._outputs.size and self._outputs[out_i] <= self.t + 1e-9:
+                    self._record()
+                    out_i += 1
+        finally:
+            if self.act.size:
+                self._scatter()
+            if bar is not None:
+                bar.close()
+            self.stats["wall_seconds"] = _time.perf_counter() - wall
+        return self.logs
