@@ -13,8 +13,26 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from driftlog.flow import (DETADX, DETADY, DUDT, DUDX, DUDY, DVDT, DVDX, DVDY, ETA, NVAR, WET,
-                           FlowField, H, InMemorySnapshots, MeshFlowField, U, V)
+from driftlog._numba import kernel
+from driftlog.flow import (
+    DETADX,
+    DETADY,
+    DUDT,
+    DUDX,
+    DUDY,
+    DVDT,
+    DVDX,
+    DVDY,
+    ETA,
+    NVAR,
+    WET,
+    FlowField,
+    H,
+    InMemorySnapshots,
+    MeshFlowField,
+    U,
+    V,
+)
 
 __all__ = ["UniformFlow", "SolidBodyRotation", "FreeVortex", "AnalyticField", "on_mesh"]
 
@@ -22,7 +40,7 @@ G = 9.81
 UNIFORM, SOLID_BODY, FREE_VORTEX = 0, 1, 2
 
 
-@nb.njit(cache=True, parallel=True)
+@kernel(size_arg=2)
 def _sample_analytic(kind, p, px, py, t, out, flag):
     for i in nb.prange(px.shape[0]):
         for k in range(NVAR):

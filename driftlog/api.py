@@ -15,7 +15,7 @@ import numpy as np
 
 from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.logs import Logs, logs_from_scenario
-from driftlog.physics import PhysicsOptions, rhs_kernel, log_parameters, NLIN
+from driftlog.physics import NLIN, PhysicsOptions, log_parameters, rhs_kernel
 from driftlog.scenario import Scenario, load_scenario
 from driftlog.sources import flow_from_scenario
 from driftlog.tracker import StepOptions, Tracker

@@ -97,6 +97,203 @@ def cmd_info(args):
     return 0
 
 
+# --------------------------------------------------------------------- tracking
+def _overrides(pairs):
+    """--set physics.level=tracer --set time.end=100: a nested dict for load_scenario."""
+    import tomllib
+
+    out = {}
+    for pair in pairs or ():
+        if "=" not in pair:
+            raise DriftlogError(f"--set {pair!r}: expected SECTION.KEY=VALUE")
+        key, value = pair.split("=", 1)
+        try:
+            value = tomllib.loads(f"v = {value}")["v"]
+        except tomllib.TOMLDecodeError:
+            pass  # a bare word: a string
+        node = out
+        parts = key.strip().split(".")
+        for p in parts[:-1]:
+            node = node.setdefault(p, {})
+        node[parts[-1]] = value
+    return out
+
+
+def _scenario_path(name):
+    from driftlog.api import find_case
+
+    if name is None:
+        from driftlog.api import cases_dir
+
+        default = "river_piers" if (cases_dir() / "river_piers" / "scenario.toml").is_file() \
+            else "vortex"
+        return find_case(default), default
+    p = Path(name)
+    if p.suffix == ".toml" or p.exists():
+        if not p.is_file():
+            raise DriftlogError(f"{p}: scenario file not found")
+        return p, p.stem if p.stem != "scenario" else p.resolve().parent.name
+    return find_case(name), name
+
+
+def _add_set(p):
+    p.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",
+                   help="override a scenario value (repeatable), e.g. --set physics.level=tracer")
+
+
+@command
+def add_run(sub):
+    p = _sub(sub, "run", "run a scenario end to end: flow (solved or imported if needed), "
+             "tracking, a figure and an animation",
+             "driftlog run                       # the default demo scene\n"
+             "  driftlog run vortex --out runs/v   # a case by name\n"
+             "  driftlog run my_scenario.toml --set physics.level=tracer")
+    p.add_argument("scenario", nargs="?", help="scenario file or case name (default: the demo)")
+    p.add_argument("--out", help="output folder (default: driftlog-runs/<name>)")
+    p.add_argument("--no-figure", action="store_true", help="skip the figure")
+    p.add_argument("--no-animation", action="store_true", help="skip the animation")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_set(p)
+    p.set_defaults(run=cmd_run)
+
+
+def cmd_run(args):
+    from driftlog.api import as_scenario, track
+    from driftlog.plots import animate, plot_trajectories
+
+    path, name = _scenario_path(args.scenario)
+    out = Path(args.out or Path("driftlog-runs") / name)
+    out.mkdir(parents=True, exist_ok=True)
+    scen = as_scenario(path, _overrides(args.set))
+    print(f"driftlog: running {path}")
+    res = track(scen, output=out / "trajectories.nc", progress=not args.quiet)
+    print(f"  trajectories: {res.path}")
+    for f in res.extra_files:
+        print(f"  ParaView: {f}")
+    if not args.no_figure:
+        fig = out / "trajectories.png"
+        plot_trajectories(res.path, out=fig)
+        print(f"  figure: {fig}")
+    if not args.no_animation:
+        anim = animate(res.path, out / "animation.mp4")
+        print(f"  animation: {anim}")
+    s = res.stats
+    print(f"  {len(res.logs)} logs, {s['substeps']} sub-steps in {s['wall_seconds']:.2f} s; "
+          f"physics {res.physics['level']}" + (f" ({res.physics['reason']})"
+                                               if res.physics["reason"] else ""))
+    return 0
+
+
+@command
+def add_track(sub):
+    p = _sub(sub, "track", "track the logs of a scenario on its flow (an existing flow file, "
+             "an imported model output or an analytic field)",
+             "driftlog track scenario.toml -o trajectories.nc")
+    p.add_argument("scenario", help="scenario file or case name")
+    p.add_argument("-o", "--output", help="trajectory file (default: the scenario's output.path)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_set(p)
+    p.set_defaults(run=cmd_track)
+
+
+def cmd_track(args):
+    from driftlog.api import as_scenario, track
+
+    path, _ = _scenario_path(args.scenario)
+    res = track(as_scenario(path, _overrides(args.set)), output=args.output,
+                progress=not args.quiet)
+    print(f"trajectories: {res.path}")
+    for f in res.extra_files:
+        print(f"ParaView: {f}")
+    return 0
+
+
+@command
+def add_plot(sub):
+    p = _sub(sub, "plot", "draw the trajectories of a trajectory file over the flow",
+             "driftlog plot trajectories.nc -o trajectories.png --background depth")
+    p.add_argument("file", help="trajectory file")
+    p.add_argument("-o", "--output", help="PNG file (default: beside the trajectory file)")
+    p.add_argument("--background", choices=("speed", "depth", "none"), default="speed")
+    p.add_argument("--mesh", action="store_true", help="draw the mesh edges")
+    p.add_argument("--time", type=float, help="time of the logs drawn to scale (default: last)")
+    p.set_defaults(run=cmd_plot)
+
+
+def cmd_plot(args):
+    from driftlog.plots import plot_trajectories
+
+    out = args.output or str(Path(args.file).with_suffix(".png"))
+    plot_trajectories(args.file, background=args.background, show_mesh=args.mesh, out=out,
+                      time=args.time)
+    print(f"figure: {out}")
+    return 0
+
+
+@command
+def add_animate(sub):
+    p = _sub(sub, "animate", "animate the logs of a trajectory file over the flow (MP4 with "
+             "ffmpeg, else GIF)", "driftlog animate trajectories.nc -o logs.mp4")
+    p.add_argument("file", help="trajectory file")
+    p.add_argument("-o", "--output", help="MP4 or GIF file")
+    p.add_argument("--background", choices=("speed", "depth", "none"), default="speed")
+    p.add_argument("--fps", type=int, default=20)
+    p.set_defaults(run=cmd_animate)
+
+
+def cmd_animate(args):
+    from driftlog.plots import animate
+
+    out = animate(args.file, args.output or str(Path(args.file).with_suffix(".mp4")),
+                  background=args.background, fps=args.fps)
+    print(f"animation: {out}")
+    return 0
+
+
+@command
+def add_vtk(sub):
+    p = _sub(sub, "vtk", "write ParaView files (a .pvd time series of logs) for a trajectory file",
+             "driftlog vtk trajectories.nc --out paraview/")
+    p.add_argument("file", help="trajectory file")
+    p.add_argument("--out", help="folder (default: beside the file)")
+    p.set_defaults(run=cmd_vtk)
+
+
+def cmd_vtk(args):
+    from driftlog.trajectory import write_vtk
+
+    print(f"ParaView collection: {write_vtk(args.file, args.out)}")
+    return 0
+
+
+@command
+def add_cases(sub):
+    p = _sub(sub, "cases", "list the scenes in cases/, or run one",
+             "driftlog cases list\n  driftlog cases run vortex")
+    p.add_argument("action", choices=("list", "run"))
+    p.add_argument("name", nargs="?", help="case to run")
+    p.add_argument("--out", help="output folder (default: driftlog-runs/<name>)")
+    p.set_defaults(run=cmd_cases)
+
+
+def cmd_cases(args):
+    from driftlog.api import cases_dir
+
+    if args.action == "list":
+        for d in sorted(cases_dir().iterdir()):
+            scen = d / "scenario.toml"
+            if scen.is_file():
+                import tomllib
+
+                title = tomllib.loads(scen.read_text()).get("title", "")
+                print(f"{d.name:<14} {title}")
+        return 0
+    if not args.name:
+        raise DriftlogError("driftlog cases run: give the case name (see driftlog cases list)")
+    return cmd_run(argparse.Namespace(scenario=args.name, out=args.out, no_figure=False,
+                                      no_animation=False, quiet=False, set=None))
+
+
 # --------------------------------------------------------------------- entry point
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
+from driftlog._numba import kernel
 from driftlog.errors import FlowDomainError, FlowFileError
 from driftlog.locate import locate_one
 
@@ -158,7 +159,7 @@ def _p1(nodevals, q, n0, n1, n2, a, b, inv_dt, w):
             gay * va + gby * vb + gcy * vc, td)
 
 
-@nb.njit(cache=True, parallel=True)
+@kernel
 def sample_mesh_kernel(px, py, face, out, flag, a, inv_dt, nodevals, dry_depth,
                        face_nodes, face_n, face_nbr, node_x, node_y,
                        x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces):

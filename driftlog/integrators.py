@@ -18,6 +18,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from driftlog._numba import kernel
 from driftlog.logs import OMEGA, UB, VB
 from driftlog.physics import L_PAR, L_PERP, L_ROT, L_WX, L_WY, NLIN
 
@@ -26,7 +27,7 @@ __all__ = ["Integrator", "make_integrator", "phi_functions", "METHODS"]
 METHODS = ("euler", "rk4", "exponential")
 
 
-@nb.njit(cache=True, parallel=True)
+@kernel
 def _axpy(S0, c, D, out):
     """out = S0 + c D."""
     for i in nb.prange(S0.shape[0]):
@@ -34,7 +35,7 @@ def _axpy(S0, c, D, out):
             out[i, k] = S0[i, k] + c * D[i, k]
 
 
-@nb.njit(cache=True, parallel=True)
+@kernel
 def _rk4_final(S0, dt, D0, D1, D2, D3, out):
     c = dt / 6.0
     for i in nb.prange(S0.shape[0]):
@@ -76,7 +77,7 @@ def _etd_coeffs(lam, h):
     return e, e2, 0.5 * h * q1, p1 - 3.0 * p2 + 4.0 * p3, p2 - 2.0 * p3, 4.0 * p3 - p2
 
 
-@nb.njit(cache=True, parallel=True)
+@kernel(size_arg=2)
 def _etd_stage(stage, h, S0, Sa, lin, N0, Na, Nb, Nc, out):
     """One ETDRK4 stage; N are the nonlinear parts D + M S_vel (M the linearised drag)."""
     for i in nb.prange(S0.shape[0]):
@@ -143,7 +144,7 @@ def _etd_stage(stage, h, S0, Sa, lin, N0, Na, Nb, Nc, out):
             out[i, OMEGA] = ro
 
 
-@nb.njit(cache=True, parallel=True)
+@kernel
 def _add_linear(S, D, lin, N):
     """N = D + M S_vel: the nonlinear part, M the drag linearisation frozen at the step start."""
     for i in nb.prange(S.shape[0]):

@@ -11,6 +11,8 @@ A point on an edge or a vertex belongs to every face that touches it; either is 
 import numba as nb
 import numpy as np
 
+from driftlog._numba import kernel
+
 __all__ = ["BinGrid", "build_bin_grid", "locate_points", "point_in_face", "brute_force_locate"]
 
 OUTSIDE = -1
@@ -95,7 +97,7 @@ def locate_one(px, py, hint, face_nodes, face_n, face_nbr, node_x, node_y,
                        face_nodes, face_n, node_x, node_y)
 
 
-@nb.njit(cache=True, parallel=True)
+@kernel
 def locate_points(px, py, face, face_nodes, face_n, face_nbr, node_x, node_y,
                   x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces):
     """Locate every point in place: ``face`` holds the hints on entry and the faces on return."""

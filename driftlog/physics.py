@@ -15,6 +15,7 @@ from dataclasses import asdict, dataclass
 import numba as nb
 import numpy as np
 
+from driftlog._numba import kernel
 from driftlog.flow import DETADX, DETADY, DUDT, DUDX, DUDY, DVDT, DVDX, DVDY, H, U, V
 from driftlog.logs import OMEGA, THETA, UB, VB, X, Y, submerged_volume
 
@@ -186,7 +187,7 @@ def _torque(dw, s, p, opt):
     return kr * cds * (abs(dw) / vr) * dw
 
 
-@nb.njit(cache=True, parallel=True)
+@kernel
 def rhs_kernel(S, F, P, opt, D, lin):
     """Time derivative D of the states S (n, 6) given flow samples F (n, NVAR).
 

@@ -25,7 +25,14 @@ from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.flow import DRY, NVAR, OUTSIDE, H, U, V
 from driftlog.integrators import make_integrator
 from driftlog.logs import FLOATING, LEFT, OMEGA, RESTING, STRANDED, UB, VB, WAITING, X, Y
-from driftlog.physics import L_PAR, L_PERP, L_ROT, NLIN, TRACER, PhysicsOptions, log_parameters, rhs_kernel
+from driftlog.physics import (
+    L_PAR,
+    L_PERP,
+    L_ROT,
+    PhysicsOptions,
+    log_parameters,
+    rhs_kernel,
+)
 
 __all__ = ["Tracker", "StepOptions", "StepTooSmallError", "IntegrationError"]
 
@@ -351,6 +358,7 @@ class Tracker:
             from tqdm import tqdm
 
             bar = tqdm(total=self.t_end - self.t, unit="s", unit_scale=True, desc="tracking",
+                       mininterval=0.5,
                        bar_format="{l_bar}{bar}| {n:.4g}/{total:.4g} s [{elapsed}<{remaining}]")
         self._first_check = True
         self._release()

@@ -85,7 +85,7 @@ class TrajectoryWriter:
         self.path = Path(path)
         self.partial = self.path.with_name(self.path.name + ".partial")
         self.flush_interval = int(flush_interval)
-        self._since_flush = 0
+        self._buf = []
         if resume:
             self.ds = netCDF4.Dataset(self.partial, "a")
             self.nobs = len(self.ds.dimensions["obs"])
@@ -131,19 +131,30 @@ class TrajectoryWriter:
         ds.sync()
 
     def record(self, t, index, columns: dict):
-        """Append one record: observations of logs ``index`` at time t (columns by name)."""
-        k = len(index)
-        if k == 0:
+        """Append one record: observations of logs ``index`` at time t (columns by name).
+
+        Records are buffered and written every ``flush_interval`` records (one write per
+        variable, not per record).
+        """
+        if len(index) == 0:
             return
-        sl = slice(self.nobs, self.nobs + k)
-        self.ds["trajectory_index"][sl] = index
-        self.ds["time"][sl] = np.full(k, t)
-        for name in OBS_VARS:
-            self.ds[name][sl] = columns[name]
-        self.nobs += k
-        self._since_flush += 1
-        if self._since_flush >= self.flush_interval:
+        self._buf.append((t, np.asarray(index).copy(),
+                          {k: np.asarray(columns[k]).copy() for k in OBS_VARS}))
+        if len(self._buf) >= self.flush_interval:
             self.flush()
+
+    def _write_buffer(self):
+        if not self._buf:
+            return
+        idx = np.concatenate([b[1] for b in self._buf])
+        k = idx.size
+        sl = slice(self.nobs, self.nobs + k)
+        self.ds["trajectory_index"][sl] = idx
+        self.ds["time"][sl] = np.concatenate([np.full(b[1].size, b[0]) for b in self._buf])
+        for name in OBS_VARS:
+            self.ds[name][sl] = np.concatenate([b[2][name] for b in self._buf])
+        self.nobs += k
+        self._buf = []
 
     def hits(self, hits: dict):
         """Append contact events (dict of arrays time, log_id, other, impulse, x, y)."""
@@ -157,8 +168,9 @@ class TrajectoryWriter:
         self.nhit += k
 
     def flush(self):
+        """Write buffered records and sync the file to disk."""
+        self._write_buffer()
         self.ds.sync()
-        self._since_flush = 0
 
     def set_attrs(self, **attrs):
         self.ds.setncatts(_attrs_for_netcdf(attrs))
@@ -167,6 +179,7 @@ class TrajectoryWriter:
         """Close; with ``finalize`` rewrite as a contiguous ragged array at ``path``."""
         if not self.ds.isopen():
             return self.path
+        self._write_buffer()
         self.ds.close()
         if finalize:
             _to_contiguous(self.partial, self.path)

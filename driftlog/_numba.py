@@ -1,0 +1,34 @@
+"""Kernels compiled twice: serial for small arrays, parallel (prange) for large ones.
+
+Starting numba's thread pool costs tens to hundreds of microseconds per call, more than the
+work itself for a few logs (one log in a vortex, a handful at a bridge); above
+``PARALLEL_MIN`` items the parallel version wins.  Call through the returned wrapper with the
+array whose length decides as first argument.
+"""
+
+import functools
+
+import numba as nb
+
+__all__ = ["kernel", "PARALLEL_MIN"]
+
+PARALLEL_MIN = 2048
+
+
+def kernel(func=None, *, size_arg=0):
+    """Decorator: ``f(*args)`` runs the serial or the parallel compilation of ``func``."""
+
+    def wrap(f):
+        serial = nb.njit(cache=True)(f)
+        parallel = nb.njit(cache=True, parallel=True)(f)
+
+        @functools.wraps(f)
+        def call(*args):
+            if args[size_arg].shape[0] >= PARALLEL_MIN:
+                return parallel(*args)
+            return serial(*args)
+
+        call.serial, call.parallel = serial, parallel
+        return call
+
+    return wrap(func) if func is not None else wrap

@@ -1,0 +1,226 @@
+"""Figures and animations of trajectory files: logs to scale over the flow.
+
+``plot_trajectories`` draws the paths of the logs over the flow (speed or depth as background,
+the mesh optionally), the logs to scale with their orientation at the last record, their
+release points, and contact hits.  ``animate`` writes an MP4 (ffmpeg) or GIF of the logs
+moving over the flow.  Both read everything from the trajectory file, rebuilding the flow from
+the scenario stored in it when no flow is given.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from driftlog.logs import STATUS_MEANINGS
+from driftlog.trajectory import open_trajectories
+
+__all__ = ["plot_trajectories", "animate", "flow_of_trajectories", "log_outlines"]
+
+
+def _mpl():
+    import matplotlib
+
+    if matplotlib.get_backend().lower() not in ("agg", "module://matplotlib_inline.backend_inline"):
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def flow_of_trajectories(ds):
+    """The flow a trajectory file was computed on, rebuilt from its stored scenario."""
+    from driftlog.scenario import load_scenario
+    from driftlog.sources import flow_from_scenario
+
+    resolved = ds.attrs.get("scenario_resolved")
+    if not resolved:
+        return None
+    try:
+        return flow_from_scenario(load_scenario(json.loads(resolved)))
+    except Exception:  # noqa: BLE001 - the flow file may have moved; plot without background
+        return None
+
+
+def log_outlines(x, y, theta, length, radius, n_cap=8):
+    """Capsule outlines (n, 2 n_cap + 2, 2) of logs: segment of length L, radius r."""
+    x, y, theta = np.atleast_1d(x), np.atleast_1d(y), np.atleast_1d(theta)
+    length = np.broadcast_to(length, x.shape)
+    radius = np.broadcast_to(radius, x.shape)
+    a = np.linspace(-np.pi / 2, np.pi / 2, n_cap + 1)
+    # cap around +L/2 then around -L/2, in the log's frame
+    cx = np.concatenate([0.5 * length[:, None] + radius[:, None] * np.cos(a),
+                         -0.5 * length[:, None] - radius[:, None] * np.cos(a)], axis=1)
+    cy = np.concatenate([radius[:, None] * np.sin(a), -radius[:, None] * np.sin(a)], axis=1)
+    c, s = np.cos(theta)[:, None], np.sin(theta)[:, None]
+    return np.stack([x[:, None] + c * cx - s * cy, y[:, None] + s * cx + c * cy], axis=-1)
+
+
+def _background(ax, flow, t, kind, bounds, show_mesh=False):
+    """Speed or depth under the logs: on the mesh faces, or sampled on a grid."""
+    if flow is None or kind in (None, "none"):
+        return None
+    label = {"speed": "flow speed (m/s)", "depth": "water depth (m)"}[kind]
+    mesh = getattr(flow, "mesh", None)
+    if mesh is not None:
+        from matplotlib.collections import PolyCollection
+
+        fv = flow.face_values(t)
+        val = np.hypot(fv["u"], fv["v"]) if kind == "speed" else fv["h"]
+        fn = mesh.face_nodes
+        verts = [np.column_stack([mesh.node_x[f[:k]], mesh.node_y[f[:k]]])
+                 for f, k in zip(fn, mesh.face_n)] if mesh.n_faces <= 400_000 else None
+        if verts is None:
+            return None
+        wet = fv["h"] > flow.dry_depth
+        val = np.ma.masked_where(~wet, val)
+        pc = PolyCollection(verts, array=val, cmap="Blues" if kind == "depth" else "viridis",
+                            edgecolors="0.6" if show_mesh else "face",
+                            linewidths=0.2 if show_mesh else 0.0, zorder=0)
+        ax.add_collection(pc)
+        dry = PolyCollection([v for v, w in zip(verts, wet) if not w], facecolors="0.85",
+                             edgecolors="face", linewidths=0.0, zorder=0)
+        ax.add_collection(dry)
+        walls = mesh.boundary_segments(["wall"])
+        ax.plot(walls[:, [0, 2]].T, walls[:, [1, 3]].T, color="k", lw=0.8, zorder=1)
+        ax.figure.colorbar(pc, ax=ax, label=label, shrink=0.8)
+        return pc
+    x0, y0, x1, y1 = bounds
+    gx, gy = np.meshgrid(np.linspace(x0, x1, 200), np.linspace(y0, y1, 200))
+    s = flow.sample(gx.ravel(), gy.ravel(), t)
+    val = (np.hypot(s.u, s.v) if kind == "speed" else s.h).reshape(gx.shape)
+    im = ax.imshow(val, origin="lower", extent=(x0, x1, y0, y1), cmap="viridis", zorder=0,
+                   aspect="auto")
+    ax.figure.colorbar(im, ax=ax, label=label, shrink=0.8)
+    return im
+
+
+def _bounds(ds, flow, margin=0.05):
+    mesh = getattr(flow, "mesh", None)
+    if mesh is not None:
+        x0, y0, x1, y1 = mesh.bounds
+    else:
+        x, y = ds["x"].values, ds["y"].values
+        r = float(ds["length"].max())
+        x0, x1, y0, y1 = x.min() - r, x.max() + r, y.min() - r, y.max() + r
+    dx, dy = (x1 - x0) * margin, (y1 - y0) * margin
+    return x0 - dx, y0 - dy, x1 + dx, y1 + dy
+
+
+def plot_trajectories(path, flow=None, background="speed", show_mesh=False, out=None,
+                      time=None, ax=None, title=None):
+    """Figure of the trajectories in a file; saved to ``out`` (PNG) if given. Returns the figure."""
+    plt = _mpl()
+    ds = open_trajectories(path)
+    if flow is None and background not in (None, "none"):
+        flow = flow_of_trajectories(ds)
+    t = ds["time"].values
+    t_show = float(t.max()) if time is None else float(time)
+    bounds = _bounds(ds, flow)
+    if ax is None:
+        w, h = bounds[2] - bounds[0], bounds[3] - bounds[1]
+        fig, ax = plt.subplots(figsize=(10, max(3.0, min(10.0, 10 * h / max(w, 1e-9))) + 1))
+    fig = ax.figure
+    _background(ax, flow, t_show, background, bounds, show_mesh)
+    ti = ds["trajectory_index"].values
+    x, y = ds["x"].values, ds["y"].values
+    cmap = plt.get_cmap("tab10")
+    ntraj = ds.sizes["trajectory"]
+    from matplotlib.collections import LineCollection, PolyCollection
+
+    segs = [np.column_stack([x[ti == k], y[ti == k]]) for k in range(ntraj)]
+    colors = [cmap(k % 10) for k in range(ntraj)]
+    ax.add_collection(LineCollection(segs, colors=colors, linewidths=1.2, zorder=2))
+    starts = np.array([s[0] for s in segs if len(s)])
+    if starts.size:
+        ax.scatter(starts[:, 0], starts[:, 1], s=12, c="w", edgecolors="k", zorder=3,
+                   label="release")
+    # logs to scale at the shown time (their last record up to it)
+    last = [np.flatnonzero((ti == k) & (t <= t_show + 1e-9)) for k in range(ntraj)]
+    last = np.array([i[-1] for i in last if i.size])
+    if last.size:
+        k = ti[last]
+        outl = log_outlines(x[last], y[last], ds["theta"].values[last],
+                            ds["length"].values[k], ds["radius"].values[k])
+        ax.add_collection(PolyCollection(outl, facecolors=[colors[j] for j in k],
+                                         edgecolors="k", linewidths=0.6, zorder=4))
+    if ds.sizes.get("hit", 0):
+        hx, hy = ds["hit_x"].values, ds["hit_y"].values
+        obst = ds["hit_other"].values < 0
+        if obst.any():
+            ax.scatter(hx[obst], hy[obst], marker="x", c="r", s=25, zorder=5,
+                       label=f"obstacle hits ({obst.sum()})")
+        if (~obst).any():
+            ax.scatter(hx[~obst], hy[~obst], marker="+", c="m", s=25, zorder=5,
+                       label=f"log-log contacts ({(~obst).sum()})")
+    st = ds["status"].values
+    names = STATUS_MEANINGS.split()
+    final = [st[i[-1]] for i in (np.flatnonzero(ti == k) for k in range(ntraj)) if i.size]
+    summary = ", ".join(f"{np.sum(np.array(final) == c)} {names[c]}"
+                        for c in range(len(names)) if np.sum(np.array(final) == c))
+    ax.set_xlim(bounds[0], bounds[2])
+    ax.set_ylim(bounds[1], bounds[3])
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(title or f"{ds.attrs.get('title', '')}: t = {t_show:.4g} s ({summary})")
+    ax.legend(loc="upper right", fontsize=8)
+    if out is not None:
+        fig.savefig(out, dpi=130, bbox_inches="tight")
+        plt.close(fig)
+    return fig
+
+
+def animate(path, out, flow=None, background="speed", fps=20, max_frames=300, dpi=100):
+    """Animation of the logs over the flow: MP4 if ffmpeg is on the PATH, else GIF."""
+    plt = _mpl()
+    from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter
+    from matplotlib.collections import PolyCollection
+
+    ds = open_trajectories(path)
+    if flow is None and background not in (None, "none"):
+        flow = flow_of_trajectories(ds)
+    out = Path(out)
+    use_mp4 = shutil.which("ffmpeg") is not None and out.suffix.lower() != ".gif"
+    if not use_mp4:
+        out = out.with_suffix(".gif")
+    t = ds["time"].values
+    times = np.unique(t)
+    if times.size > max_frames:
+        times = times[np.linspace(0, times.size - 1, max_frames).round().astype(int)]
+    bounds = _bounds(ds, flow)
+    w, h = bounds[2] - bounds[0], bounds[3] - bounds[1]
+    fig, ax = plt.subplots(figsize=(9, max(3.0, min(9.0, 9 * h / max(w, 1e-9))) + 1))
+    bg = _background(ax, flow, float(times[0]), background, bounds)
+    unsteady = flow is not None and getattr(flow, "mesh", None) is not None and \
+        len(getattr(flow, "times", ())) > 1 and bg is not None
+    ti = ds["trajectory_index"].values
+    L, R = ds["length"].values, ds["radius"].values
+    x, y, th = ds["x"].values, ds["y"].values, ds["theta"].values
+    logs = PolyCollection([], facecolors="saddlebrown", edgecolors="k", linewidths=0.5, zorder=4)
+    ax.add_collection(logs)
+    ax.set_xlim(bounds[0], bounds[2])
+    ax.set_ylim(bounds[1], bounds[3])
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    title = ax.set_title("")
+
+    def frame(tk):
+        sel = np.flatnonzero(t == tk)
+        logs.set_verts(log_outlines(x[sel], y[sel], th[sel], L[ti[sel]], R[ti[sel]]))
+        if unsteady:
+            fv = flow.face_values(float(tk))
+            val = np.hypot(fv["u"], fv["v"]) if background == "speed" else fv["h"]
+            bg.set_array(np.ma.masked_where(fv["h"] <= flow.dry_depth, val))
+        title.set_text(f"t = {tk:.4g} s, {sel.size} logs")
+        return (logs, title)
+
+    anim = FuncAnimation(fig, frame, frames=times, blit=False)
+    writer = FFMpegWriter(fps=fps, bitrate=2400) if use_mp4 else PillowWriter(fps=fps)
+    anim.save(out, writer=writer, dpi=dpi)
+    plt.close(fig)
+    return out
