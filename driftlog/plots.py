@@ -133,7 +133,10 @@ def plot_trajectories(path, flow=None, background="speed", show_mesh=False, out=
 
     segs = [np.column_stack([x[ti == k], y[ti == k]]) for k in range(ntraj)]
     colors = [cmap(k % 10) for k in range(ntraj)]
-    ax.add_collection(LineCollection(segs, colors=colors, linewidths=1.2, zorder=2))
+    import matplotlib.patheffects as pe
+
+    ax.add_collection(LineCollection(segs, colors=colors, linewidths=1.4, zorder=2,
+                                     path_effects=[pe.withStroke(linewidth=2.6, foreground="w")]))
     starts = np.array([s[0] for s in segs if len(s)])
     if starts.size:
         ax.scatter(starts[:, 0], starts[:, 1], s=12, c="w", edgecolors="k", zorder=3,

@@ -180,12 +180,17 @@ def _check_table(section: Section, table, prefix: str, base_dir: Path):
             raise ScenarioError(f"{prefix}.{name}", value,
                                 f"unknown key{hint}; the keys of [{section.name}] are: "
                                 + ", ".join(allowed))
+        if value is None or (k.type == "path" and value == "" and k.default == ""):
+            out[name] = k.default  # unset (from a resolved scenario written into an output)
+            continue
         out[name] = _check_value(k, f"{prefix}.{name}", value, base_dir)
     for k in section.keys:
         if k.name not in out:
             if k.default is REQUIRED:
                 raise ScenarioError(f"{prefix}.{k.name}", None, "is required: " + k.doc)
             out[k.name] = k.default
+            if k.type == "path" and k.default:
+                out[k.name] = _check_value(k, f"{prefix}.{k.name}", k.default, base_dir)
     return out
 
 
@@ -226,8 +231,9 @@ def load_scenario(source, overrides: dict | None = None) -> Scenario:
     if isinstance(source, dict):
         raw = json.loads(json.dumps(source))
     else:
-        p = Path(source)
-        if p.suffix == ".toml" or p.exists():
+        src = str(source)
+        p = Path(src) if ("\n" not in src and len(src) < 4096) else None
+        if p is not None and (p.suffix == ".toml" or p.exists()):
             if not p.is_file():
                 raise ScenarioError("scenario", str(p), "file not found")
             path, text = p.resolve(), p.read_text()

@@ -1,7 +1,7 @@
 import subprocess
 import sys
 
-import pytest
+import numpy as np
 
 from driftlog import __version__
 from driftlog.cli import build_parser, main
@@ -40,3 +40,25 @@ def test_scenario_keys_and_check(tmp_path, capsys):
 def test_info_missing_file(capsys):
     assert main(["info", "/nonexistent/flow.nc"]) == 2
     assert "not found" in capsys.readouterr().err
+
+
+def test_run_a_case_end_to_end(tmp_path, capsys):
+    assert main(["run", "vortex", "--out", str(tmp_path), "--quiet",
+                 "--set", "time.end=20.0", "--set", "physics.level=tracer"]) == 0
+    out = capsys.readouterr().out
+    for f in ("trajectories.nc", "trajectories.png", "animation"):
+        assert f in out
+    import xarray as xr
+
+    ds = xr.open_dataset(tmp_path / "trajectories.nc", decode_times=False)
+    assert ds.attrs["physics_level"] == "tracer"
+    assert ds["time"].values[-1] == 20.0
+    # the log stays on its circle of radius 1 m
+    np.testing.assert_allclose(np.hypot(ds["x"].values, ds["y"].values), 1.0, atol=1e-6)
+    assert (tmp_path / "trajectories.png").stat().st_size > 10_000
+
+
+def test_cases_list(capsys):
+    assert main(["cases", "list"]) == 0
+    assert "vortex" in capsys.readouterr().out
+    assert main(["run", "no_such_case"]) == 2

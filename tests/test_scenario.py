@@ -96,3 +96,11 @@ def test_describe_keys_lists_everything():
     text = describe_keys()
     for key in ("[physics]", "drag_area", "[[logs]]", "restitution", "kg/m3"):
         assert key in text
+
+
+def test_resolved_scenario_round_trips():
+    import json
+
+    s = load_scenario(BASE)
+    again = load_scenario(json.loads(s.to_json()))
+    assert again.data == s.data

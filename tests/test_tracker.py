@@ -1,0 +1,224 @@
+"""The tracker: statuses (lift-off, settling, stranding, leaving), release, landing, seeding."""
+import numpy as np
+import pytest
+
+from driftlog.analytic import SolidBodyRotation, UniformFlow, on_mesh
+from driftlog.api import choose_physics, track
+from driftlog.errors import ScenarioError
+from driftlog.flow import MeshFlowField
+from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, Logs, seed_positions
+from driftlog.mesh import Mesh
+from driftlog.physics import PhysicsOptions
+from driftlog.scenario import load_scenario
+from driftlog.tracker import StepOptions, Tracker
+from driftlog.trajectory import TrajectoryWriter, open_trajectories
+
+
+def tide(times, depth_of_t, mesh, u=0.0):
+    h = np.array([np.full(mesh.n_faces, depth_of_t(t)) for t in times])
+    return MeshFlowField.from_arrays(mesh, np.zeros(mesh.n_faces), times, h, h * u, h * 0)
+
+
+def test_lift_off_and_settling_follow_the_water_level(tmp_path):
+    mesh = Mesh.regular_grid(10, 4, 1.0)
+    times = np.arange(0.0, 61.0, 1.0)
+    depth = lambda t: 0.06 + 0.04 * np.sin(np.pi * t / 60)  # peaks at 0.10 m at t = 30 s
+    flow = tide(times, depth, mesh)
+    logs = Logs([5.0], [2.0], 0.0, 1.0, 0.04, 1000.0)  # floats from h = 2 r = 0.08 m
+    w = TrajectoryWriter(tmp_path / "t.nc", logs)
+    Tracker(flow, logs, PhysicsOptions(), "rk4", t_end=60.0, output_interval=0.5,
+            writer=w).run()
+    w.close()
+    ds = open_trajectories(tmp_path / "t.nc")
+    t, st, h = ds["time"].values, ds["status"].values, ds["water_depth"].values
+    # exact crossing times of h = 0.08: sin(pi t / 60) = 0.5
+    t_up, t_down = 10.0, 50.0
+    assert np.all(st[t < t_up - 0.5] == RESTING)
+    assert np.all(st[(t > t_up + 0.5) & (t < t_down - 0.5)] == FLOATING)
+    assert np.all(st[t > t_down + 0.5] == RESTING)
+    assert np.all((h[st == FLOATING] >= 0.08 - 1e-12))
+
+
+def test_stranded_on_dry_and_refloats():
+    mesh = Mesh.regular_grid(10, 4, 1.0)
+    times = np.arange(0.0, 31.0, 1.0)
+    flow = tide(times, lambda t: max(0.0, 0.2 - 0.02 * t) if t < 15 else 0.02 * (t - 15), mesh)
+    logs = Logs([5.0], [2.0], 0.0, 1.0, 0.02, 500.0)
+    statuses = []
+
+    class Spy(TrajectoryWriter):
+        def __init__(self):
+            pass
+
+        def record(self, t, index, columns):
+            statuses.append((t, int(columns["status"][0])))
+
+    Tracker(flow, logs, PhysicsOptions(), "rk4", t_end=30.0, output_interval=1.0,
+            writer=Spy()).run()
+    d = dict(statuses)
+    assert d[5.0] == FLOATING and d[12.0] == STRANDED and d[29.0] == FLOATING
+
+
+def test_log_leaves_the_domain_and_is_recorded_once(tmp_path):
+    mesh = Mesh.regular_grid(20, 4, 1.0)
+    flow = on_mesh(UniformFlow(1.0, 0.0, depth=1.0), mesh)
+    logs = Logs([15.0], [2.0], 0.0, 0.5, 0.05, 600.0)
+    w = TrajectoryWriter(tmp_path / "t.nc", logs)
+    tr = Tracker(flow, logs, PhysicsOptions(), "rk4", t_end=20.0, output_interval=1.0, writer=w)
+    tr.run()
+    w.close()
+    ds = open_trajectories(tmp_path / "t.nc")
+    assert ds["status"].values[-1] == LEFT
+    assert np.sum(ds["status"].values == LEFT) == 1
+    assert ds["x"].values[-2] == pytest.approx(15.0 + ds["time"].values[-2], abs=1e-9)
+    assert ds.sizes["obs"] == 7  # t = 0..5 inside (x = 20 is on the outlet edge), left at t = 6
+
+
+def test_records_land_exactly_on_output_times(tmp_path):
+    logs = Logs([1.0], [0.0], 0.0, 0.5, 0.05, 1000.0)
+    w = TrajectoryWriter(tmp_path / "t.nc", logs)
+    Tracker(SolidBodyRotation(0.0628), logs, PhysicsOptions(), "rk4",
+            StepOptions(max_step=0.3), t_end=10.0, output_interval=0.7, writer=w).run()
+    w.close()
+    t = open_trajectories(tmp_path / "t.nc")["time"].values
+    np.testing.assert_allclose(t, np.append(0.7 * np.arange(15), 10.0), atol=1e-12)
+
+
+def test_tracer_on_mesh_field_follows_the_exact_circle():
+    mesh = Mesh.regular_grid(40, 40, 0.1, x0=-2.0, y0=-2.0)
+    flow = on_mesh(SolidBodyRotation(0.1), mesh)  # linear field: P1 reproduces it exactly
+    logs = Logs([1.0], [0.0], 0.0, 0.2, 0.02, 600.0)
+    Tracker(flow, logs, PhysicsOptions(level="tracer"), "rk4", StepOptions(max_step=0.05),
+            t_end=20.0).run()
+    assert np.hypot(logs.x[0] - np.cos(2.0), logs.y[0] - np.sin(2.0)) < 1e-9
+    assert logs.theta[0] == pytest.approx(2.0, abs=1e-9)  # rotates with the flow
+    assert logs.u[0] == pytest.approx(-0.1 * logs.y[0], abs=1e-12)
+
+
+def test_release_times_and_seeding_outside(tmp_path):
+    mesh = Mesh.regular_grid(20, 4, 1.0)
+    flow = on_mesh(UniformFlow(0.5, 0.0, depth=1.0), mesh)
+    logs = Logs([2.0, 2.0], [1.0, 3.0], 0.0, 0.5, 0.05, 600.0, release_time=[0.0, 3.3])
+    tr = Tracker(flow, logs, PhysicsOptions(), "rk4", t_end=6.0, output_interval=1.0)
+    tr.run()
+    assert logs.x[0] == pytest.approx(2.0 + 0.5 * 6.0)
+    assert logs.x[1] == pytest.approx(2.0 + 0.5 * (6.0 - 3.3))
+    logs = Logs([25.0], [1.0], 0.0, 0.5, 0.05, 600.0)
+    with pytest.raises(ScenarioError, match=r"\[logs\[0\]\.x\].*outside the flow domain"):
+        Tracker(flow, logs, PhysicsOptions(), "rk4", t_end=6.0).run()
+
+
+def test_seeding_is_reproducible_bit_for_bit():
+    g = dict(seeding="random", polygon=[[0, 0], [10, 0], [10, 5], [3, 8]], count=50, seed=7,
+             theta="random")
+    a, b = seed_positions(g), seed_positions(dict(g))
+    for u, v in zip(a, b):
+        assert np.array_equal(u, v)
+    c = seed_positions(dict(g, seed=8))
+    assert not np.array_equal(a[0], c[0])
+    from matplotlib.path import Path as MplPath
+
+    assert MplPath(np.array(g["polygon"])).contains_points(np.column_stack(a[:2])).all()
+    x, y, _ = seed_positions(dict(seeding="line", start=[0, 0], end=[10, 0], count=5, seed=0,
+                                  theta=0.0))
+    np.testing.assert_allclose(x, [1, 3, 5, 7, 9])
+    x, y, _ = seed_positions(dict(seeding="grid", polygon=[[0, 0], [4, 0], [4, 4], [0, 4]],
+                                  count=16, seed=0, theta=0.0))
+    assert x.size == 16 and np.allclose(sorted(set(x)), [0.5, 1.5, 2.5, 3.5])
+
+
+def test_auto_physics_chooses_and_explains():
+    scen = """
+[flow]
+source = "analytic"
+kind = "solid_body_rotation"
+omega = 0.01
+[time]
+end = 10.0
+[[logs]]
+x = [5.0]
+y = [0.0]
+length = 0.05
+radius = 0.002
+density = 900.0
+[physics]
+level = "auto"
+rotation = "auto"
+"""
+    s = load_scenario(scen)
+    from driftlog.logs import logs_from_scenario
+    from driftlog.sources import flow_from_scenario
+
+    f = flow_from_scenario(s)
+    level, rot, why = choose_physics(f, logs_from_scenario(s), s["physics"], False)
+    assert level == "tracer" and "Stokes number" in why
+    assert rot is False and "L |J| / |U|" in why
+    # a big log in a fast-turning flow needs the full model
+    s = load_scenario(scen.replace("omega = 0.01", "omega = 2.0").replace("length = 0.05", "length = 3.0")
+                      .replace("radius = 0.002", "radius = 0.3"))
+    level, rot, why = choose_physics(flow_from_scenario(s), logs_from_scenario(s), s["physics"], False)
+    assert level == "full" and rot is True
+
+
+def test_track_api_writes_a_reproducible_file(tmp_path):
+    scen = f"""
+title = "api"
+[flow]
+source = "analytic"
+kind = "free_vortex"
+circulation = 5.0
+core_radius = 0.5
+[time]
+end = 30.0
+output_interval = 2.0
+[[logs]]
+seeding = "line"
+start = [1.0, 0.0]
+end = [3.0, 0.0]
+count = 4
+length = 0.4
+radius = 0.05
+density = 800.0
+[physics]
+level = "auto"
+[output]
+path = "{tmp_path / 'a.nc'}"
+vtk = true
+"""
+    res = track(scen)
+    ds = res.dataset()
+    assert ds.attrs["featureType"] == "trajectory"
+    assert ds.attrs["physics_level"] in ("tracer", "full")
+    assert ds.attrs["physics_auto_reason"].startswith("level")
+    assert ds["rowSize"].values.tolist() == [16] * 4
+    assert ds["status"].attrs["flag_meanings"].split()[1] == "floating"
+    # rerun from the scenario stored in the output: the same trajectories, bit for bit
+    import json
+
+    again = track(json.loads(ds.attrs["scenario_resolved"]), output=tmp_path / "b.nc")
+    np.testing.assert_array_equal(again.dataset()["x"].values, ds["x"].values)
+    import meshio
+
+    pvd = res.extra_files[0]
+    vtus = sorted(pvd.parent.glob("*.vtu"))
+    assert len(vtus) == 16
+    m = meshio.read(vtus[-1])
+    assert m.cells[0].data.shape == (4, 2)
+    seg = m.points[1::2, :2] - m.points[0::2, :2]
+    np.testing.assert_allclose(np.hypot(seg[:, 0], seg[:, 1]), 0.4)
+
+
+def test_crash_keeps_what_was_computed(tmp_path):
+    class Failing(UniformFlow):
+        def sample_into(self, x, y, t, face, out, flag):
+            if t > 5.0:
+                raise RuntimeError("flow source broke")
+            super().sample_into(x, y, t, face, out, flag)
+
+    logs = Logs([0.0], [0.0], 0.0, 0.5, 0.05, 600.0)
+    w = TrajectoryWriter(tmp_path / "c.nc", logs, flush_interval=1)
+    with pytest.raises(RuntimeError):
+        Tracker(Failing(0.5), logs, PhysicsOptions(), "rk4", t_end=10.0, output_interval=1.0,
+                writer=w).run()
+    ds = open_trajectories(tmp_path / "c.nc")  # the .partial file
+    assert ds["time"].values.tolist() == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
