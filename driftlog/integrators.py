@@ -161,7 +161,8 @@ def _add_linear(S, D, lin, N):
 class Integrator:
     """Advance states S over one step, sampling the flow at stage times via ``rhs``.
 
-    ``rhs(S, t, D, lin)`` fills D (n, 6) and lin (n, NLIN) for states S at time t.  The first
+    ``rhs(S, t, D, lin)`` fills D (n, 6), and lin (n, NLIN) unless it is None (only the first
+    stage needs the drag linearisation), for states S at time t.  The first
     stage's derivative may be given (``D0``, ``lin0``) when already known.
     """
 
@@ -203,11 +204,11 @@ class RK4(Integrator):
         if not have_d0:
             rhs(S0, t0, D[0], lin[0])
         _axpy(S0, 0.5 * dt, D[0], st[0])
-        rhs(st[0], t0 + 0.5 * dt, D[1], lin[1])
+        rhs(st[0], t0 + 0.5 * dt, D[1], None)
         _axpy(S0, 0.5 * dt, D[1], st[1])
-        rhs(st[1], t0 + 0.5 * dt, D[2], lin[2])
+        rhs(st[1], t0 + 0.5 * dt, D[2], None)
         _axpy(S0, dt, D[2], st[2])
-        rhs(st[2], t0 + dt, D[3], lin[3])
+        rhs(st[2], t0 + dt, D[3], None)
         _rk4_final(S0, dt, D[0], D[1], D[2], D[3], out)
 
 
@@ -230,13 +231,13 @@ class ExponentialRK4(Integrator):
         L = lin[0]  # linearisation frozen at the start of the step
         _add_linear(S0, D[0], L, N[0])
         _etd_stage(1, dt, S0, S0, L, N[0], N[0], N[0], N[0], st[0])
-        rhs(st[0], t0 + 0.5 * dt, D[1], lin[1])
+        rhs(st[0], t0 + 0.5 * dt, D[1], None)
         _add_linear(st[0], D[1], L, N[1])
         _etd_stage(2, dt, S0, S0, L, N[0], N[1], N[1], N[1], st[1])
-        rhs(st[1], t0 + 0.5 * dt, D[2], lin[2])
+        rhs(st[1], t0 + 0.5 * dt, D[2], None)
         _add_linear(st[1], D[2], L, N[2])
         _etd_stage(3, dt, S0, st[0], L, N[0], N[1], N[2], N[2], st[2])
-        rhs(st[2], t0 + dt, D[3], lin[3])
+        rhs(st[2], t0 + dt, D[3], None)
         _add_linear(st[2], D[3], L, N[3])
         _etd_stage(4, dt, S0, S0, L, N[0], N[1], N[2], N[3], out)
 

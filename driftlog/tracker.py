@@ -152,6 +152,7 @@ class Tracker:
         self.stats = dict(substeps=0, rhs_evaluations=0, min_dt=np.inf, max_dt=0.0,
                           rejected=0, wall_seconds=0.0)
         self._recorded_left = np.zeros(len(logs), dtype=bool)
+        self._next_release = -np.inf
         self._set_active(np.empty(0, dtype=np.int64))
         self._stops = self._landing_times()
 
@@ -175,8 +176,10 @@ class Tracker:
         self._stage_F = np.zeros((n, NVAR))
         self._stage_flag = np.zeros(n, np.int8)
         self._stage_face = np.empty(n, np.int64)
+        self._sx, self._sy = np.empty(n), np.empty(n)
         self._next = np.empty((n, 6))
         self.D0, self.lin0 = self.integrator.prepare(n)
+        self._nolin = np.empty((n, 5))
 
     def _scatter(self):
         """Write the compact state back into the full arrays."""
@@ -197,10 +200,13 @@ class Tracker:
             F = self.F
         else:
             np.copyto(self._stage_face, self.face)
-            self.flow.sample_into(S[:, X], S[:, Y], t, self._stage_face, self._stage_F,
+            np.copyto(self._sx, S[:, X])  # contiguous coordinates sample faster than strided
+            np.copyto(self._sy, S[:, Y])
+            self.flow.sample_into(self._sx, self._sy, t, self._stage_face, self._stage_F,
                                   self._stage_flag)
             F = self._stage_F
-        rhs_kernel(S, F, self.P, self.opt, D, lin)
+        want = lin is not None
+        rhs_kernel(S, F, self.P, self.opt, D, lin if want else self._nolin, want)
         self.stats["rhs_evaluations"] += 1
 
     # ----------------------------------------------------------------- contact interface
@@ -218,10 +224,15 @@ class Tracker:
         np.copyto(self.flag, flag)
         self._F_valid = valid
 
-    def advance(self, dt):
-        """Integrate the free motion of the floating logs over dt (no contacts)."""
+    def advance(self, dt, have_d0=False):
+        """Integrate the free motion of the floating logs over dt (no contacts).
+
+        ``have_d0``: the first stage (``D0``, ``lin0``) was just computed for this very state
+        by ``max_step`` (the tracker's own loop; a contact model may change velocities between).
+        """
         if self.state.shape[0]:
-            self._rhs(self.state, self.t, self.D0, self.lin0)
+            if not have_d0:
+                self._rhs(self.state, self.t, self.D0, self.lin0)
             self.integrator.step(self.state, self.t, dt, self._rhs, self._next, have_d0=True)
             self.state, self._next = self._next, self.state
         self.t += dt
@@ -285,7 +296,12 @@ class Tracker:
     def _release(self):
         """Logs whose release time has come: floating, resting, stranded, or an error outside."""
         L = self.logs
-        due = np.flatnonzero((L.status == WAITING) & (L.release_time <= self.t + 1e-9))
+        if self.t + 1e-9 < self._next_release:
+            return False
+        waiting = L.status == WAITING
+        due = np.flatnonzero(waiting & (L.release_time <= self.t + 1e-9))
+        later = L.release_time[waiting & (L.release_time > self.t + 1e-9)]
+        self._next_release = later.min() if later.size else np.inf
         if due.size == 0:
             return False
         if self.act.size:
@@ -381,7 +397,7 @@ class Tracker:
                     if self.contact is not None and self.act.size:
                         self.contact.substep(self, dt)
                     else:
-                        self.advance(dt)
+                        self.advance(dt, have_d0=True)
                     if not np.all(np.isfinite(self.state)):
                         bad = self.ids[~np.isfinite(self.state).all(axis=1)]
                         raise IntegrationError(

@@ -1,0 +1,71 @@
+"""Shared helpers of the benchmark scripts: timing, machine facts, result tables."""
+
+import csv
+import os
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+RESULTS = Path(__file__).resolve().parent / "results"
+
+
+def best_time(fn, repeat=3, min_time=0.2):
+    """Best wall time of ``fn()`` over ``repeat`` runs (each repeated to last ``min_time``)."""
+    best = np.inf
+    for _ in range(repeat):
+        n = 0
+        t0 = time.perf_counter()
+        while True:
+            fn()
+            n += 1
+            dt = time.perf_counter() - t0
+            if dt >= min_time:
+                break
+        best = min(best, dt / n)
+    return best
+
+
+def machine():
+    """A line describing where the numbers were measured."""
+    load = os.getloadavg()
+    return (f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+            f"Python {platform.python_version()}, load average {load[0]:.2f} at start")
+
+
+def write_table(name, rows, columns, title, notes=""):
+    """Write rows (list of dicts) as benchmarks/results/<name>.csv and .md; print the table."""
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    with open(RESULTS / f"{name}.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=columns)
+        w.writeheader()
+        for r in rows:
+            w.writerow({c: r.get(c, "") for c in columns})
+
+    def fmt(v):
+        if isinstance(v, float):
+            return f"{v:.3g}" if (abs(v) < 1e-2 or abs(v) >= 1e4) and v != 0 else f"{v:.3f}".rstrip("0").rstrip(".")
+        return str(v)
+
+    lines = [f"### {title}", "", f"Measured on {machine()}.", ""]
+    if notes:
+        lines += [notes, ""]
+    lines.append("| " + " | ".join(columns) + " |")
+    lines.append("|" + "|".join("---" for _ in columns) + "|")
+    for r in rows:
+        lines.append("| " + " | ".join(fmt(r.get(c, "")) for c in columns) + " |")
+    text = "\n".join(lines) + "\n"
+    (RESULTS / f"{name}.md").write_text(text)
+    print(text)
+    return text
+
+
+def malpasset_mesh():
+    from driftlog.mesh import read_mesh
+
+    here = Path(__file__).resolve().parents[1]
+    for d in (here.parent / "shared" / "data" / "malpasset", here / "cases" / "malpasset" / "data"):
+        if (d / "malpasset_mesh.nc").is_file():
+            return read_mesh(d / "malpasset_mesh.nc")
+    raise FileNotFoundError("Malpasset mesh not found")
