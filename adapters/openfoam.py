@@ -419,11 +419,11 @@ def open_openfoam(path, time_range=None, decomposed=None, variables=None, dry_de
 
 
 def _check_ran(case: FoamCase, solver):
-    """A solver writes <time>/uniform/time with every time it writes; initial fields lack it."""
+    """Ran: more than one written time, or a time written by a solver (with uniform/time)."""
     part = case.parts()[0]
-    if not any((part / name / "uniform" / "time").is_file() for _, name in case.time_entries):
+    if len(case.time_entries) < 2 and not any((part / name / "uniform" / "time").is_file() for _, name in case.time_entries):
         names = [n for _, n in case.time_entries]
-        raise FlowFileError(f"{part}: only initial fields (time directories {names}, none "
+        raise FlowFileError(f"{part}: only initial fields (time directory {names[0]}, not "
                             f"written by a solver): the case never ran; run {solver} first, "
                             "or pass allow_initial_only=True to import the initial fields")
 

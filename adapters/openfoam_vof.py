@@ -165,11 +165,12 @@ class VofSnapshots:
             u = foam_io.read_internal_field(folder / tname / self.names["u"], vol.size)
             face = self.face_of_cell[cells]
             keep = face >= 0
-            w = np.clip(alpha, 0.0, 1.0) * vol
+            w = alpha * vol  # unclipped: MULES undershoots (~1e-8) cancel in the column sums
             vol_w += np.bincount(face[keep], w[keep], nf)
             qx += np.bincount(face[keep], (w * u[:, 0])[keep], nf)
             qy += np.bincount(face[keep], (w * u[:, 1])[keep], nf)
-        return vol_w / self.area, qx / self.area, qy / self.area
+        # a column of air alone may sum to -1e-9: no negative depths
+        return np.maximum(vol_w, 0.0) / self.area, qx / self.area, qy / self.area
 
 
 def open_vof(path, time_range=None, decomposed=None, names=None, dry_depth=1e-3, mesh2d=None,
