@@ -113,7 +113,8 @@ def _value(tokens):
 
 def parse_dict(text: bytes, path="<dict>") -> dict:
     """Parse an OpenFOAM dictionary: ``key value;`` and ``key { ... }`` (nested), values as
-    numbers, strings or token lists."""
+    numbers, strings or token lists.
+    """
     toks = list(_tokens(text))
     out, _ = _parse_entries(toks, 0, path)
     return out

@@ -26,13 +26,12 @@ import re
 from pathlib import Path
 
 import numpy as np
+from driftlog.adapters import foam_io
+from driftlog.adapters._common import select_times
 
 from driftlog.errors import FlowFileError, MeshError
 from driftlog.flow import MeshFlowField
 from driftlog.mesh import Mesh
-
-from driftlog.adapters import foam_io
-from driftlog.adapters._common import select_times
 
 __all__ = ["open_openfoam", "FoamCase", "FoamSnapshots", "depth_average_columns",
            "is_openfoam_case"]

@@ -34,11 +34,10 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
+from driftlog.adapters.foam_io import format_list, write_foam_file
 
 from driftlog.errors import DriftlogError, FlowFileError
 from driftlog.mesh import Mesh
-
-from driftlog.adapters.foam_io import format_list, write_foam_file
 
 __all__ = ["foam_available", "foam_env", "write_polymesh", "write_shallow_water_case",
            "run_case", "run_shallow_water", "OpenFOAMError", "BASHRC"]

@@ -8,12 +8,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from driftlog.errors import FlowFileError
 from driftlog.adapters import foam_io
 from driftlog.adapters.openfoam import open_openfoam
-from driftlog.adapters.openfoam_case import (foam_available, foam_env, run_case,
-                                             run_shallow_water, write_shallow_water_case)
+from driftlog.adapters.openfoam_case import (
+    foam_available,
+    foam_env,
+    run_shallow_water,
+    write_shallow_water_case,
+)
+
+from driftlog.errors import FlowFileError
 
 DATA = Path(__file__).parent / "data" / "openfoam"
 needs_foam = pytest.mark.skipif(not foam_available(),
