@@ -139,8 +139,9 @@ def open_flow_source(kind, path, time_range=None, variables=None, dry_depth=1e-3
 
 
 def flow_from_scenario(scenario):
-    """The FlowField of a validated scenario's ``[flow]`` section (sources file, openfoam,
-    ugrid, anuga, cf_grid); frozen at ``steady_at`` if that is set.
+    """The FlowField of a validated scenario's ``[flow]`` section.
+
+    For the sources file, openfoam, ugrid, anuga and cf_grid; frozen at ``steady_at`` if set.
 
     ``scenario``: a ``driftlog.scenario.Scenario`` or its ``[flow]`` table (a dict).
     """
@@ -191,8 +192,10 @@ def import_flow(source, output, kind="auto", compress=True, progress=None, keep_
 
 
 def checked_snapshot(field, i):
-    """Snapshot i of a field's source as face arrays (h, hu, hv), checked as the sampler
-    checks them (sizes, finite values, no negative depth), without the node interpolation.
+    """Snapshot i of a field's source as face arrays (h, hu, hv), checked.
+
+    Checked as the sampler checks them (sizes, finite values, no negative depth), without the
+    node interpolation.
     """
     import numpy as np
 

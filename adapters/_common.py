@@ -122,8 +122,10 @@ class SubsetSnapshots:
 
 def find_variable(variables, candidates, role, mapping=None, standard_names=(),
                   where="file", required=True):
-    """Name of the variable playing ``role``: the user's mapping first, then standard_name,
-    then known aliases.  ``variables``: dict name -> attrs (dict).
+    """Name of the variable playing ``role``.
+
+    The user's mapping first, then standard_name, then known aliases.  ``variables``: dict
+    name -> attrs (dict).
     """
     mapping = mapping or {}
     if role in mapping:

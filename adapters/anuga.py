@@ -31,6 +31,7 @@ REQUIRED = ("x", "y", "volumes", "time", "stage", "xmomentum", "ymomentum", "ele
 
 
 def is_sww(ds) -> bool:
+    """Whether an open NetCDF dataset has the layout of an ANUGA sww file."""
     return all(v in ds.variables for v in ("x", "y", "volumes", "stage"))
 
 
@@ -56,12 +57,14 @@ class AnugaSnapshots:
         return arr
 
     def read(self, i):
+        """Face arrays (h, hu, hv) of snapshot i."""
         elev = self.bed_static if self.bed_static is not None else self._face("elevation", i)
         # float32 stage can sit a hair below the bed on dry triangles
         h = np.maximum(self._face("level", i) - elev, 0.0)
         return h, self._face("hu", i), self._face("hv", i)
 
     def close(self):
+        """Close the file."""
         if self.ds.isopen():
             self.ds.close()
 

@@ -50,6 +50,7 @@ def _axis(ds, which):
 
 
 def is_cf_grid(ds) -> bool:
+    """Whether an open NetCDF dataset has 1-D x and y coordinates (a regular grid)."""
     return _axis(ds, "x") is not None and _axis(ds, "y") is not None
 
 
@@ -75,6 +76,7 @@ class GridSnapshots:
         self.flip, self.shape, self.has_time, self.fill = flip, shape, has_time, fill
 
     def field(self, role, i):
+        """One variable at snapshot i on the cells, in SI units, as a face array."""
         name, factor, stagger, scale = self.spec[role]
         var = self.ds.variables[name]
         arr = np.asarray(var[i] if self.has_time and var.ndim == 3 else var[:], np.float64)
@@ -98,6 +100,7 @@ class GridSnapshots:
         return arr.ravel()
 
     def read(self, i):
+        """Face arrays (h, hu, hv) of snapshot i."""
         if "depth" in self.spec:
             h = self.field("depth", i)
         else:
@@ -112,6 +115,7 @@ class GridSnapshots:
                 np.where(np.isfinite(hv) & ~dry, hv, 0.0))
 
     def close(self):
+        """Close the file."""
         if self.ds.isopen():
             self.ds.close()
 

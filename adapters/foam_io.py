@@ -64,9 +64,11 @@ class FoamFile:
 
     @property
     def cls(self) -> str:
+        """The header's class (volScalarField, faceCompactList...)."""
         return str(self.header.get("class", ""))
 
     def error(self, what) -> FlowFileError:
+        """An error naming this file."""
         return FlowFileError(f"{self.path}: {what}")
 
 
@@ -112,8 +114,9 @@ def _value(tokens):
 
 
 def parse_dict(text: bytes, path="<dict>") -> dict:
-    """Parse an OpenFOAM dictionary: ``key value;`` and ``key { ... }`` (nested), values as
-    numbers, strings or token lists.
+    """Parse an OpenFOAM dictionary: ``key value;`` and ``key { ... }`` (nested).
+
+    Values come back as numbers, strings or token lists.
     """
     toks = list(_tokens(text))
     out, _ = _parse_entries(toks, 0, path)
@@ -357,7 +360,7 @@ def write_foam_file(path, cls: str, obj: str, body: str, location: str | None = 
 
 
 def format_list(values, fmt="%.17g") -> str:
-    """An ascii OpenFOAM list: ``N\\n(\\n...\\n)``; rows of a 2-D array become ``(a b c)``."""
+    r"""An ascii OpenFOAM list: ``N\\n(\\n...\\n)``; rows of a 2-D array become ``(a b c)``."""
     a = np.asarray(values)
     buf = io.StringIO()
     if a.ndim == 1:

@@ -42,6 +42,7 @@ _NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
 
 
 def is_openfoam_case(path) -> bool:
+    """Whether a directory looks like an OpenFOAM case."""
     p = Path(path)
     return p.is_dir() and ((p / "system" / "controlDict").is_file()
                            or (p / "constant" / "polyMesh").is_dir()
@@ -197,9 +198,11 @@ class FoamCase:
 
     @property
     def times(self) -> np.ndarray:
+        """The written times (s)."""
         return np.array([t for t, _ in self.time_entries])
 
     def time_name(self, i) -> str:
+        """The directory name of written time i."""
         return self.time_entries[i][1]
 
     def parts(self):
@@ -248,7 +251,7 @@ class _TwoDMesh:
         kmax = max(t.shape[1] for t in tables)
         table = np.full((n_cells, kmax), -1, np.int64)
         seen = np.zeros(n_cells, bool)
-        for t, c in zip(tables, cells):
+        for t, c in zip(tables, cells, strict=True):
             table[c, :t.shape[1]] = t
             seen[c] = True
         if not seen.all():
@@ -300,7 +303,7 @@ class FoamSnapshots:
     def _read(self, i, field, required=True):
         tname = self.case.time_name(i)
         out = None
-        for part, cmap in zip(self.case.parts(), self.cell_maps):
+        for part, cmap in zip(self.case.parts(), self.cell_maps, strict=True):
             arr = foam_io.read_internal_field(part / tname / field, cmap.size, required=required)
             if arr is None:
                 return None
@@ -310,6 +313,7 @@ class FoamSnapshots:
         return out
 
     def read(self, i):
+        """Face arrays (h, hu, hv) of written time i."""
         h = self._read(i, self.names["depth"])
         hu = self._read(i, self.names["hu"], required=False)
         if hu is None:
@@ -321,6 +325,7 @@ class FoamSnapshots:
         return h, hu[:, 0], hu[:, 1]
 
     def level(self, i):
+        """HTotal at written time i (None if not written)."""
         return self._read(i, self.names["level"], required=False)
 
 
@@ -328,7 +333,7 @@ def _bed(case: FoamCase, snaps: FoamSnapshots, two_d: _TwoDMesh, names, notes):
     """Bed on faces: constant/h0, else hTotal - h of the first time that has hTotal."""
     bed = np.empty(two_d.n_cells)
     found = True
-    for part, cmap in zip(case.parts(), two_d.cell_maps):
+    for part, cmap in zip(case.parts(), two_d.cell_maps, strict=True):
         arr = foam_io.read_internal_field(part / "constant" / names["bed"], cmap.size,
                                           required=False)
         if arr is None:
@@ -420,7 +425,8 @@ def open_openfoam(path, time_range=None, decomposed=None, variables=None, dry_de
 def _check_ran(case: FoamCase, solver):
     """Ran: more than one written time, or a time written by a solver (with uniform/time)."""
     part = case.parts()[0]
-    if len(case.time_entries) < 2 and not any((part / name / "uniform" / "time").is_file() for _, name in case.time_entries):
+    written = any((part / name / "uniform" / "time").is_file() for _, name in case.time_entries)
+    if len(case.time_entries) < 2 and not written:
         names = [n for _, n in case.time_entries]
         raise FlowFileError(f"{part}: only initial fields (time directory {names[0]}, not "
                             f"written by a solver): the case never ran; run {solver} first, "
@@ -446,7 +452,8 @@ def _detect_mode(path, names, vof):
                          "; there are no time directories: the case never ran"))
 
 
-def depth_average_columns(*args, **kwargs):  # re-exported for discoverability
+def depth_average_columns(*args, **kwargs):
+    """See ``driftlog.adapters.openfoam_vof.depth_average_columns``."""
     from driftlog.adapters.openfoam_vof import depth_average_columns as f
 
     return f(*args, **kwargs)

@@ -65,6 +65,7 @@ def foam_env() -> dict | None:
 
 
 def foam_available() -> bool:
+    """Whether OpenFOAM (shallowWaterFoam) can be run here."""
     return foam_env() is not None
 
 
@@ -93,7 +94,7 @@ def write_polymesh(case_dir, mesh: Mesh, thickness=1.0, empty_patch="frontAndBac
     order = np.lexsort((nbr, own))
     internal, own, nbr = internal[order], own[order], nbr[order]
     faces, owner = [], []
-    for e, o in zip(internal, own):
+    for e, o in zip(internal, own, strict=True):
         a, b = en[e]
         q = [a, b, b + n, a + n]  # normal out of edge_faces[e, 0]
         faces.append(q if ef[e, 0] == o else q[::-1])
@@ -210,8 +211,9 @@ def write_shallow_water_case(case_dir, mesh: Mesh, bed=None, boundaries=None, de
                              level=None, velocity=(0.0, 0.0), end_time=10.0, write_interval=1.0,
                              courant=0.5, dt=None, gravity=9.81, thickness=1.0,
                              n_procs=1, write_format="ascii", compression=False):
-    """Write a shallowWaterFoam case: mesh, bed (constant/h0), initial and boundary fields,
-    and the system dictionaries.
+    """Write a shallowWaterFoam case.
+
+    The mesh, the bed (constant/h0), initial and boundary fields, the system dictionaries.
 
     Parameters
     ----------

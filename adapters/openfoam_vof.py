@@ -154,6 +154,7 @@ class VofSnapshots:
         self.name = str(case.path)
 
     def read(self, i):
+        """Depth-averaged face arrays (h, hu, hv) of written time i."""
         tname = self.case.time_name(i)
         nf = self.area.size
         vol_w = np.zeros(nf)
@@ -196,7 +197,7 @@ def open_vof(path, time_range=None, decomposed=None, names=None, dry_depth=1e-3,
     vol = np.zeros(n_cells)
     cen = np.zeros((n_cells, 3))
     zmin = np.zeros(n_cells)
-    for pm, cells, v, c, z in geo:
+    for _pm, cells, v, c, z in geo:
         vol[cells], cen[cells], zmin[cells] = v, c, z
     notes = []
     if mesh2d is None and raster is None:

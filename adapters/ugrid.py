@@ -45,6 +45,7 @@ def _topology(ds):
 
 
 def is_ugrid(ds) -> bool:
+    """Whether an open NetCDF dataset has a 2D UGRID mesh topology."""
     return _topology(ds) is not None
 
 

@@ -45,13 +45,14 @@ def ugrid_mesh():
 def write_ugrid(path):
     x, y, fn = ugrid_mesh()
     n = (fn >= 0).sum(1)
-    fx = np.array([x[f[:k]].mean() for f, k in zip(fn, n)])  # exact centroid for tri/rect
-    fy = np.array([y[f[:k]].mean() for f, k in zip(fn, n)])
+    # the mean of the nodes is the centroid of a triangle or a rectangle
+    fx = np.array([x[f[:k]].mean() for f, k in zip(fn, n, strict=True)])
+    fy = np.array([y[f[:k]].mean() for f, k in zip(fn, n, strict=True)])
     quad = n == 4
     fx[~quad] = [x[f[:3]].mean() for f in fn[~quad]]
     times = np.array([0.0, 600.0, 1200.0])
     edges = set()
-    for f, k in zip(fn, n):
+    for f, k in zip(fn, n, strict=True):
         for i in range(k):
             a, b = f[i], f[(i + 1) % k]
             edges.add((min(a, b), max(a, b)))
@@ -70,13 +71,16 @@ def write_ugrid(path):
         m.setncatts(dict(cf_role="mesh_topology", long_name="Topology data of 2D network",
                          topology_dimension=2, node_coordinates="mesh2d_node_x mesh2d_node_y",
                          node_dimension="mesh2d_nNodes", edge_node_connectivity="mesh2d_edge_nodes",
-                         edge_dimension="mesh2d_nEdges", max_face_nodes_dimension=
-                         "mesh2d_nMax_face_nodes", face_node_connectivity="mesh2d_face_nodes",
-                         face_dimension="mesh2d_nFaces", face_coordinates="mesh2d_face_x mesh2d_face_y"))
-        for nm, arr, dim, std in (("mesh2d_node_x", x, "mesh2d_nNodes", "projection_x_coordinate"),
-                                  ("mesh2d_node_y", y, "mesh2d_nNodes", "projection_y_coordinate"),
-                                  ("mesh2d_face_x", fx, "mesh2d_nFaces", "projection_x_coordinate"),
-                                  ("mesh2d_face_y", fy, "mesh2d_nFaces", "projection_y_coordinate")):
+                         edge_dimension="mesh2d_nEdges",
+                         max_face_nodes_dimension="mesh2d_nMax_face_nodes",
+                         face_node_connectivity="mesh2d_face_nodes",
+                         face_dimension="mesh2d_nFaces",
+                         face_coordinates="mesh2d_face_x mesh2d_face_y"))
+        px, py = "projection_x_coordinate", "projection_y_coordinate"
+        for nm, arr, dim, std in (("mesh2d_node_x", x, "mesh2d_nNodes", px),
+                                  ("mesh2d_node_y", y, "mesh2d_nNodes", py),
+                                  ("mesh2d_face_x", fx, "mesh2d_nFaces", px),
+                                  ("mesh2d_face_y", fy, "mesh2d_nFaces", py)):
             v = ds.createVariable(nm, "f8", (dim,))
             v.setncatts(dict(units="m", standard_name=std, mesh="mesh2d",
                              location="node" if "node" in nm else "face"))
@@ -90,8 +94,8 @@ def write_ugrid(path):
         v.setncatts(dict(cf_role="edge_node_connectivity", mesh="mesh2d", location="edge",
                          start_index=1))
         v[:] = edges + 1
-        v = ds.createVariable("mesh2d_face_nodes", "i4", ("mesh2d_nFaces", "mesh2d_nMax_face_nodes"),
-                              fill_value=-999)
+        v = ds.createVariable("mesh2d_face_nodes", "i4",
+                              ("mesh2d_nFaces", "mesh2d_nMax_face_nodes"), fill_value=-999)
         v.setncatts(dict(cf_role="face_node_connectivity", mesh="mesh2d", location="face",
                          long_name="Mapping from every face to its corner nodes "
                                    "(counterclockwise)", start_index=1))
