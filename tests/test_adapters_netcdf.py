@@ -365,3 +365,24 @@ def test_cli_import(tmp_path, capsys):
     assert open_flow(out2).attrs["variables"] == "u=mesh2d_ucx, v=mesh2d_ucy, level=mesh2d_s1"
     assert main(["import", str(UGRID), "-o", str(out2), "--option", "decomposed=true"]) == 2
     assert "do not apply to 'ugrid'" in capsys.readouterr().err
+
+
+def test_flow_differences_between_two_sources(mixed_mesh, rng):
+    from driftlog.adapters.compare import flow_differences, summarize_differences
+    from driftlog.analytic import SolidBodyRotation, UniformFlow, on_mesh
+
+    a = on_mesh(SolidBodyRotation(0.10, center=(3, 2)), mixed_mesh, times=[0.0, 10.0])
+    b = on_mesh(SolidBodyRotation(0.12, center=(3, 2)), mixed_mesh, times=[0.0, 10.0])
+    x, y = rng.uniform(0.5, 5.5, 100), rng.uniform(0.5, 3.5, 100)
+    d = flow_differences(a, b, x, y, 5.0)
+    r = np.hypot(x - 3, y - 2)
+    ref = SolidBodyRotation(0.10, center=(3, 2)).sample(x, y, 5.0)
+    np.testing.assert_allclose(d["speed"], 0.02 * r, atol=1e-12)
+    np.testing.assert_allclose(d["velocity"], 0.2 * np.column_stack([ref.u, ref.v]), atol=1e-12)
+    np.testing.assert_allclose(d["direction"], 0.0, atol=1e-9)
+    s = summarize_differences(d)
+    assert s["wet_in_both"] == 100 and s["wet_mismatch"] == 0
+    np.testing.assert_allclose(s["speed_max_abs"], 0.02 * r.max(), rtol=1e-9)
+    c = on_mesh(UniformFlow(0.0, 1.0), mixed_mesh, times=[0.0, 10.0])
+    e = on_mesh(UniformFlow(1.0, 0.0), mixed_mesh, times=[0.0, 10.0])
+    np.testing.assert_allclose(flow_differences(c, e, x, y, 1.0)["direction"], -np.pi / 2)
