@@ -369,6 +369,7 @@ def test_cli_import(tmp_path, capsys):
 
 def test_flow_differences_between_two_sources(mixed_mesh, rng):
     from driftlog.adapters.compare import flow_differences, summarize_differences
+
     from driftlog.analytic import SolidBodyRotation, UniformFlow, on_mesh
 
     a = on_mesh(SolidBodyRotation(0.10, center=(3, 2)), mixed_mesh, times=[0.0, 10.0])
