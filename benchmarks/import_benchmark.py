@@ -40,18 +40,19 @@ N = int(os.environ.get("DRIFTLOG_BENCH_N", 1000))  # cells per side: N * N = 1e6
 
 
 # --------------------------------------------------------------------- generating the inputs
-def make_openfoam(work: Path, fmt="ascii"):
+def make_openfoam(work: Path, fmt="ascii", n=None):
     from driftlog.adapters.foam_io import format_list, write_foam_file
     from driftlog.adapters.openfoam_case import foam_env
 
-    case = work / f"openfoam_{fmt}"
+    N = n or globals()["N"]  # noqa: N806
+    case = work / f"openfoam_{fmt}_{N}"
     if (case / "2" / "hU").is_file() or (case / "2" / "hU.gz").is_file():
         return case
     env = foam_env()
     if env is None:
         raise SystemExit("OpenFOAM is needed for the OpenFOAM case (or --skip-openfoam)")
     if fmt == "binary":
-        src = make_openfoam(work, "ascii")
+        src = make_openfoam(work, "ascii", N)
         subprocess.run(["cp", "-r", str(src), str(case)], check=True)
         ctl = case / "system" / "controlDict"
         ctl.write_text(ctl.read_text().replace("writeFormat ascii;", "writeFormat binary;"))
@@ -102,10 +103,11 @@ boundary
     return case
 
 
-def make_ugrid(work: Path, snapshots: int):
+def make_ugrid(work: Path, snapshots: int, n=None):
     import netCDF4
 
-    path = work / f"ugrid_{snapshots}.nc"
+    N = n or globals()["N"]  # noqa: N806
+    path = work / f"ugrid_{N}_{snapshots}.nc"
     if path.is_file():
         return path
     t0 = time.perf_counter()
@@ -181,7 +183,9 @@ def step(kind, source, action, out=None, snapshots=None):
     elif action == "sample":
         f = open_flow_source(kind, source)
         rng = np.random.default_rng(0)
-        x, y = rng.uniform(1, N - 1, 100_000), rng.uniform(1, N - 1, 100_000)
+        x0, y0, x1, y1 = f.mesh.bounds
+        x = rng.uniform(x0 + 1e-3 * (x1 - x0), x1 - 1e-3 * (x1 - x0), 100_000)
+        y = rng.uniform(y0 + 1e-3 * (y1 - y0), y1 - 1e-3 * (y1 - y0), 100_000)
         face = None
         s = f.sample(x, y, float(f.times[0]))  # compile, locate
         face = s.face
@@ -200,7 +204,7 @@ def step(kind, source, action, out=None, snapshots=None):
     print("RESULT " + json.dumps(res), flush=True)
 
 
-def measure(kind, source, action, out=None, snapshots=None):
+def measure(kind, source, action, out=None, snapshots=None, quiet=False):
     cmd = [sys.executable, __file__, "--step", kind, str(source), action, str(out or ""),
            str(snapshots or 0)]
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
@@ -209,6 +213,8 @@ def measure(kind, source, action, out=None, snapshots=None):
     if p.returncode != 0 or not line:
         raise SystemExit(f"{' '.join(cmd)} failed:\n{p.stdout[-3000:]}\n{p.stderr[-3000:]}")
     r = json.loads(line[0][7:])
+    if quiet:
+        return r
     print(f"  {kind:9s} {action:9s} {r['seconds']:8.2f} s  peak {r['peak_rss_mb']:8.0f} MB"
           + (f"  {r['points_per_s'] / 1e6:.2f} M points/s" if "points_per_s" in r else ""),
           flush=True)
@@ -227,10 +233,16 @@ def main():
         kind, source, action, out, snaps = a.step
         step(kind, source, action, out or None, int(snaps) or None)
         return
-    work = Path(a.work) / f"n{N}"
+    work = Path(a.work)
     work.mkdir(parents=True, exist_ok=True)
     results = {"machine": f"{platform.node()} {os.cpu_count()} cores, "
                           f"{platform.python_version()}", "cells": N * N, "cases": {}}
+    print("warming the numba caches on small inputs", flush=True)
+    small = work / "small"
+    small.mkdir(exist_ok=True)
+    if not a.skip_openfoam:
+        measure("openfoam", make_openfoam(small, "ascii", 20), "open", quiet=True)
+    measure("ugrid", make_ugrid(small, 3, 20), "sample", snapshots=3, quiet=True)
     print("generating inputs", flush=True)
     if not a.skip_openfoam:
         for fmt in ("ascii", "binary"):

@@ -387,3 +387,14 @@ def test_flow_differences_between_two_sources(mixed_mesh, rng):
     c = on_mesh(UniformFlow(0.0, 1.0), mixed_mesh, times=[0.0, 10.0])
     e = on_mesh(UniformFlow(1.0, 0.0), mixed_mesh, times=[0.0, 10.0])
     np.testing.assert_allclose(flow_differences(c, e, x, y, 1.0)["direction"], -np.pi / 2)
+
+
+def test_scenario_flow_file_with_a_time_range(tmp_path):
+    from driftlog.scenario import load_scenario
+
+    out, _ = import_flow(UGRID, tmp_path / "flow.nc")
+    scen = load_scenario({"flow": {"source": "file", "path": str(out),
+                                   "time_range": [600.0, 1200.0]}})
+    f = flow_from_scenario(scen)
+    np.testing.assert_allclose(f.times, [600, 1200])
+    np.testing.assert_allclose(f.snapshot(0)["h"], open_flow(out).snapshot(1)["h"])

@@ -364,3 +364,25 @@ def test_interfoam_depth_average_on_a_raster_and_a_mesh(dambreak):
     c = cols.snapshot(2)["h"].reshape(4, 12)
     np.testing.assert_allclose(r.snapshot(2)["h"].reshape(2, 6),
                                c.reshape(2, 2, 6, 2).mean(axis=(1, 3)), atol=1e-14)
+
+
+@needs_foam
+@pytest.mark.openfoam
+def test_interfoam_decomposed_onto_a_raster(dambreak, tmp_path):
+    case = tmp_path / "dec"
+    shutil.copytree(dambreak[0], case)
+    (case / "system" / "decomposeParDict").write_text(
+        "FoamFile { version 2.0; format ascii; class dictionary; object decomposeParDict; }\n"
+        "numberOfSubdomains 2;\nmethod simple;\nsimpleCoeffs { n (2 1 1); delta 0.001; }\n")
+    foam(case, "decomposePar", "-time", "0:")
+    for t in ("0.1", "0.2"):
+        shutil.rmtree(case / t)
+    serial = open_openfoam(dambreak[0], raster=(0.0, 0.0, 0.1, 6, 2))
+    f = open_openfoam(case, raster=(0.0, 0.0, 0.1, 6, 2))
+    assert f.attrs["decomposed"] == 1
+    for i in range(3):
+        for k in ("h", "hu", "hv"):
+            np.testing.assert_allclose(f.snapshot(i)[k], serial.snapshot(i)[k], rtol=1e-12,
+                                       atol=1e-15)
+    with pytest.raises(FlowFileError, match="reconstructPar the case, or pass mesh2d= or raster="):
+        open_openfoam(case)
