@@ -9,7 +9,8 @@ from driftlog.adapters._common import check_values, time_in_seconds, unit_factor
 
 from driftlog.errors import FlowFileError
 
-__all__ = ["open_dataset", "variable_attrs", "read_times", "FaceSnapshots", "ROLES"]
+__all__ = ["open_dataset", "variable_attrs", "read_times", "NetCDFSource", "FaceSnapshots",
+           "ROLES"]
 
 # role -> (kind of units, standard names, aliases), most specific first
 ROLES = {
@@ -92,60 +93,59 @@ def fill_value(var):
     return None
 
 
-class FaceSnapshots:
-    """Lazy source over time-first NetCDF variables of face values: reads one time at a time.
+class NetCDFSource:
+    """Base of the lazy NetCDF sources: one file kept open, ``read(i)`` builds (h, hu, hv).
 
-    ``spec`` has the variable names found for depth or level (with a bed on faces), and u, v
-    or hu, hv, with unit factors; ``index`` maps stored faces to mesh faces (None: the same);
-    ``transform(values) -> values`` turns the stored arrays into face arrays (ANUGA vertex
-    values, staggered LISFLOOD-FP edges).
+    Subclasses give ``_get(role, i)``: the face array of a role ('depth' or 'level', 'hu' and
+    'hv' or 'u' and 'v') at snapshot i in SI units, NaN where a fill value was accepted as dry;
+    ``self.spec`` holds the roles found and ``self.bed`` the bed on faces.
     """
 
-    def __init__(self, ds, path, times, spec, bed, fill="error", transform=None):
-        self.ds = ds
-        self.path = Path(path)
-        self.name = str(self.path)
-        self.times = times
-        self.spec = spec
-        self.bed = bed
-        self.fill = fill
-        self.transform = transform
+    def __init__(self, ds, path, times, spec, bed, fill="error"):
+        self.ds, self.path, self.name = ds, Path(path), str(path)
+        self.times, self.spec, self.bed, self.fill = times, spec, bed, fill
 
-    def _get(self, role, i):
-        name, factor = self.spec[role]
-        var = self.ds.variables[name]
-        arr = np.asarray(var[i], dtype=np.float64)
+    def _values(self, var, i, arr):
+        """Check a raw array for NaN and fill values (or turn them into NaN if fill='dry')."""
         fv = fill_value(var)
-        where = f"{self.path}: {name} at snapshot {i} (t = {self.times[i]:g} s)"
         if self.fill == "dry":
             bad = ~np.isfinite(arr) if fv is None else (~np.isfinite(arr) | (arr == fv))
-            arr = np.where(bad, np.nan, arr)
-        else:
-            check_values(arr, fv, where)
-        arr = arr * factor
-        if self.transform is not None:
-            arr = self.transform(role, arr)
-        return arr
+            return np.where(bad, np.nan, arr)
+        return check_values(arr, fv, f"{self.path}: {var.name} at snapshot {i} "
+                                     f"(t = {self.times[i]:g} s)")
 
     def read(self, i):
+        """Face arrays (h, hu, hv) of snapshot i."""
         if "depth" in self.spec:
             h = self._get("depth", i)
         else:
             h = self._get("level", i) - self.bed
         dry = ~np.isfinite(h)
-        # depths a hair below zero (float32 stage = bed) are dry faces, not errors
+        # depths a hair below zero (float32 level = bed) are dry faces, not errors
         h = np.where(dry, 0.0, np.maximum(h, 0.0))
         if "hu" in self.spec:
             hu, hv = self._get("hu", i), self._get("hv", i)
         else:
             hu, hv = h * self._get("u", i), h * self._get("v", i)
-        hu = np.where(np.isfinite(hu) & ~dry, hu, 0.0)
-        hv = np.where(np.isfinite(hv) & ~dry, hv, 0.0)
-        return h, hu, hv
+        return (h, np.where(np.isfinite(hu) & ~dry, hu, 0.0),
+                np.where(np.isfinite(hv) & ~dry, hv, 0.0))
 
     def close(self):
+        """Close the file."""
         if self.ds.isopen():
             self.ds.close()
+
+
+class FaceSnapshots(NetCDFSource):
+    """Lazy source over time-first NetCDF variables of face values (UGRID).
+
+    ``spec``: role -> (variable name, unit factor).
+    """
+
+    def _get(self, role, i):
+        name, factor = self.spec[role]
+        var = self.ds.variables[name]
+        return self._values(var, i, np.asarray(var[i], dtype=np.float64)) * factor
 
 
 def find_roles(variables, mapping, where, need_bed):

@@ -18,8 +18,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters._common import SubsetSnapshots, check_values, select_times
-from driftlog.adapters._netcdf import fill_value, open_dataset
+from driftlog.adapters._common import SubsetSnapshots, select_times
+from driftlog.adapters._netcdf import NetCDFSource, open_dataset
 
 from driftlog.errors import FlowFileError, MeshError
 from driftlog.flow import MeshFlowField, check_times
@@ -35,38 +35,27 @@ def is_sww(ds) -> bool:
     return all(v in ds.variables for v in ("x", "y", "volumes", "stage"))
 
 
-class AnugaSnapshots:
+class AnugaSnapshots(NetCDFSource):
     """Lazy snapshots of an sww file: one time of stage and momenta read per ``read(i)``."""
 
     def __init__(self, ds, path, times, volumes, names, bed_static, centroids):
-        self.ds, self.path, self.name = ds, Path(path), str(path)
-        self.times = times
-        self.volumes = volumes
-        self.names = names
-        self.bed_static = bed_static
-        self.centroids = centroids
+        super().__init__(ds, path, times, {"level": 0, "hu": 0, "hv": 0}, bed_static)
+        self.volumes, self.names, self.centroids = volumes, names, centroids
 
-    def _face(self, role, i):
-        name = self.names[role]
-        var = self.ds.variables[name]
-        arr = np.asarray(var[i] if var.ndim == 2 else var[:], dtype=np.float64)
-        check_values(arr, fill_value(var), f"{self.path}: {name} at snapshot {i} "
-                                           f"(t = {self.times[i]:g} s)")
+    def _get(self, role, i):
+        var = self.ds.variables[self.names[role]]
+        arr = self._values(var, i, np.asarray(var[i] if var.ndim == 2 else var[:], np.float64))
         if not self.centroids:
             arr = arr[self.volumes].mean(axis=1)
         return arr
 
     def read(self, i):
-        """Face arrays (h, hu, hv) of snapshot i."""
-        elev = self.bed_static if self.bed_static is not None else self._face("elevation", i)
-        # float32 stage can sit a hair below the bed on dry triangles
-        h = np.maximum(self._face("level", i) - elev, 0.0)
-        return h, self._face("hu", i), self._face("hv", i)
+        """Face arrays (h, hu, hv) of snapshot i (with that time's elevation if it changes)."""
+        if self.bed is None or self.dynamic_bed:
+            self.bed = self._get("bed", i)
+        return super().read(i)
 
-    def close(self):
-        """Close the file."""
-        if self.ds.isopen():
-            self.ds.close()
+    dynamic_bed = False
 
 
 def open_anuga(path, time_range=None, dry_depth=1e-3, use_centroids=None, variables=None):
@@ -138,11 +127,10 @@ def _open(ds, path, time_range, dry_depth, use_centroids, mapping):
                                 f"{'volumes' if centroids else 'points'})")
     bvar = ds.variables[names["bed"]]
     src = AnugaSnapshots(ds, path, times, vols, names, None, centroids)
-    if bvar.ndim == 1:
-        bed = src._face("bed", 0)
-        src.bed_static = bed
-    else:
-        bed = src._face("bed", 0)
+    bed = src._get("bed", 0)
+    src.bed = bed
+    if bvar.ndim == 2:
+        src.dynamic_bed = True
         notes.append("elevation changes with time: depth uses each time's elevation, the bed "
                      "shown is the first")
     idx = select_times(times, time_range, str(path))

@@ -14,10 +14,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters._common import SubsetSnapshots, check_values, select_times, unit_factor
+from driftlog.adapters._common import SubsetSnapshots, select_times, unit_factor
 from driftlog.adapters._netcdf import (
     ROLES,
-    fill_value,
+    NetCDFSource,
     find_roles,
     open_dataset,
     read_times,
@@ -67,27 +67,22 @@ def _uniform(c, name, path):
     return float(abs(d[0])), bool(d[0] < 0)
 
 
-class GridSnapshots:
-    """Lazy snapshots of a CF grid: ``read(i)`` reads time i of each field."""
+class GridSnapshots(NetCDFSource):
+    """Lazy snapshots of a CF grid: ``read(i)`` reads time i of each field.
 
-    def __init__(self, ds, path, times, spec, bed, flip, shape, has_time, fill="error"):
-        self.ds, self.path, self.name = ds, Path(path), str(path)
-        self.times, self.spec, self.bed = times, spec, bed
-        self.flip, self.shape, self.has_time, self.fill = flip, shape, has_time, fill
+    ``spec``: role -> (variable, unit factor, stagger None | 'x' | 'y', divisor).
+    """
 
-    def field(self, role, i):
+    def __init__(self, ds, path, times, spec, bed, flip, has_time, fill="error"):
+        super().__init__(ds, path, times, spec, bed, fill)
+        self.flip, self.has_time = flip, has_time
+
+    def _get(self, role, i):
         """One variable at snapshot i on the cells, in SI units, as a face array."""
         name, factor, stagger, scale = self.spec[role]
         var = self.ds.variables[name]
         arr = np.asarray(var[i] if self.has_time and var.ndim == 3 else var[:], np.float64)
-        fv = fill_value(var)
-        if self.fill == "dry":
-            bad = ~np.isfinite(arr) | (arr == fv if fv is not None else False)
-            arr = np.where(bad, np.nan, arr)
-        else:
-            check_values(arr, fv, f"{self.path}: {name} at snapshot {i} "
-                                  f"(t = {self.times[i]:g} s)")
-        arr = arr * factor
+        arr = self._values(var, i, arr) * factor
         if stagger == "x":
             arr = 0.5 * (arr[:, :-1] + arr[:, 1:])
         elif stagger == "y":
@@ -99,25 +94,7 @@ class GridSnapshots:
             arr = arr[:, ::-1]
         return arr.ravel()
 
-    def read(self, i):
-        """Face arrays (h, hu, hv) of snapshot i."""
-        if "depth" in self.spec:
-            h = self.field("depth", i)
-        else:
-            h = self.field("level", i) - self.bed
-        dry = ~np.isfinite(h)
-        h = np.where(dry, 0.0, np.maximum(h, 0.0))
-        if "hu" in self.spec:
-            hu, hv = self.field("hu", i), self.field("hv", i)
-        else:
-            hu, hv = h * self.field("u", i), h * self.field("v", i)
-        return (h, np.where(np.isfinite(hu) & ~dry, hu, 0.0),
-                np.where(np.isfinite(hv) & ~dry, hv, 0.0))
-
-    def close(self):
-        """Close the file."""
-        if self.ds.isopen():
-            self.ds.close()
+    field = _get
 
 
 def open_cf_grid(path, time_range=None, variables=None, dry_depth=1e-3, fill="error",
@@ -225,7 +202,7 @@ def _open(ds, path, time_range, mapping, dry_depth, fill, units_override):
         notes.append("no time dimension: one steady snapshot")
     bed = None
     bed_name = _find_bed(ds, yn, xn, lead, mapping, path)
-    src = GridSnapshots(ds, path, times, spec, None, (flip_y, flip_x), (ny, nx), has_time, fill)
+    src = GridSnapshots(ds, path, times, spec, None, (flip_y, flip_x), has_time, fill)
     if bed_name is not None:
         var = ds.variables[bed_name]
         u = units_override.get("bed", getattr(var, "units", None))
