@@ -12,7 +12,6 @@ import re
 import numpy as np
 
 from driftlog.errors import FlowFileError
-from driftlog.flow import check_times
 
 __all__ = ["select_times", "unit_factor", "SubsetSnapshots", "find_variable",
            "time_in_seconds", "check_values", "DRIFTLOG_NAMES"]
@@ -166,7 +165,3 @@ def check_values(arr, fill, where):
                             f"{idx[:5].tolist()}); driftlog needs a value on every face (pass "
                             "fill='dry' to treat them as dry)")
     return arr
-
-
-def check_times_named(times, where):
-    return check_times(times, where)
