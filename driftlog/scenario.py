@@ -351,6 +351,10 @@ register_section(Section("flow", [
     Key("variables", "table", {}, "map of driftlog names (depth, level, u, v, hu, hv, bed) to "
         "the variable names of an imported file"),
     Key("time_range", "floats", None, "import only snapshots in [start, end]", "s", length=2),
+    Key("options", "table", {}, "options of the importer (driftlog.adapters): openfoam "
+        "decomposed, mode ('shallow_water' | 'vof'), raster ([x0, y0, dx, nx, ny]); ugrid and "
+        "cf_grid fill ('error' | 'dry'), units ({hu = 'm3 s-1'}); anuga use_centroids",
+        when="source = openfoam, ugrid, anuga, cf_grid"),
 ], doc="the hydro source", check=_check_flow))
 
 

@@ -1,0 +1,167 @@
+"""What the adapters share: time selection, unit conversion, variable look-up, lazy sources.
+
+Each adapter opens another model's output and returns a ``MeshFlowField`` whose ``source``
+reads one snapshot when asked (the lazy snapshot interface of ``driftlog.flow``:
+``times`` and ``read(i) -> (h, hu, hv)`` on faces).
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from driftlog.errors import FlowFileError
+
+__all__ = ["select_times", "unit_factor", "SubsetSnapshots", "find_variable",
+           "time_in_seconds", "check_values", "DRIFTLOG_NAMES"]
+
+#: driftlog's names for the quantities an adapter looks for (keys of ``[flow] variables``)
+DRIFTLOG_NAMES = ("depth", "level", "bed", "u", "v", "hu", "hv", "alpha")
+
+# units -> factor to SI, per kind of quantity
+_LENGTH = {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0,
+           "cm": 0.01, "centimeter": 0.01, "centimeters": 0.01, "mm": 1e-3,
+           "millimeter": 1e-3, "millimeters": 1e-3, "km": 1e3}
+_VELOCITY = {"m s-1": 1.0, "m/s": 1.0, "m s^-1": 1.0, "m.s-1": 1.0, "ms-1": 1.0, "m/sec": 1.0,
+             "cm s-1": 0.01, "cm/s": 0.01, "cm s^-1": 0.01, "cm.s-1": 0.01,
+             "mm s-1": 1e-3, "mm/s": 1e-3, "mm s^-1": 1e-3}
+_UNIT_DISCHARGE = {"m2 s-1": 1.0, "m2/s": 1.0, "m^2/s": 1.0, "m^2 s^-1": 1.0, "m2.s-1": 1.0,
+                   "m**2 s-1": 1.0, "cm2 s-1": 1e-4, "cm2/s": 1e-4}
+_DISCHARGE = {"m3 s-1": 1.0, "m3/s": 1.0, "m^3/s": 1.0, "m^3 s^-1": 1.0, "m3.s-1": 1.0,
+              "m**3 s-1": 1.0, "cumecs": 1.0}
+_KINDS = {"length": _LENGTH, "velocity": _VELOCITY, "unit_discharge": _UNIT_DISCHARGE,
+          "discharge": _DISCHARGE, "fraction": {"1": 1.0, "": 1.0, "-": 1.0}}
+_SI = {"length": "m", "velocity": "m s-1", "unit_discharge": "m2 s-1", "discharge": "m3 s-1",
+       "fraction": "1"}
+
+
+def _norm_units(u: str) -> str:
+    return re.sub(r"\s+", " ", u.strip().lower().replace("**", "^"))
+
+
+def unit_factor(units, kind: str, where: str, notes: list | None = None):
+    """Factor from ``units`` to SI for a quantity of ``kind``; absent units are taken as SI.
+
+    Known non-SI units (cm, mm, cm/s, mm/s...) are converted, with a note appended to
+    ``notes``; anything else is refused with an error naming ``where`` and the units found.
+    Returns (factor, kind) where kind may switch between discharge and unit discharge.
+    """
+    if units is None or (isinstance(units, str) and units.strip() == ""):
+        return 1.0, kind
+    u = _norm_units(str(units))
+    table = {_norm_units(k): v for k, v in _KINDS[kind].items()}
+    if u in table:
+        f = table[u]
+        if f != 1.0 and notes is not None:
+            notes.append(f"{where}: converted from {units!r} to {_SI[kind]} (x {f:g})")
+        return f, kind
+    if kind in ("unit_discharge", "discharge"):  # the other one of the pair
+        other = "discharge" if kind == "unit_discharge" else "unit_discharge"
+        table = {_norm_units(k): v for k, v in _KINDS[other].items()}
+        if u in table:
+            return table[u], other
+    allowed = sorted({_SI[kind]} | {k for k, v in _KINDS[kind].items() if v != 1.0})
+    raise FlowFileError(f"{where}: units {units!r} are not units of {kind.replace('_', ' ')} "
+                        f"(expected {_SI[kind]}, or one of {', '.join(allowed)})")
+
+
+_TIME_UNITS = {"s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,
+               "min": 60.0, "mins": 60.0, "minute": 60.0, "minutes": 60.0,
+               "h": 3600.0, "hr": 3600.0, "hrs": 3600.0, "hour": 3600.0, "hours": 3600.0,
+               "d": 86400.0, "day": 86400.0, "days": 86400.0}
+
+
+def time_in_seconds(values, units, where):
+    """Times in seconds from a CF ``units`` attribute ('seconds since ...', 'hours', 's')."""
+    values = np.asarray(values, dtype=np.float64)
+    if units is None:
+        return values, None
+    u = str(units).strip()
+    unit, _, origin = u.partition(" since ")
+    f = _TIME_UNITS.get(unit.strip().lower())
+    if f is None:
+        raise FlowFileError(f"{where}: time units {units!r} not understood (expected "
+                            "'seconds since ...', 'hours since ...' or 'days since ...')")
+    return values * f, (origin.strip() or None)
+
+
+def select_times(times, time_range, where):
+    """Indices of the snapshots inside ``time_range`` = (start, end) (inclusive; None: all)."""
+    times = np.asarray(times, dtype=np.float64)
+    if time_range is None:
+        return np.arange(times.size)
+    a, b = (float(v) for v in time_range)
+    if not b >= a:
+        raise FlowFileError(f"{where}: time range [{a}, {b}] is reversed")
+    eps = 1e-9 * max(abs(a), abs(b), 1.0)
+    idx = np.flatnonzero((times >= a - eps) & (times <= b + eps))
+    if idx.size == 0:
+        raise FlowFileError(f"{where}: no snapshot in the time range [{a}, {b}] s (the file "
+                            f"has {times.size} from {times.min():g} to {times.max():g} s)")
+    return idx
+
+
+class SubsetSnapshots:
+    """A lazy source restricted to some of another source's snapshots (a time range)."""
+
+    def __init__(self, source, index):
+        self.source = source
+        self.index = np.asarray(index, dtype=np.int64)
+        self.times = np.asarray(source.times)[self.index]
+        self.name = getattr(source, "name", "flow")
+
+    def read(self, i):
+        return self.source.read(int(self.index[i]))
+
+    def close(self):
+        if hasattr(self.source, "close"):
+            self.source.close()
+
+
+def find_variable(variables, candidates, role, mapping=None, standard_names=(),
+                  where="file", required=True):
+    """Name of the variable playing ``role``.
+
+    The user's mapping first, then standard_name, then known aliases.  ``variables``: dict
+    name -> attrs (dict).
+    """
+    mapping = mapping or {}
+    if role in mapping:
+        name = mapping[role]
+        if name not in variables:
+            raise FlowFileError(f"{where}: variable {name!r} (given for {role!r} in [flow] "
+                                f"variables) is missing; the file has "
+                                f"{', '.join(sorted(variables))}")
+        return name
+    for name, attrs in variables.items():
+        if attrs.get("standard_name") in standard_names:
+            return name
+    lower = {n.lower(): n for n in variables}
+    for c in candidates:
+        if c in variables:
+            return c
+        if c.lower() in lower:
+            return lower[c.lower()]
+    if required:
+        raise FlowFileError(f"{where}: no variable for {role} (looked for standard_name "
+                            f"{list(standard_names)} and names {list(candidates)}); map it "
+                            f"with [flow] variables = {{{role} = \"NAME\"}}")
+    return None
+
+
+def check_values(arr, fill, where):
+    """Refuse NaN and fill values in a field read from a file, naming where they are."""
+    bad = ~np.isfinite(arr)
+    what = "NaN"
+    if fill is not None:
+        isfill = arr == fill
+        if np.any(isfill):
+            bad |= isfill
+            what = f"fill value {fill}"
+    if np.any(bad):
+        idx = np.flatnonzero(bad.ravel())
+        raise FlowFileError(f"{where}: {idx.size} {what} values (first at flat index "
+                            f"{idx[:5].tolist()}); driftlog needs a value on every face (pass "
+                            "fill='dry' to treat them as dry)")
+    return arr

@@ -1,0 +1,195 @@
+"""NetCDF helpers of the adapters: open a file, describe its variables, a lazy face source."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from driftlog.adapters._common import check_values, time_in_seconds, unit_factor
+
+from driftlog.errors import FlowFileError
+
+__all__ = ["open_dataset", "variable_attrs", "read_times", "NetCDFSource", "FaceSnapshots",
+           "ROLES"]
+
+# role -> (kind of units, standard names, aliases), most specific first
+ROLES = {
+    "depth": ("length", ("sea_floor_depth_below_sea_surface", "water_depth",
+                         "sea_water_depth", "water_thickness"),
+              ("mesh2d_waterdepth", "waterdepth", "water_depth", "depth", "h", "mesh2d_h",
+               "H", "wd", "depth_c")),
+    "level": ("length", ("sea_surface_height", "sea_surface_height_above_geoid",
+                         "water_surface_height_above_reference_datum",
+                         "sea_surface_height_above_mean_sea_level", "sea_surface_elevation"),
+              ("mesh2d_s1", "s1", "water_level", "waterlevel", "water_surface", "wse",
+               "eta", "zeta", "stage", "elev", "level")),
+    "bed": ("length", ("altitude", "bedrock_altitude", "surface_altitude",
+                       "sea_floor_altitude"),
+            ("mesh2d_flowelem_bl", "bed_level", "bedlevel", "bed", "zb", "bl", "mesh2d_bl",
+             "elevation", "dem", "z", "topography")),
+    "u": ("velocity", ("sea_water_x_velocity", "eastward_sea_water_velocity",
+                       "x_velocity", "sea_water_x_velocity_depth_averaged"),
+          ("mesh2d_ucx", "mesh2d_ucxa", "ucx", "ucxa", "velocity_x", "u", "vx", "Vx",
+           "x_velocity")),
+    "v": ("velocity", ("sea_water_y_velocity", "northward_sea_water_velocity",
+                       "y_velocity", "sea_water_y_velocity_depth_averaged"),
+          ("mesh2d_ucy", "mesh2d_ucya", "ucy", "ucya", "velocity_y", "v", "vy", "Vy",
+           "y_velocity")),
+    "hu": ("unit_discharge", ("x_unit_discharge",),
+           ("mesh2d_qx", "hu", "qx", "Qx", "xmomentum", "unit_discharge_x", "discharge_x")),
+    "hv": ("unit_discharge", ("y_unit_discharge",),
+           ("mesh2d_qy", "hv", "qy", "Qy", "ymomentum", "unit_discharge_y", "discharge_y")),
+}
+# sea_floor_depth_below_geoid is positive down: a bed given that way is negated
+_BED_DOWN = ("sea_floor_depth_below_geoid", "sea_floor_depth_below_mean_sea_level",
+             "sea_floor_depth")
+
+
+def open_dataset(path):
+    import netCDF4
+
+    path = Path(path)
+    if not path.is_file():
+        raise FlowFileError(f"{path}: file not found")
+    try:
+        ds = netCDF4.Dataset(path)
+    except (OSError, RuntimeError) as exc:
+        raise FlowFileError(f"{path}: not a readable NetCDF file ({exc})") from None
+    ds.set_auto_mask(False)
+    ds.set_auto_scale(True)
+    return ds
+
+
+def variable_attrs(ds, dims=None):
+    """Name -> attrs of the variables (only those with exactly these dims, if given)."""
+    out = {}
+    for name, var in ds.variables.items():
+        if dims is not None and tuple(var.dimensions) != tuple(dims):
+            continue
+        out[name] = {k: var.getncattr(k) for k in var.ncattrs()}
+    return out
+
+
+def read_times(ds, path, time_dim):
+    """Snapshot times (s) of a time dimension, and the time origin if the units give one."""
+    tvar = None
+    if time_dim in ds.variables:
+        tvar = ds.variables[time_dim]
+    else:
+        for var in ds.variables.values():
+            if var.dimensions == (time_dim,) and (
+                    getattr(var, "standard_name", "") == "time" or getattr(var, "axis", "") == "T"):
+                tvar = var
+                break
+    if tvar is None:
+        raise FlowFileError(f"{path}: no time variable for the dimension {time_dim!r}")
+    return time_in_seconds(tvar[:], getattr(tvar, "units", None), f"{path}: {tvar.name}")
+
+
+def fill_value(var):
+    for k in ("_FillValue", "missing_value"):
+        if k in var.ncattrs():
+            return np.asarray(var.getncattr(k)).ravel()[0]
+    return None
+
+
+class NetCDFSource:
+    """Base of the lazy NetCDF sources: one file kept open, ``read(i)`` builds (h, hu, hv).
+
+    Subclasses give ``_get(role, i)``: the face array of a role ('depth' or 'level', 'hu' and
+    'hv' or 'u' and 'v') at snapshot i in SI units, NaN where a fill value was accepted as dry;
+    ``self.spec`` holds the roles found and ``self.bed`` the bed on faces.
+    """
+
+    def __init__(self, ds, path, times, spec, bed, fill="error"):
+        self.ds, self.path, self.name = ds, Path(path), str(path)
+        self.times, self.spec, self.bed, self.fill = times, spec, bed, fill
+
+    def _values(self, var, i, arr):
+        """Check a raw array for NaN and fill values (or turn them into NaN if fill='dry')."""
+        fv = fill_value(var)
+        if self.fill == "dry":
+            bad = ~np.isfinite(arr) if fv is None else (~np.isfinite(arr) | (arr == fv))
+            return np.where(bad, np.nan, arr)
+        return check_values(arr, fv, f"{self.path}: {var.name} at snapshot {i} "
+                                     f"(t = {self.times[i]:g} s)")
+
+    def read(self, i):
+        """Face arrays (h, hu, hv) of snapshot i."""
+        if "depth" in self.spec:
+            h = self._get("depth", i)
+        else:
+            h = self._get("level", i) - self.bed
+        dry = ~np.isfinite(h)
+        # depths a hair below zero (float32 level = bed) are dry faces, not errors
+        h = np.where(dry, 0.0, np.maximum(h, 0.0))
+        if "hu" in self.spec:
+            hu, hv = self._get("hu", i), self._get("hv", i)
+        else:
+            hu, hv = h * self._get("u", i), h * self._get("v", i)
+        return (h, np.where(np.isfinite(hu) & ~dry, hu, 0.0),
+                np.where(np.isfinite(hv) & ~dry, hv, 0.0))
+
+    def close(self):
+        """Close the file."""
+        if self.ds.isopen():
+            self.ds.close()
+
+
+class FaceSnapshots(NetCDFSource):
+    """Lazy source over time-first NetCDF variables of face values (UGRID).
+
+    ``spec``: role -> (variable name, unit factor).
+    """
+
+    def _get(self, role, i):
+        name, factor = self.spec[role]
+        var = self.ds.variables[name]
+        return self._values(var, i, np.asarray(var[i], dtype=np.float64)) * factor
+
+
+def find_roles(variables, mapping, where, need_bed):
+    """Pick variables for depth/level, bed, velocity or unit discharge; returns role -> name."""
+    from driftlog.adapters._common import find_variable
+
+    roles = {}
+    for role in ("depth", "level", "u", "v", "hu", "hv"):
+        kind, std, alias = ROLES[role]
+        roles[role] = find_variable(variables, alias, role, mapping, std, where,
+                                    required=False)
+    if roles["depth"] is None and roles["level"] is None:
+        raise FlowFileError(f"{where}: no water depth nor water level variable (looked for "
+                            f"standard_name {ROLES['depth'][1][0]!r} or "
+                            f"{ROLES['level'][1][0]!r}, and names like "
+                            f"{ROLES['depth'][2][:3]} / {ROLES['level'][2][:3]}); the file has "
+                            f"{sorted(variables)}; map them with [flow] variables")
+    has_uv = roles["u"] is not None and roles["v"] is not None
+    has_q = roles["hu"] is not None and roles["hv"] is not None
+    if ("hu" in (mapping or {})) and has_q:
+        has_uv = False
+    if not has_uv and not has_q:
+        raise FlowFileError(f"{where}: no velocity (u, v) nor unit discharge (hu, hv) "
+                            f"variables (looked for standard_name 'sea_water_x_velocity' and "
+                            f"names like {ROLES['u'][2][:3]} / {ROLES['hu'][2][:3]}); the file "
+                            f"has {sorted(variables)}; map them with [flow] variables")
+    out = {k: roles[k] for k in (("u", "v") if has_uv else ("hu", "hv"))}
+    if roles["depth"] is not None and "level" not in (mapping or {}):
+        out["depth"] = roles["depth"]
+    else:
+        out["level"] = roles["level"]
+    return out
+
+
+def factors(ds, roles, where, notes, units_override=None):
+    """Unit factor of each role's variable (converting cm, mm, cm/s... with a note)."""
+    spec = {}
+    for role, name in roles.items():
+        kind = ROLES[role][0]
+        units = (units_override or {}).get(role, getattr(ds.variables[name], "units", None))
+        f, got = unit_factor(units, kind, f"{where}: {name}", notes)
+        spec[role] = (name, f, got)
+    return spec
+
+
+def bed_down(attrs):
+    return attrs.get("standard_name") in _BED_DOWN or attrs.get("positive") == "down"
