@@ -383,6 +383,47 @@ def cmd_import(args):
     return 0
 
 
+# --------------------------------------------------------------------- comparison
+@command
+def add_compare(sub):
+    p = _sub(sub, "compare", "run the same debris scenario on two or more flows (hydro sources) "
+             "and compare flows at the logs and trajectories; or compare two trajectory files",
+             "driftlog compare scenario.toml --flow solver=flow.nc --flow foam=foam_case/ "
+             "--out cmp/\n  driftlog compare run_a.nc run_b.nc")
+    p.add_argument("inputs", nargs="+", help="a scenario (with --flow), or two trajectory files")
+    p.add_argument("--flow", action="append", metavar="NAME=SOURCE",
+                   help="a flow: flow file, model output (OpenFOAM case, UGRID, sww, CF grid) "
+                   "or 'scenario' (the scenario's own); the first is the reference")
+    p.add_argument("--line", type=float, nargs=4, metavar=("X0", "Y0", "X1", "Y1"),
+                   help="arrival line (default: arrival = leaving the domain)")
+    p.add_argument("--out", default="driftlog-compare", help="output folder")
+    p.set_defaults(run=cmd_compare)
+
+
+def cmd_compare(args):
+    import json
+
+    from driftlog.compare import compare_runs, compare_trajectories, parse_flow_spec
+
+    if len(args.inputs) == 2 and all(i.endswith(".nc") for i in args.inputs) and not args.flow:
+        r = compare_trajectories(args.inputs[0], args.inputs[1], args.line)
+        print(f"mean distance at the end: {r['mean_distance'][-1]:.4g} m, max over the run: "
+              f"{r['max_distance'].max():.4g} m")
+        print(f"final statuses: {r['final_status_reference']} vs {r['final_status_other']}")
+        print(f"hits: {json.dumps(r['hits_reference'])} vs {json.dumps(r['hits_other'])}")
+        return 0
+    if len(args.inputs) != 1 or not args.flow:
+        raise DriftlogError("driftlog compare: give one scenario and two --flow NAME=SOURCE or "
+                            "more, or two trajectory files")
+    path, _ = _scenario_path(args.inputs[0])
+    rep = compare_runs(path, [parse_flow_spec(f) for f in args.flow], args.out, args.line,
+                       progress=True)
+    out = Path(args.out)
+    print((out / "compare.md").read_text())
+    print(f"report: {out / 'compare.md'}, {out / 'compare.json'}; figure: {out / 'compare.png'}")
+    return 0
+
+
 # --------------------------------------------------------------------- entry point
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(

@@ -4,8 +4,17 @@ import pytest
 
 from driftlog.analytic import SolidBodyRotation, UniformFlow
 from driftlog.logs import Logs, flotation_depth, submerged_volume
-from driftlog.physics import (L_PAR, L_PERP, NLIN, PhysicsOptions, drag_speed_product,
-                              effective_area, ganser_cd, log_parameters, rhs_kernel)
+from driftlog.physics import (
+    L_PAR,
+    L_PERP,
+    NLIN,
+    PhysicsOptions,
+    drag_speed_product,
+    effective_area,
+    ganser_cd,
+    log_parameters,
+    rhs_kernel,
+)
 
 
 @pytest.mark.parametrize("rho_b,ratio", [(500.0, 1.000), (720.0, 1.353), (1000.0, 2.000)])
