@@ -416,8 +416,8 @@ def cmd_compare(args):
         raise DriftlogError("driftlog compare: give one scenario and two --flow NAME=SOURCE or "
                             "more, or two trajectory files")
     path, _ = _scenario_path(args.inputs[0])
-    rep = compare_runs(path, [parse_flow_spec(f) for f in args.flow], args.out, args.line,
-                       progress=True)
+    compare_runs(path, [parse_flow_spec(f) for f in args.flow], args.out, args.line,
+                 progress=True)
     out = Path(args.out)
     print((out / "compare.md").read_text())
     print(f"report: {out / 'compare.md'}, {out / 'compare.json'}; figure: {out / 'compare.png'}")
