@@ -79,7 +79,7 @@ def run(quick=False):
                     def samp():
                         face[:] = -1 if mode == "cold" else hint0
                         sample_mesh_kernel.parallel(px, py, face, out, flag, a, inv_dt, vals,
-                                                    1e-3, *args)
+                                                    1e-3, True, *args)
 
                     loc()
                     samp()  # compile

@@ -6,12 +6,16 @@ J_ij = dU_i/dx_j, the free-surface gradient, and a wet / dry / outside flag.
 
 Spatial reconstruction on meshes (``MeshFlowField``): piecewise linear (P1) on the faces, split
 into triangles (quadrilaterals fanned from their first node), from node values that are
-least-squares linear fits of the surrounding face values (``Mesh.node_interpolator``).  We chose
+least-squares linear fits of the surrounding face values (``Mesh.node_operators``).  We chose
 it over a per-face least-squares gradient because it is continuous (a log crossing a face edge
 sees no jump in velocity, which event-driven contact and the integrators' step control need),
-and it reproduces a linear field exactly, as the per-face fit does.  The price is that the
-gradient J is piecewise constant (kinks at edges), which cuts RK4 to second order on mesh
-fields: measured in benchmarks/integrator_convergence.py.
+and it reproduces a linear field exactly, as the per-face fit does.
+
+Velocity gradient J and free-surface slope: by default *recovered*: the least-squares slopes of
+the same node fits, interpolated P1, so J is continuous too (and exact for linear fields).  The
+gradient of the P1 interpolant itself (``gradient = "p1"``) is constant per triangle and jumps
+at every edge; the full model's pressure-gradient force uses J, so its acceleration jumps too,
+and RK4 then stops converging (measured in benchmarks/integrator_convergence.py).
 
 Time: linear between the two snapshots around t; only those two are held in memory, so a flow
 file larger than memory works.  Depth, velocity and free surface are each interpolated on
@@ -44,6 +48,9 @@ SAMPLE_COLUMNS = ("water_depth", "velocity_x", "velocity_y", "dudt", "dvdt", "du
                   "dvdx", "dvdy", "detadx", "detady", "water_level")
 # flag values
 OUTSIDE, DRY, WET = 0, 1, 2
+# node columns of one snapshot: values, then least-squares gradients of u, v and eta
+Q_H, Q_U, Q_V, Q_ETA, Q_UX, Q_UY, Q_VX, Q_VY, Q_EX, Q_EY = range(10)
+NQ = 10
 FLAG_MEANINGS = "outside dry wet"
 
 
@@ -149,21 +156,25 @@ def _triangle_weights(px, py, xa, ya, xb, yb, xc, yc):
 def _p1(nodevals, q, n0, n1, n2, a, b, inv_dt, w):
     """Value, gradient and time derivative of column q on the triangle (n0, n1, n2)."""
     la, lb, lc, gax, gay, gbx, gby, gcx, gcy = w
-    va = b * nodevals[n0, q] + a * nodevals[n0, q + 4]
-    vb = b * nodevals[n1, q] + a * nodevals[n1, q + 4]
-    vc = b * nodevals[n2, q] + a * nodevals[n2, q + 4]
-    td = inv_dt * (la * (nodevals[n0, q + 4] - nodevals[n0, q])
-                   + lb * (nodevals[n1, q + 4] - nodevals[n1, q])
-                   + lc * (nodevals[n2, q + 4] - nodevals[n2, q]))
+    va = b * nodevals[n0, q] + a * nodevals[n0, q + NQ]
+    vb = b * nodevals[n1, q] + a * nodevals[n1, q + NQ]
+    vc = b * nodevals[n2, q] + a * nodevals[n2, q + NQ]
+    td = inv_dt * (la * (nodevals[n0, q + NQ] - nodevals[n0, q])
+                   + lb * (nodevals[n1, q + NQ] - nodevals[n1, q])
+                   + lc * (nodevals[n2, q + NQ] - nodevals[n2, q]))
     return (la * va + lb * vb + lc * vc, gax * va + gbx * vb + gcx * vc,
             gay * va + gby * vb + gcy * vc, td)
 
 
 @kernel
-def sample_mesh_kernel(px, py, face, out, flag, a, inv_dt, nodevals, dry_depth,
+def sample_mesh_kernel(px, py, face, out, flag, a, inv_dt, nodevals, dry_depth, recovered,
                        face_nodes, face_n, face_nbr, node_x, node_y,
                        x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces):
-    """Locate and sample n points; nodevals (n_nodes, 8) = h, u, v, eta at t0 then at t1."""
+    """Locate and sample n points; nodevals (n_nodes, 2 NQ): the NQ node columns at t0 then t1.
+
+    ``recovered``: gradients are the P1 interpolation of the nodes' least-squares gradients
+    (continuous); otherwise the gradient of the P1 interpolant (constant per triangle).
+    """
     b = 1.0 - a
     for i in nb.prange(px.shape[0]):
         x, y = px[i], py[i]
@@ -200,6 +211,13 @@ def sample_mesh_kernel(px, py, face, out, flag, a, inv_dt, nodevals, dry_depth,
         out[i, V] = vval
         out[i, DUDT] = ut
         out[i, DVDT] = vt
+        if recovered:
+            ux = _p1(nodevals, Q_UX, n0, n1, n2, a, b, inv_dt, w)[0]
+            uy = _p1(nodevals, Q_UY, n0, n1, n2, a, b, inv_dt, w)[0]
+            vx = _p1(nodevals, Q_VX, n0, n1, n2, a, b, inv_dt, w)[0]
+            vy = _p1(nodevals, Q_VY, n0, n1, n2, a, b, inv_dt, w)[0]
+            ex = _p1(nodevals, Q_EX, n0, n1, n2, a, b, inv_dt, w)[0]
+            ey = _p1(nodevals, Q_EY, n0, n1, n2, a, b, inv_dt, w)[0]
         out[i, DUDX] = ux
         out[i, DUDY] = uy
         out[i, DVDX] = vx
@@ -260,7 +278,8 @@ class MeshFlowField(FlowField):
         Provenance (source model, scenario), written to flow files.
     """
 
-    def __init__(self, mesh, bed, source, dry_depth=1e-3, name=None, attrs=None):
+    def __init__(self, mesh, bed, source, dry_depth=1e-3, name=None, attrs=None,
+                 gradient="recovered"):
         self.mesh = mesh
         self.bed = np.ascontiguousarray(bed, dtype=np.float64)
         if self.bed.shape != (mesh.n_faces,):
@@ -270,11 +289,14 @@ class MeshFlowField(FlowField):
         self.name = name or getattr(source, "name", "flow")
         self._times = check_times(source.times, self.name)
         self.dry_depth = float(dry_depth)
+        if gradient not in ("recovered", "p1"):
+            raise FlowFileError(f"{self.name}: gradient = {gradient!r}: must be 'recovered' or "
+                                "'p1'")
+        self.gradient = gradient
         self.attrs = dict(attrs or {})
         self._snap = OrderedDict()  # i -> (h, hu, hv, nodevals(n_nodes, 4)); two at most
         self._pair = None
         self._pair_vals = None
-        self._P = None
 
     @classmethod
     def from_arrays(cls, mesh, bed, times, h, hu, hv, **kwargs):
@@ -327,11 +349,19 @@ class MeshFlowField(FlowField):
             bad = np.flatnonzero(h < 0)
             raise FlowFileError(f"{self.name}: snapshot {i}: negative depth at faces "
                                 f"{bad[:5].tolist()} (min {h.min()})")
-        if self._P is None:
-            self._P = self.mesh.node_interpolator()
+        P, Px, Py = self.mesh.node_operators()
         u, v = self._velocity(h, hu, hv)
-        nodes = self._P @ np.column_stack([h, u, v, h + self.bed])
+        nodes = np.empty((self.mesh.n_nodes, NQ))
+        nodes[:, :4] = P @ np.column_stack([h, u, v, h + self.bed])
         np.maximum(nodes[:, 0], 0.0, out=nodes[:, 0])
+        if self.gradient == "recovered":
+            uve = np.column_stack([u, v, h + self.bed])
+            gx, gy = Px @ uve, Py @ uve
+            nodes[:, Q_UX], nodes[:, Q_UY] = gx[:, 0], gy[:, 0]
+            nodes[:, Q_VX], nodes[:, Q_VY] = gx[:, 1], gy[:, 1]
+            nodes[:, Q_EX], nodes[:, Q_EY] = gx[:, 2], gy[:, 2]
+        else:
+            nodes[:, 4:] = 0.0
         self._snap[i] = (h, hu, hv, nodes)
         while len(self._snap) > 2:
             self._snap.popitem(last=False)
@@ -350,7 +380,7 @@ class MeshFlowField(FlowField):
         return i, i + 1, a, 1.0 / dt
 
     def node_values(self, t):
-        """(n_nodes, 8) node values h, u, v, eta at the snapshots around t; the time weight."""
+        """(n_nodes, 2 NQ) node columns at the snapshots around t; the time weight, 1 / dt."""
         i, j, a, inv_dt = self._interval(t)
         if self._pair != (i, j):
             ni = self._load(i)[3]
@@ -362,7 +392,7 @@ class MeshFlowField(FlowField):
     def sample_into(self, x, y, t, face, out, flag):
         vals, a, inv_dt = self.node_values(t)
         sample_mesh_kernel(x, y, face, out, flag, a, inv_dt, vals, self.dry_depth,
-                           *self.mesh.locator_args())
+                           self.gradient == "recovered", *self.mesh.locator_args())
 
     # ----------------------------------------------------------------- derived fields
     def face_values(self, t):
@@ -375,7 +405,8 @@ class MeshFlowField(FlowField):
         """The flow at time t as a steady field (one snapshot)."""
         fv = self.face_values(t)
         src = InMemorySnapshots([t], fv["h"], fv["hu"], fv["hv"], name=f"{self.name} at t={t}")
-        return MeshFlowField(self.mesh, self.bed, src, self.dry_depth, attrs=self.attrs)
+        return MeshFlowField(self.mesh, self.bed, src, self.dry_depth, attrs=self.attrs,
+                             gradient=self.gradient)
 
     def __repr__(self):
         t0, t1 = self._times[0], self._times[-1]

@@ -375,8 +375,16 @@ class Mesh:
         first ring is too small or collinear, as at corners); so a field linear in x, y is
         reproduced exactly at every node, and the P1 interpolation built on it everywhere.
         """
+        return self.node_operators()[0]
+
+    def node_operators(self):
+        """(value, d/dx, d/dy) sparse operators from face values to nodes (the same fits).
+
+        The gradient operators give the slope of each node's least-squares fit: a recovered,
+        continuous gradient (exact for linear fields) once interpolated P1 between nodes.
+        """
         if self._node_interp is None:
-            self._node_interp = _lsq_node_operator(self)
+            self._node_interp = _lsq_node_operators(self)
         return self._node_interp
 
 
@@ -388,7 +396,7 @@ def _node_face_pairs(mesh):
 
 
 def _lsq_weights(nodes, faces, mesh):
-    """Least-squares weights for the given (node, face) stencil pairs; and which nodes failed."""
+    """Least-squares weights (value, d/dx, d/dy) for (node, face) stencil pairs; nodes that fit."""
     dx = mesh.face_x[faces] - mesh.node_x[nodes]
     dy = mesh.face_y[faces] - mesh.node_y[nodes]
     nn = mesh.n_nodes
@@ -407,16 +415,18 @@ def _lsq_weights(nodes, faces, mesh):
     ok = ev[:, 0] > 1e-6 * np.maximum(cnt, 1)
     Minv = np.zeros_like(M)
     Minv[ok] = np.linalg.inv(M[ok])
-    w = Minv[nodes, 0, 0] + Minv[nodes, 0, 1] * dx + Minv[nodes, 0, 2] * dy
+    w = [Minv[nodes, r, 0] + Minv[nodes, r, 1] * dx + Minv[nodes, r, 2] * dy for r in range(3)]
+    w[1] = w[1] / s[nodes]  # undo the scaling of the coordinates
+    w[2] = w[2] / s[nodes]
     return w, ok
 
 
-def _lsq_node_operator(mesh):
+def _lsq_node_operators(mesh):
     nn, nf = mesh.n_nodes, mesh.n_faces
     nodes, faces = _node_face_pairs(mesh)
     w, ok = _lsq_weights(nodes, faces, mesh)
     keep = ok[nodes]
-    rows, cols, vals = [nodes[keep]], [faces[keep]], [w[keep]]
+    rows, cols, vals = [nodes[keep]], [faces[keep]], [[wk[keep]] for wk in w]
     bad = np.flatnonzero(~ok)
     if bad.size:
         # second ring: faces that share a node with a face around the node
@@ -427,18 +437,24 @@ def _lsq_node_operator(mesh):
         keep2 = ok2[bn]
         rows.append(bn[keep2])
         cols.append(bf[keep2])
-        vals.append(w2[keep2])
+        for k in range(3):
+            vals[k].append(w2[k][keep2])
         worst = np.setdiff1d(bad, bn[keep2])
         if worst.size:  # collinear even so: plain average of the faces around the node
             sel = np.isin(nodes, worst)
             cnt = np.bincount(nodes[sel], minlength=nn)
             rows.append(nodes[sel])
             cols.append(faces[sel])
-            vals.append(1.0 / cnt[nodes[sel]])
-    P = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                      shape=(nn, nf))
-    P.sum_duplicates()
-    return P
+            vals[0].append(1.0 / cnt[nodes[sel]])
+            vals[1].append(np.zeros(sel.sum()))
+            vals[2].append(np.zeros(sel.sum()))
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    ops = []
+    for k in range(3):
+        P = sp.csr_matrix((np.concatenate(vals[k]), (r, c)), shape=(nn, nf))
+        P.sum_duplicates()
+        ops.append(P)
+    return tuple(ops)
 
 
 # --------------------------------------------------------------------- readers

@@ -45,6 +45,14 @@ def test_sampling_is_continuous_across_edges(malpasset_mesh, rng):
     b = f.sample(xm + eps * n[:, 0], ym + eps * n[:, 1], 0.0)
     assert np.max(np.abs(a.u - b.u)) < 1e-6
     assert np.all(a.face != b.face)  # the two samples are on either side of the edge
+    # the recovered velocity gradient is continuous too; the P1 interpolant's is not
+    assert np.max(np.abs(a.jacobian - b.jacobian)) < 1e-6
+    f.gradient = "p1"
+    f._snap.clear()
+    f._pair = None
+    a = f.sample(xm - eps * n[:, 0], ym - eps * n[:, 1], 0.0)
+    b = f.sample(xm + eps * n[:, 0], ym + eps * n[:, 1], 0.0)
+    assert np.max(np.abs(a.jacobian - b.jacobian)) > 1e-4
 
 
 def test_time_interpolation_and_bounds(mixed_mesh):
