@@ -128,7 +128,8 @@ def stiff_figure(plt):
     trace("rk4", StepOptions(drag_fraction=0.01), "reference (RK4, tau_D / 100)")
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for (label, (t, u, err, n)), style in zip(curves.items(), ["o-", "s-", "d-", "k-"]):
-        lab = f"{label}: {n} steps" + (f", stops ({err})" if err else "")
+        lab = f"{label}: {n} steps" + (f", diverges (u_b = {u[-1]:.3g} m/s after {len(u)} "
+                                       f"step), stops with {err}" if err else "")
         ax.plot(np.concatenate([[0], t]), np.concatenate([[0], u]), style, ms=4, lw=1.2,
                 label=lab)
     ax.set_ylim(-0.2, 0.6)
