@@ -112,7 +112,8 @@ def _contact_model(scen, flow):
     return ContactModel.from_scenario(scen, mesh=getattr(flow, "mesh", None))
 
 
-def track(scenario, flow=None, output=None, progress=False, overrides=None) -> TrackResult:
+def track(scenario, flow=None, output=None, progress=False, overrides=None,
+          resume=False) -> TrackResult:
     """Run the debris scenario: flow (given, or from the scenario), logs, tracker, outputs.
 
     Parameters
@@ -122,6 +123,9 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None) -> T
         Use this flow instead of the scenario's [flow] source (e.g. to compare sources).
     output : path, optional
         Trajectory file (default: the scenario's output.path).
+    resume : bool
+        Continue a stopped run from its ``.partial`` file (its last record) instead of
+        starting afresh; the result is the same as an uninterrupted run.
     """
     scen = as_scenario(scenario, overrides)
     if flow is None:
@@ -140,15 +144,23 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None) -> T
                  integrator=scen["integrator"]["method"],
                  flow_source=getattr(flow, "name", str(flow)))
     names = getattr(contact, "obstacle_names", ()) if contact is not None else ()
+    partial = out.with_name(out.name + ".partial")
+    resume = resume and partial.is_file()
     writer = TrajectoryWriter(out, logs, attrs=attrs,
                               flush_interval=scen["output"]["flush_interval"],
-                              obstacle_names=names)
+                              obstacle_names=names, resume=resume)
     initial = np.array([scen["logs"][g]["velocity"] for g in logs.group])
     tracker = Tracker(flow, logs, physics, method=scen["integrator"]["method"],
                       step=StepOptions.from_scenario(scen["integrator"]), contact=contact,
                       t_start=tm["start"], t_end=tm["end"], output_interval=tm["output_interval"],
                       hydro_step=tm["hydro_step"], writer=writer, progress=progress,
                       initial_velocity=initial)
+    if resume:
+        from driftlog.trajectory import last_states
+
+        state = last_states(partial)
+        if state is not None:
+            tracker.resume_from(*state)
     try:
         tracker.run()
     except BaseException:

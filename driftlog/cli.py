@@ -192,6 +192,8 @@ def add_track(sub):
     p.add_argument("scenario", help="scenario file or case name")
     p.add_argument("-o", "--output", help="trajectory file (default: the scenario's output.path)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--resume", action="store_true",
+                   help="continue a stopped run from its .partial file")
     _add_set(p)
     p.set_defaults(run=cmd_track)
 
@@ -201,7 +203,7 @@ def cmd_track(args):
 
     path, _ = _scenario_path(args.scenario)
     res = track(as_scenario(path, _overrides(args.set)), output=args.output,
-                progress=not args.quiet)
+                progress=not args.quiet, resume=args.resume)
     print(f"trajectories: {res.path}")
     for f in res.extra_files:
         print(f"ParaView: {f}")

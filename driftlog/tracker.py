@@ -153,7 +153,9 @@ class Tracker:
                           rejected=0, wall_seconds=0.0)
         self._recorded_left = np.zeros(len(logs), dtype=bool)
         self._next_release = -np.inf
+        self._resumed = False
         self._set_active(np.empty(0, dtype=np.int64))
+        self._t_start = self.t
         self._stops = self._landing_times()
 
     # ----------------------------------------------------------------- compact arrays
@@ -327,9 +329,30 @@ class Tracker:
         self._set_active(np.flatnonzero(L.status == FLOATING))
         return True
 
+    def resume_from(self, t, index, columns):
+        """Restart from a stopped run's last records (``trajectory.last_states``).
+
+        The logs take their recorded state and status; logs never recorded are still waiting;
+        time restarts at ``t`` (an output time, where a sub-step always ends), so the resumed
+        run continues exactly as the uninterrupted one would have.
+        """
+        L = self.logs
+        for k, name in enumerate(("x", "y", "theta", "u", "v", "omega")):
+            L.state[index, k] = columns[name]
+        L.status[index] = columns["status"]
+        self._recorded_left[index[columns["status"] == LEFT]] = True
+        self.t = float(t)
+        self._resumed = True
+        self._stops = self._landing_times(self._t_start)
+        self._set_active(np.flatnonzero(L.status == FLOATING))
+
     # ----------------------------------------------------------------- landing times
-    def _landing_times(self):
-        t0, t1 = self.t, self.t_end
+    def _landing_times(self, t_origin=None):
+        """Sub-step ends: hydrodynamic steps, output times, releases, the end (after self.t).
+
+        Output times are counted from ``t_origin`` (the run's start, also when resuming).
+        """
+        t0, t1 = (self.t if t_origin is None else t_origin), self.t_end
         hydro = np.asarray(self.flow.times, float)
         self._steady = hydro.size <= 1
         if hydro.size <= 1:
@@ -340,7 +363,7 @@ class Tracker:
         self._outputs = np.unique(np.append(outs, t1))
         rel = self.logs.release_time
         stops = np.concatenate([hydro, self._outputs, rel, [t1]])
-        stops = np.unique(stops[(stops > t0) & (stops <= t1)])
+        stops = np.unique(stops[(stops > self.t) & (stops <= t1)])
         # merge stops closer than round-off
         keep = np.ones(stops.size, bool)
         keep[1:] = np.diff(stops) > 1e-9 * max(1.0, abs(t1))
@@ -379,8 +402,9 @@ class Tracker:
         self._first_check = True
         self._release()
         self._update_status()
-        self._record()
-        out_i = 1
+        if not self._resumed:
+            self._record()
+        out_i = int(np.searchsorted(self._outputs, self.t + 1e-9))
         so = self.step_options
         try:
             for stop in self._stops:

@@ -26,7 +26,7 @@ from driftlog._version import __version__
 from driftlog.flowfile import TIME_UNITS, _attrs_for_netcdf
 from driftlog.logs import STATUS_MEANINGS
 
-__all__ = ["TrajectoryWriter", "open_trajectories", "write_vtk", "last_record"]
+__all__ = ["TrajectoryWriter", "open_trajectories", "write_vtk", "last_states"]
 
 OBS_VARS = {
     "x": ("f8", dict(standard_name="projection_x_coordinate", long_name="x of the log centre",
@@ -237,20 +237,23 @@ def open_trajectories(path):
     return ds
 
 
-def last_record(path):
-    """Time and per-log state of the last complete record of a partial file (for resuming)."""
+def last_states(path):
+    """Where a stopped run can resume: the time of its last record and each log's last state.
+
+    Returns (time, index, columns) with the last observation of every log that has one (logs
+    that left the domain earlier keep their last, 'left_domain', observation), or None if the
+    file holds no record.
+    """
     with netCDF4.Dataset(path) as ds:
         ds.set_auto_mask(False)
         t = ds["time"][:]
         if t.size == 0:
             return None
-        tlast = t.max()
-        sel = np.flatnonzero(t == tlast)
-        out = {"time": float(tlast), "index": ds["trajectory_index"][sel]}
-        for name in OBS_VARS:
-            out[name] = ds[name][sel]
-        out["nobs"] = t.size
-        return out
+        ti = ds["trajectory_index"][:]
+        order = np.lexsort((t, ti))
+        last = order[np.flatnonzero(np.diff(np.append(ti[order], -1)) != 0)]
+        cols = {name: ds[name][:][last] for name in OBS_VARS}
+        return float(t.max()), ti[last], cols
 
 
 def write_vtk(path, out_dir=None, every=1):

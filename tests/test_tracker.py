@@ -222,3 +222,49 @@ def test_crash_keeps_what_was_computed(tmp_path):
                 writer=w).run()
     ds = open_trajectories(tmp_path / "c.nc")  # the .partial file
     assert ds["time"].values.tolist() == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+
+
+def test_resume_after_a_crash_equals_the_uninterrupted_run(tmp_path):
+    scen = """
+[flow]
+source = "analytic"
+kind = "free_vortex"
+circulation = 4.0
+core_radius = 0.5
+[time]
+end = 20.0
+output_interval = 1.0
+[[logs]]
+seeding = "line"
+start = [1.0, 0.0]
+end = [3.0, 0.0]
+count = 3
+length = 0.4
+radius = 0.05
+density = 800.0
+release_time = 2.5
+[output]
+flush_interval = 1
+"""
+    from driftlog.scenario import load_scenario
+    from driftlog.sources import flow_from_scenario
+
+    full = track(scen, output=tmp_path / "full.nc").dataset()
+    flow = flow_from_scenario(load_scenario(scen))
+
+    class Breaks(type(flow)):
+        def sample_into(self, x, y, t, face, out, flag):
+            if t > 11.3:
+                raise KeyboardInterrupt
+            super().sample_into(x, y, t, face, out, flag)
+
+    broken = Breaks.__new__(Breaks)
+    broken.__dict__.update(flow.__dict__)
+    with pytest.raises(KeyboardInterrupt):
+        track(scen, flow=broken, output=tmp_path / "r.nc")
+    assert (tmp_path / "r.nc.partial").is_file() and not (tmp_path / "r.nc").exists()
+    res = track(scen, output=tmp_path / "r.nc", resume=True)
+    again = res.dataset()
+    np.testing.assert_array_equal(again["time"].values, full["time"].values)
+    np.testing.assert_array_equal(again["x"].values, full["x"].values)
+    np.testing.assert_array_equal(again["theta"].values, full["theta"].values)
