@@ -426,6 +426,31 @@ def cmd_compare(args):
     return 0
 
 
+# --------------------------------------------------------------------- report
+@command
+def add_report(sub):
+    p = _sub(sub, "report", "re-create the validation and benchmark results (tables, figures) "
+             "that the README shows", "driftlog report --quick\n  driftlog report --only "
+             "integrators sampling")
+    p.add_argument("--only", nargs="+", metavar="ITEM", help="run only these items")
+    p.add_argument("--quick", action="store_true", help="reduced sizes (minutes, not hours)")
+    p.add_argument("--list", action="store_true", help="list the items")
+    p.set_defaults(run=cmd_report)
+
+
+def cmd_report(args):
+    from driftlog.report import ITEMS, benchmarks_dir, run_report
+
+    if args.list:
+        for name, script, _, what in ITEMS:
+            there = (benchmarks_dir() / script).is_file()
+            print(f"{name:<12} {script:<28} {what}{'' if there else ' (script missing)'}")
+        return 0
+    status = run_report(args.only, args.quick)
+    print(f"report: {benchmarks_dir() / 'results' / 'REPORT.md'}")
+    return 0 if all(s.startswith(("ok", "skipped")) for s in status.values()) else 1
+
+
 # --------------------------------------------------------------------- entry point
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
