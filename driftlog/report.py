@@ -31,7 +31,8 @@ ITEMS = [
     ("solver", "solver_throughput.py", ["--quick"], "solver throughput and peers"),
     ("contact", "contact_benchmark.py", ["--quick"], "contact detection and contact times"),
     ("ensemble", "ensemble_benchmark.py", ["--quick"], "ensembles on Dask: members per minute"),
-    ("import", "import_benchmark.py", ["--quick"], "importing flows from other models"),
+    ("import", "import_benchmark.py", ["--snapshots", "10", "--skip-openfoam"],
+     "importing flows from other models"),
 ]
 
 
