@@ -192,25 +192,6 @@ def import_flow(source, output, kind="auto", compress=True, progress=None, keep_
 
 
 def checked_snapshot(field, i):
-    """Snapshot i of a field's source as face arrays (h, hu, hv), checked.
-
-    Checked as the sampler checks them (sizes, finite values, no negative depth), without the
-    node interpolation.
-    """
-    import numpy as np
-
-    h, hu, hv = (np.ascontiguousarray(a, dtype=np.float64) for a in field.source.read(i))
-    nf = field.mesh.n_faces
-    for arr, nm in ((h, "h"), (hu, "hu"), (hv, "hv")):
-        if arr.shape != (nf,):
-            raise FlowFileError(f"{field.name}: snapshot {i} {nm} has shape {arr.shape}, the "
-                                f"mesh has {nf} faces")
-        if not np.all(np.isfinite(arr)):
-            bad = np.flatnonzero(~np.isfinite(arr))
-            raise FlowFileError(f"{field.name}: snapshot {i} (t = {field.times[i]} s): "
-                                f"{bad.size} non-finite {nm} values, first at faces "
-                                f"{bad[:5].tolist()}")
-    if np.any(h < 0):
-        raise FlowFileError(f"{field.name}: snapshot {i}: negative depth at faces "
-                            f"{np.flatnonzero(h < 0)[:5].tolist()}")
-    return h, hu, hv
+    """Snapshot i of a field's source as face arrays (h, hu, hv), checked as the sampler checks
+    them (sizes, finite values, no negative depth), without the node interpolation."""
+    return field.read_snapshot(i)

@@ -330,10 +330,9 @@ class MeshFlowField(FlowField):
         safe = np.where(wet, h, 1.0)
         return np.where(wet, hu / safe, 0.0), np.where(wet, hv / safe, 0.0)
 
-    def _load(self, i):
-        if i in self._snap:
-            self._snap.move_to_end(i)
-            return self._snap[i]
+    def read_snapshot(self, i):
+        """Snapshot i from the source as face arrays (h, hu, hv), checked: sizes, finite values,
+        no negative depth (no node interpolation, no caching)."""
         h, hu, hv = (np.ascontiguousarray(a, dtype=np.float64) for a in self.source.read(i))
         nf = self.mesh.n_faces
         for arr, nm in ((h, "h"), (hu, "hu"), (hv, "hv")):
@@ -349,6 +348,13 @@ class MeshFlowField(FlowField):
             bad = np.flatnonzero(h < 0)
             raise FlowFileError(f"{self.name}: snapshot {i}: negative depth at faces "
                                 f"{bad[:5].tolist()} (min {h.min()})")
+        return h, hu, hv
+
+    def _load(self, i):
+        if i in self._snap:
+            self._snap.move_to_end(i)
+            return self._snap[i]
+        h, hu, hv = self.read_snapshot(i)
         P, Px, Py = self.mesh.node_operators()
         u, v = self._velocity(h, hu, hv)
         nodes = np.empty((self.mesh.n_nodes, NQ))
