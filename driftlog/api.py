@@ -112,7 +112,8 @@ def _contact_model(scen, flow):
     return ContactModel.from_scenario(scen, mesh=getattr(flow, "mesh", None))
 
 
-def track(scenario, flow=None, output=None, progress=False, overrides=None) -> TrackResult:
+def track(scenario, flow=None, output=None, progress=False, overrides=None,
+          writer=None) -> TrackResult:
     """Run the debris scenario: flow (given, or from the scenario), logs, tracker, outputs.
 
     Parameters
@@ -122,6 +123,11 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None) -> T
         Use this flow instead of the scenario's [flow] source (e.g. to compare sources).
     output : path, optional
         Trajectory file (default: the scenario's output.path).
+    writer : callable, optional
+        ``writer(path, logs, attrs=, flush_interval=, obstacle_names=)`` returning an object
+        with the ``TrajectoryWriter`` interface (``record``, ``hits``, ``flush``, ``set_attrs``,
+        ``close``); default ``TrajectoryWriter``.  Ensembles pass a recorder that reduces the
+        records as they come instead of (or beside) writing them.
     """
     scen = as_scenario(scenario, overrides)
     if flow is None:
@@ -140,9 +146,9 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None) -> T
                  integrator=scen["integrator"]["method"],
                  flow_source=getattr(flow, "name", str(flow)))
     names = getattr(contact, "obstacle_names", ()) if contact is not None else ()
-    writer = TrajectoryWriter(out, logs, attrs=attrs,
-                              flush_interval=scen["output"]["flush_interval"],
-                              obstacle_names=names)
+    writer = (writer or TrajectoryWriter)(out, logs, attrs=attrs,
+                                          flush_interval=scen["output"]["flush_interval"],
+                                          obstacle_names=names)
     initial = np.array([scen["logs"][g]["velocity"] for g in logs.group])
     tracker = Tracker(flow, logs, physics, method=scen["integrator"]["method"],
                       step=StepOptions.from_scenario(scen["integrator"]), contact=contact,
