@@ -103,6 +103,17 @@ def test_monte_carlo_member_depends_on_seed_and_index_alone(tmp_path, flow_file)
     s7, s8 = a.member_scenario(7), a.member_scenario(8)
     assert s7["logs"][0]["seed"] != s8["logs"][0]["seed"]
     assert b.member_scenario(7).to_json() == s7.to_json()
+    # restitution (eps), radius and density vary like any key of their section
+    e = load_ensemble(ensemble_text(flow_file, tmp_path, members=3, vary="""
+"contact.restitution" = { uniform = [0.2, 0.6] }
+"logs.radius" = { values = [0.05, 0.2] }
+"logs.density" = { range = [500.0, 900.0, 200.0] }
+"""))
+    for i, p in enumerate(e.sample(range(3))):
+        s = e.member_scenario(i)
+        assert 0.2 <= s["contact"]["restitution"] == p["contact.restitution"] <= 0.6
+        assert s["logs"][0]["radius"] == p["logs.radius"] in (0.05, 0.2)
+        assert s["logs"][0]["density"] == p["logs.density"] in (500.0, 700.0, 900.0)
 
 
 def test_latin_hypercube_is_stratified_and_grid_is_every_combination(tmp_path, flow_file):
@@ -161,6 +172,7 @@ def test_distributions(tmp_path, flow_file):
     ('"physics.level" = { values = ["tracer"], weights = [1, 2] }', "", "weights",
      "list of 1"),
     ('"logs.length" = { range = [1, 0.5, 0.1] }', "", "range", "stop >= start"),
+    ('"contact.restitution" = { uniform = [0.5, 1.5] }', "", "uniform", "must be <= 1.0"),
 ])
 def test_bad_ensemble_config_names_key_value_and_rule(tmp_path, flow_file, vary, extra, key,
                                                       words):

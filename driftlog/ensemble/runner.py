@@ -408,8 +408,8 @@ def run_ensemble(ensemble, workers=None, scheduler=None, client=None, resume=Fal
                     (failed_dir / f"member_{i:06d}.json").unlink(missing_ok=True)
                     agg.add(summary)
                     ran.append(i)
-                    if "first_result_seconds" not in timings:
-                        timings["first_result_seconds"] = time.perf_counter() - started
+                    timings.setdefault("first_result_seconds", time.perf_counter() - started)
+                    timings["last_result_seconds"] = time.perf_counter() - started
                 else:
                     exc, tb = error
                     msg = (f"member {i} failed ({describe_parameters(params[i])}): "
@@ -441,6 +441,10 @@ def run_ensemble(ensemble, workers=None, scheduler=None, client=None, resume=Fal
         timings["wall_seconds"] = time.perf_counter() - started
         if ran and timings.get("run_seconds"):
             timings["members_per_minute"] = 60.0 * len(ran) / timings["run_seconds"]
+        if len(ran) > 1 and timings["last_result_seconds"] > timings["first_result_seconds"]:
+            # after the first result: workers warm (imports, numba cache, flow opened)
+            timings["steady_members_per_minute"] = 60.0 * (len(ran) - 1) / (
+                timings["last_result_seconds"] - timings["first_result_seconds"])
         agg.to_netcdf(agg_path, dict(attrs, interrupted=int(interrupted)), table)
         manifest.update(done=agg.done, failed=agg.failed, timings=timings,
                         updated=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"))
