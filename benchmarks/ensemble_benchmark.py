@@ -18,8 +18,9 @@ Each configuration runs the whole ensemble afresh on a LocalCluster of n worker 
 start the cluster, the time from the call to the first finished member (cluster start
 included), members per minute over the run (first submission to last result, cluster start
 excluded), the same after the first result (steady: every worker has imported driftlog,
-loaded the compiled kernels and opened the flow), and the scaling efficiency
-rate(n) / (n rate(1)) of each.  Results:
+loaded the compiled kernels and opened the flow), the scaling efficiency
+rate(n) / (n rate(1)) of each, and the mean wall and CPU time of a member inside its task
+(wall above CPU: the worker waited for a core, on a machine shared with other jobs).  Results:
 benchmarks/results/ensemble.json and ensemble.md.
 """
 
@@ -190,7 +191,8 @@ def main(argv=None):
         res = run_ensemble(ens, workers=n, output=folder / f"run_w{n}", overwrite=True,
                            progress=False, figures=False)
         tm = res.timings
-        wall = res.dataset()["member_wall_seconds"].values
+        ds = res.dataset()
+        wall, cpu = ds["member_wall_seconds"].values, ds["member_cpu_seconds"].values
         rows.append(dict(workers=n, members=res.done, failed=len(res.failed),
                          cluster_start_s=round(tm["start_seconds"], 2),
                          first_result_s=round(tm["first_result_seconds"], 2),
@@ -198,7 +200,8 @@ def main(argv=None):
                          members_per_minute=round(tm["members_per_minute"], 1),
                          steady_members_per_minute=round(
                              tm.get("steady_members_per_minute", np.nan), 1),
-                         member_compute_s=round(float(np.nanmean(wall)), 3),
+                         member_wall_s=round(float(np.nanmean(wall)), 3),
+                         member_cpu_s=round(float(np.nanmean(cpu)), 3),
                          total_wall_s=round(tm["wall_seconds"], 2)))
         print(rows[-1])
     r1 = next((r for r in rows if r["workers"] == 1), None)
@@ -219,7 +222,7 @@ def main(argv=None):
     (RESULTS / f"{args.name}.json").write_text(json.dumps(info, indent=1))
     cols = ["workers", "members", "cluster_start_s", "first_result_s", "run_s",
             "members_per_minute", "scaling_efficiency", "steady_members_per_minute",
-            "steady_scaling_efficiency", "member_compute_s"]
+            "steady_scaling_efficiency", "member_wall_s", "member_cpu_s"]
     lines = [f"Scene: {label}; {args.members} members ({logs} logs in all), "
              f"{info['sampling']} over {', '.join(info['parameters'])}; maps on "
              f"{info['aggregation_faces']} faces.  Measured on {info['machine']}.", "",

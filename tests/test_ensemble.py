@@ -523,7 +523,7 @@ def test_resume_after_the_process_is_killed(tmp_path, flow_file):
                              "--no-figures"], env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE)
     members = tmp_path / "out" / "members"
-    deadline = time.time() + 40
+    deadline = time.time() + 120  # a cold numba cache compiles first
     while time.time() < deadline and proc.poll() is None:
         if members.is_dir() and len(list(members.glob("member_*.npz"))) >= 2:
             break

@@ -145,6 +145,7 @@ class Aggregate:
         self.member_logs = np.zeros(n, np.int64)
         self.member_status = np.zeros((n, 5), np.int64)
         self.member_wall = np.full(n, np.nan)
+        self.member_cpu = np.full(n, np.nan)
         self.member_physics = np.full(n, "", dtype=object)
         self.member_hits: dict[int, np.ndarray] = {}
         self.member_error: dict[int, str] = {}
@@ -193,6 +194,7 @@ class Aggregate:
         self.member_logs[i] = s.n_logs
         self.member_status[i] = s.status_counts
         self.member_wall[i] = s.info.get("wall_seconds", np.nan)
+        self.member_cpu[i] = s.info.get("cpu_seconds", np.nan)
         self.member_physics[i] = s.info.get("physics_level", "")
         self.member_hits[i] = np.zeros(len(self.obstacle_names), np.int64)
         self.member_hits[i][k] = h
@@ -363,6 +365,10 @@ class Aggregate:
         v = ds.createVariable("member_wall_seconds", "f8", ("member",))
         v.setncatts(dict(long_name="wall time of the member's run", units="s"))
         v[:] = self.member_wall
+        v = ds.createVariable("member_cpu_seconds", "f8", ("member",))
+        v.setncatts(dict(long_name="CPU time of the member's run (its worker process)",
+                         units="s"))
+        v[:] = self.member_cpu
         v = ds.createVariable("member_physics_level", str, ("member",))
         v.long_name = "physics level the member ran with (auto resolved)"
         for i in np.flatnonzero(self.member_state == 1):

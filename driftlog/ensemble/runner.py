@@ -96,7 +96,7 @@ def run_member_task(base: dict, member: int, overrides: dict, parameters: dict,
     from driftlog.scenario import load_scenario, merge
     from driftlog.trajectory import TrajectoryWriter
 
-    wall = time.perf_counter()
+    wall, cpu = time.perf_counter(), time.process_time()
     scen = load_scenario(merge(base, overrides))
     flow, mesh = _worker_flow(scen["flow"], options.get("grid"))
     keep = options.get("trajectories")
@@ -117,7 +117,8 @@ def run_member_task(base: dict, member: int, overrides: dict, parameters: dict,
     res = track(scen, flow=flow, output=out, writer=writer)
     info = dict(physics_level=res.physics["level"], rotation=bool(res.physics["rotation"]),
                 substeps=int(res.stats["substeps"]),
-                wall_seconds=time.perf_counter() - wall, driftlog_version=__version__,
+                wall_seconds=time.perf_counter() - wall,
+                cpu_seconds=time.process_time() - cpu, driftlog_version=__version__,
                 worker_pid=os.getpid())
     return made[0].summary(member, parameters, info)
 

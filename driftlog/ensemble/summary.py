@@ -223,6 +223,8 @@ class MemberSummary:
                                                 "status_counts", "idle_x", "idle_y",
                                                 "idle_status", "idle_face", "obstacle_hits",
                                                 "obstacle_logs")}
+        if self.n_faces < 2**31:  # a quarter smaller on disk
+            arrays["faces"] = arrays["faces"].astype(np.int32)
         meta = dict(member=self.member, n_faces=self.n_faces, n_logs=self.n_logs,
                     obstacle_names=list(self.obstacle_names), log_log_hits=self.log_log_hits,
                     parameters=self.parameters, info=self.info)
@@ -239,6 +241,7 @@ class MemberSummary:
         with np.load(path, allow_pickle=False) as z:
             meta = json.loads(str(z["meta"]))
             arrays = {k: z[k] for k in z.files if k != "meta"}
+        arrays["faces"] = arrays["faces"].astype(np.int64)
         return cls(**meta, **arrays)
 
 
