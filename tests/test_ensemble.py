@@ -560,6 +560,24 @@ def test_member_reproducible_and_cli(tmp_path, flow_file, capsys):
     assert "--resume" in capsys.readouterr().err
 
 
+def test_kept_trajectory_files_summarize_to_the_member(tmp_path, flow_file):
+    f = write_ensemble(tmp_path, flow_file, members=2,
+                       extra="workers = 0\nkeep_trajectories = true")
+    res = run_ensemble(f, progress=False, figures=False)
+    import xarray as xr
+
+    mesh = res.aggregate.mesh
+    for i in range(2):
+        path = res.output / "trajectories" / f"member_{i:06d}.nc"
+        with xr.open_dataset(path) as ds:
+            assert ds.attrs["ensemble_member"] == i
+            assert json.loads(ds.attrs["ensemble_parameters"]) == \
+                load_ensemble(f).parameters_of(i)
+        a, b = open_member(res.output, i), summarize_trajectories(path, mesh, i)
+        for k in ("faces", "face_logs", "face_arrival", "status_counts", "idle_face"):
+            np.testing.assert_array_equal(getattr(a, k), getattr(b, k), err_msg=k)
+
+
 def test_analytic_flow_needs_an_aggregation_grid(tmp_path):
     text = """
 [flow]

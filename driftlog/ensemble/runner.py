@@ -72,7 +72,11 @@ def _worker_flow(flow_section: dict, grid: dict | None):
     Keyed by thread too: a MeshFlowField holds the snapshot pair it last read, so threads of
     one process (``processes=False``) each get their own.
     """
-    key = (json.dumps(flow_section, sort_keys=True), json.dumps(grid, sort_keys=True),
+    stamp = None
+    if flow_section.get("path") and os.path.exists(flow_section["path"]):
+        st = os.stat(flow_section["path"])  # a file rewritten in place is opened again
+        stamp = (st.st_mtime_ns, st.st_size)
+    key = (json.dumps(flow_section, sort_keys=True), json.dumps(grid, sort_keys=True), stamp,
            threading.get_ident())
     with _FLOWS_LOCK:
         if key in _FLOWS:

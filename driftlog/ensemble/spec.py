@@ -419,8 +419,11 @@ class Ensemble:
             if self._design is None:
                 from scipy.stats import qmc
 
-                self._design = (qmc.LatinHypercube(d=d, rng=self.seed).random(self.members)
-                                if d else np.zeros((self.members, 0)))
+                try:
+                    lhs = qmc.LatinHypercube(d=max(d, 1), rng=self.seed)
+                except TypeError:  # scipy < 1.15 names it seed
+                    lhs = qmc.LatinHypercube(d=max(d, 1), seed=self.seed)
+                self._design = lhs.random(self.members)[:, :d]
             return self._design[i]
         shape = [len(p.choices) for p in self.parameters]
         idx = np.unravel_index(int(i), shape) if shape else ()
@@ -482,6 +485,7 @@ class Ensemble:
             else:
                 out.setdefault(p.section, {})[p.key] = v
         out["logs"] = logs
+        out["output"] = {"vtk": False}  # members write no side files
         return out
 
     def member_scenario(self, i: int, base: dict | None = None) -> Scenario:
