@@ -113,7 +113,7 @@ def _contact_model(scen, flow):
 
 
 def track(scenario, flow=None, output=None, progress=False, overrides=None,
-          resume=False) -> TrackResult:
+          resume=False, writer=None) -> TrackResult:
     """Run the debris scenario: flow (given, or from the scenario), logs, tracker, outputs.
 
     Parameters
@@ -126,6 +126,11 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     resume : bool
         Continue a stopped run from its ``.partial`` file (its last record) instead of
         starting afresh; the result is the same as an uninterrupted run.
+    writer : callable, optional
+        ``writer(path, logs, attrs=, flush_interval=, obstacle_names=)`` returning an object
+        with the ``TrajectoryWriter`` interface (``record``, ``hits``, ``flush``, ``set_attrs``,
+        ``close``); default ``TrajectoryWriter``.  Ensembles pass a recorder that reduces the
+        records as they come instead of (or beside) writing them.
     """
     scen = as_scenario(scenario, overrides)
     if flow is None:
@@ -145,10 +150,11 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
                  flow_source=getattr(flow, "name", str(flow)))
     names = getattr(contact, "obstacle_names", ()) if contact is not None else ()
     partial = out.with_name(out.name + ".partial")
-    resume = resume and partial.is_file()
-    writer = TrajectoryWriter(out, logs, attrs=attrs,
-                              flush_interval=scen["output"]["flush_interval"],
-                              obstacle_names=names, resume=resume)
+    resume = resume and writer is None and partial.is_file()
+    kw = dict(resume=True) if resume else {}
+    writer = (writer or TrajectoryWriter)(out, logs, attrs=attrs,
+                                          flush_interval=scen["output"]["flush_interval"],
+                                          obstacle_names=names, **kw)
     initial = np.array([scen["logs"][g]["velocity"] for g in logs.group])
     tracker = Tracker(flow, logs, physics, method=scen["integrator"]["method"],
                       step=StepOptions.from_scenario(scen["integrator"]), contact=contact,

@@ -32,7 +32,8 @@ from driftlog.errors import FlowFileError, MeshError
 from driftlog.flow import MeshFlowField, check_times
 from driftlog.mesh import Mesh, read_ugrid_mesh
 
-__all__ = ["FlowFileWriter", "write_flow", "open_flow", "NetCDFSnapshots", "TIME_UNITS"]
+__all__ = ["FlowFileWriter", "write_flow", "open_flow", "NetCDFSnapshots", "TIME_UNITS",
+           "write_mesh"]
 
 TIME_UNITS = "seconds since 2000-01-01 00:00:00"
 FACE_DIM, NODE_DIM, EDGE_DIM, MAXN_DIM = ("mesh2d_nFaces", "mesh2d_nNodes", "mesh2d_nEdges",
@@ -59,6 +60,51 @@ def _attrs_for_netcdf(attrs):
         else:
             out[k] = str(v)
     return out
+
+
+def write_mesh(ds, mesh: Mesh) -> None:
+    """Write the UGRID-1.0 topology of ``mesh`` into an open netCDF4 Dataset.
+
+    The ``mesh2d`` variable, node and face coordinates, face-node and edge-node tables and the
+    boundary tags; used by flow files and by other outputs on the flow mesh (ensembles).
+    """
+    ds.createDimension(NODE_DIM, mesh.n_nodes)
+    ds.createDimension(FACE_DIM, mesh.n_faces)
+    ds.createDimension(EDGE_DIM, mesh.n_edges)
+    ds.createDimension(MAXN_DIM, mesh.max_face_nodes)
+    ds.createDimension("Two", 2)
+    topo = ds.createVariable("mesh2d", "i4")
+    topo.setncatts(dict(
+        cf_role="mesh_topology", long_name="topology of the 2D mesh", topology_dimension=2,
+        node_coordinates="mesh2d_node_x mesh2d_node_y",
+        face_node_connectivity="mesh2d_face_nodes",
+        face_coordinates="mesh2d_face_x mesh2d_face_y",
+        edge_node_connectivity="mesh2d_edge_nodes",
+        face_dimension=FACE_DIM, edge_dimension=EDGE_DIM, max_face_nodes_dimension=MAXN_DIM))
+    for axis, arr, dim in (("x", mesh.node_x, NODE_DIM), ("y", mesh.node_y, NODE_DIM),
+                           ("x", mesh.face_x, FACE_DIM), ("y", mesh.face_y, FACE_DIM)):
+        loc = "node" if dim == NODE_DIM else "face"
+        v = ds.createVariable(f"mesh2d_{loc}_{axis}", "f8", (dim,))
+        v.setncatts(dict(standard_name=f"projection_{axis}_coordinate", units="m",
+                         long_name=f"{axis} coordinate of mesh {loc}s"))
+        v[:] = arr
+    fn = ds.createVariable("mesh2d_face_nodes", "i4", (FACE_DIM, MAXN_DIM), fill_value=-1)
+    fn.setncatts(dict(cf_role="face_node_connectivity", start_index=0,
+                      long_name="nodes of each face, counter-clockwise"))
+    fn[:] = mesh.face_nodes
+    en = ds.createVariable("mesh2d_edge_nodes", "i4", (EDGE_DIM, "Two"))
+    en.setncatts(dict(cf_role="edge_node_connectivity", start_index=0))
+    en[:] = mesh.edge_nodes
+    et = ds.createVariable("mesh2d_edge_type", "i2", (EDGE_DIM,))
+    et.setncatts(dict(mesh="mesh2d", location="edge", long_name="boundary tag of each edge",
+                      flag_values=np.arange(-1, len(mesh.tag_names), dtype=np.int16),
+                      flag_meanings=" ".join(["interior"] + mesh.tag_names)))
+    et[:] = mesh.edge_tag
+    if mesh.node_z is not None:
+        nz = ds.createVariable("mesh2d_node_z", "f8", (NODE_DIM,))
+        nz.setncatts(dict(mesh="mesh2d", location="node", standard_name="altitude",
+                          long_name="bed elevation at nodes", units="m"))
+        nz[:] = mesh.node_z
 
 
 class FlowFileWriter:
@@ -95,44 +141,8 @@ class FlowFileWriter:
         ds.driftlog_version = __version__
         ds.history = f"{_dt.datetime.now(_dt.UTC).isoformat(timespec='seconds')} driftlog {__version__}"
         ds.setncatts(_attrs_for_netcdf({k: v for k, v in (attrs or {}).items() if k != "title"}))
-        ds.createDimension(NODE_DIM, mesh.n_nodes)
-        ds.createDimension(FACE_DIM, mesh.n_faces)
-        ds.createDimension(EDGE_DIM, mesh.n_edges)
-        ds.createDimension(MAXN_DIM, mesh.max_face_nodes)
-        ds.createDimension("Two", 2)
+        write_mesh(ds, mesh)
         ds.createDimension("time", None)
-        topo = ds.createVariable("mesh2d", "i4")
-        topo.setncatts(dict(
-            cf_role="mesh_topology", long_name="topology of the 2D mesh", topology_dimension=2,
-            node_coordinates="mesh2d_node_x mesh2d_node_y",
-            face_node_connectivity="mesh2d_face_nodes",
-            face_coordinates="mesh2d_face_x mesh2d_face_y",
-            edge_node_connectivity="mesh2d_edge_nodes",
-            face_dimension=FACE_DIM, edge_dimension=EDGE_DIM, max_face_nodes_dimension=MAXN_DIM))
-        for axis, arr, dim in (("x", mesh.node_x, NODE_DIM), ("y", mesh.node_y, NODE_DIM),
-                               ("x", mesh.face_x, FACE_DIM), ("y", mesh.face_y, FACE_DIM)):
-            loc = "node" if dim == NODE_DIM else "face"
-            v = ds.createVariable(f"mesh2d_{loc}_{axis}", "f8", (dim,))
-            v.setncatts(dict(standard_name=f"projection_{axis}_coordinate", units="m",
-                             long_name=f"{axis} coordinate of mesh {loc}s"))
-            v[:] = arr
-        fn = ds.createVariable("mesh2d_face_nodes", "i4", (FACE_DIM, MAXN_DIM), fill_value=-1)
-        fn.setncatts(dict(cf_role="face_node_connectivity", start_index=0,
-                          long_name="nodes of each face, counter-clockwise"))
-        fn[:] = mesh.face_nodes
-        en = ds.createVariable("mesh2d_edge_nodes", "i4", (EDGE_DIM, "Two"))
-        en.setncatts(dict(cf_role="edge_node_connectivity", start_index=0))
-        en[:] = mesh.edge_nodes
-        et = ds.createVariable("mesh2d_edge_type", "i2", (EDGE_DIM,))
-        et.setncatts(dict(mesh="mesh2d", location="edge", long_name="boundary tag of each edge",
-                          flag_values=np.arange(-1, len(mesh.tag_names), dtype=np.int16),
-                          flag_meanings=" ".join(["interior"] + mesh.tag_names)))
-        et[:] = mesh.edge_tag
-        if mesh.node_z is not None:
-            nz = ds.createVariable("mesh2d_node_z", "f8", (NODE_DIM,))
-            nz.setncatts(dict(mesh="mesh2d", location="node", standard_name="altitude",
-                              long_name="bed elevation at nodes", units="m"))
-            nz[:] = mesh.node_z
         bv = ds.createVariable("bed_level", "f8", (FACE_DIM,))
         bv.setncatts(dict(mesh="mesh2d", location="face", standard_name="altitude",
                           long_name="bed elevation", units="m",

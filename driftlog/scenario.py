@@ -7,7 +7,8 @@ validated scenario (defaults filled in) is written into every output, so a run c
 reproduced from its output alone.
 
 Sections: ``[flow]``, ``[time]``, ``[[logs]]``, ``[physics]``, ``[integrator]``, ``[contact]``,
-``[[obstacles]]``, ``[output]``, and ``[solver]`` for flows computed by driftlog's solver.
+``[[obstacles]]``, ``[output]``, ``[solver]`` for flows computed by driftlog's solver, and
+``[ensemble]`` for ensembles (many members on one flow: ``driftlog.ensemble``).
 """
 
 from __future__ import annotations
@@ -222,28 +223,31 @@ class Scenario:
                 "scenario_path": str(self.path) if self.path else ""}
 
 
+def read_toml(source, what: str = "scenario"):
+    """(raw dict, resolved path or None, text) of a TOML file path, TOML text or a dict."""
+    path, text = None, ""
+    if isinstance(source, dict):
+        return json.loads(json.dumps(source)), None, ""
+    src = str(source)
+    p = Path(src) if ("\n" not in src and len(src) < 4096) else None
+    if p is not None and (p.suffix == ".toml" or p.exists()):
+        if not p.is_file():
+            raise ScenarioError(what, str(p), "file not found")
+        path, text = p.resolve(), p.read_text()
+    else:
+        text = src
+    try:
+        return tomllib.loads(text), path, text
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(what, str(path or "<text>"), f"is not valid TOML: {exc}") from None
+
+
 def load_scenario(source, overrides: dict | None = None) -> Scenario:
     """Read and validate a scenario from a TOML file path, TOML text or a dict.
 
     ``overrides`` is a nested dict merged over the file (used by ensembles and the CLI's --set).
     """
-    path, text = None, ""
-    if isinstance(source, dict):
-        raw = json.loads(json.dumps(source))
-    else:
-        src = str(source)
-        p = Path(src) if ("\n" not in src and len(src) < 4096) else None
-        if p is not None and (p.suffix == ".toml" or p.exists()):
-            if not p.is_file():
-                raise ScenarioError("scenario", str(p), "file not found")
-            path, text = p.resolve(), p.read_text()
-        else:
-            text = str(source)
-        try:
-            raw = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise ScenarioError("scenario", str(path or "<text>"),
-                                f"is not valid TOML: {exc}") from None
+    raw, path, text = read_toml(source)
     if overrides:
         raw = merge(raw, overrides)
     base = path.parent if path else Path.cwd()
@@ -501,3 +505,46 @@ register_section(Section("output", [
     Key("animation", "bool", False, "write an animation (MP4 if ffmpeg is there, else GIF)"),
     Key("flush_interval", "int", 10, "records between flushes to disk", min=1),
 ], doc="what is written"))
+
+
+def _check_ensemble(t, prefix, scen):
+    if not t["vary"] and t["members"] is None:
+        return  # not an ensemble: a plain scenario
+    # the parser of [ensemble.vary] lives with the sampler that uses it
+    from driftlog.ensemble.spec import check_ensemble_section
+
+    check_ensemble_section(t, prefix, scen)
+
+
+register_section(Section("ensemble", [
+    Key("base", "path", "", "base debris scenario; the other sections of this file are merged "
+        "over it (leave empty when this file is the whole scenario)", must_exist=True),
+    Key("members", "int", None, "number of members (for grid sampling: the number of "
+        "combinations, leave it out)", min=1),
+    Key("sampling", "str", "monte_carlo", "how the varied parameters are drawn: independently "
+        "per member (monte_carlo), stratified (latin_hypercube, scipy.stats.qmc), or every "
+        "combination of explicit lists (grid)", choices=("monte_carlo", "latin_hypercube",
+                                                        "grid")),
+    Key("seed", "int", 0, "seed of the sampling: member i is reproducible from the seed and i",
+        min=0),
+    Key("vary", "table", {}, "parameters to vary: \"section.key\" (every [[logs]] group) or "
+        "\"logs[i].key\" = { values | range | uniform | loguniform | normal | lognormal | "
+        "integers = [...] } (see driftlog.ensemble.spec)"),
+    Key("reseed_logs", "bool", True, "give each member's random seeding its own seed, from "
+        "(seed, member, group)"),
+    Key("output", "path", "", "output folder (default: 'ensemble' beside the ensemble file)"),
+    Key("workers", "int", None, "workers of the local Dask cluster (default: the CPU count; "
+        "0: the members one after the other in this process, without Dask)", min=0),
+    Key("scheduler", "str", "", "address of a running Dask scheduler (tcp://host:8786); "
+        "empty: start a LocalCluster"),
+    Key("keep_trajectories", "bool", False, "also write each member's trajectory file "
+        "(output/trajectories/; on a cluster the workers need the shared filesystem)"),
+    Key("confidence", "float", 0.95, "confidence level of the intervals", min=0.5, max=0.9999),
+    Key("grid_cell", "float", None, "aggregate on a regular grid of this cell size instead of "
+        "the flow mesh (required for analytic flows, which have no mesh)", "m", min=0.0,
+        exclusive_min=True),
+    Key("grid_origin", "point", None, "lower-left corner of the aggregation grid", "m"),
+    Key("grid_size", "point", None, "extent of the aggregation grid", "m"),
+    Key("checkpoint_interval", "float", 60.0, "seconds between rewrites of the aggregated "
+        "results while the ensemble runs", "s", min=0.0, exclusive_min=True),
+], doc="ensembles: many members on one flow (driftlog ensemble)", check=_check_ensemble))

@@ -1,0 +1,482 @@
+"""Running an ensemble: members as independent Dask tasks, reduced as they finish, resumable.
+
+Where it runs.  A ``distributed.LocalCluster`` on this machine (``workers`` processes of one
+thread each), or any running scheduler (``scheduler="tcp://host:8786"``); ``workers=0`` runs
+the members one after the other in this process, without Dask.
+
+The flow is never shipped in a task.  A task carries the base scenario (scattered to the
+workers once), the member's overrides and its parameters; each worker opens the flow itself
+(a flow file, or an analytic field) and keeps it in a per-process cache keyed by the [flow]
+section, so a worker opens it once for all its members.  Flows from the solver or imported
+from another model are written once to ``output/flow.nc`` and the workers open that.  On a
+multi-node cluster the flow file's path must be the same on every node (a shared filesystem).
+
+Durable progress.  The client writes each finished member's summary to
+``output/members/member_<i>.npz`` (atomically: a temporary file, fsync, rename; a file that
+exists is complete) and adds it to the running aggregate.  ``output/manifest.json`` names the
+ensemble (a fingerprint of everything that determines the members).  A rerun with ``resume``
+reads the finished members back into the aggregate and runs only the others; a failed
+member (``output/failed/member_<i>.json``: its parameters and the error) is reported, does not
+stop the others, and is tried again on resume.  The aggregate is rewritten every
+``checkpoint_interval`` seconds and at the end (also after an interrupt).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import logging
+import os
+import re
+import shutil
+import sys
+import threading
+import time
+import traceback
+import uuid
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from driftlog._version import __version__
+from driftlog.ensemble.aggregate import Aggregate
+from driftlog.ensemble.spec import Ensemble, describe_parameters, load_ensemble
+from driftlog.ensemble.summary import MemberRecorder, MemberSummary
+from driftlog.errors import DriftlogError, ScenarioError
+
+__all__ = ["run_ensemble", "run_member", "run_member_task", "EnsembleResult",
+           "aggregation_grid", "open_member"]
+
+MEMBER_FILE = re.compile(r"^member_(\d+)\.npz$")
+AGGREGATE_NAME = "ensemble.nc"
+
+
+# --------------------------------------------------------------------- worker side
+_FLOWS: OrderedDict = OrderedDict()  # (flow section, grid, thread) -> (flow, mesh)
+_FLOWS_LOCK = threading.Lock()
+_FLOWS_KEEP = 4
+
+
+def _grid_mesh(grid):
+    from driftlog.mesh import Mesh
+
+    return Mesh.regular_grid(grid["nx"], grid["ny"], grid["cell"], grid["cell"],
+                             grid["x0"], grid["y0"])
+
+
+def _worker_flow(flow_section: dict, grid: dict | None):
+    """The flow of a [flow] section and the mesh to aggregate on, opened once per worker.
+
+    Keyed by thread too: a MeshFlowField holds the snapshot pair it last read, so threads of
+    one process (``processes=False``) each get their own.
+    """
+    stamp = None
+    if flow_section.get("path") and os.path.exists(flow_section["path"]):
+        st = os.stat(flow_section["path"])  # a file rewritten in place is opened again
+        stamp = (st.st_mtime_ns, st.st_size)
+    key = (json.dumps(flow_section, sort_keys=True), json.dumps(grid, sort_keys=True), stamp,
+           threading.get_ident())
+    with _FLOWS_LOCK:
+        if key in _FLOWS:
+            _FLOWS.move_to_end(key)
+            return _FLOWS[key]
+    from driftlog.sources import flow_from_scenario
+
+    flow = flow_from_scenario({"flow": flow_section})
+    mesh = _grid_mesh(grid) if grid else flow.mesh
+    with _FLOWS_LOCK:
+        _FLOWS[key] = (flow, mesh)
+        while len(_FLOWS) > _FLOWS_KEEP:
+            _FLOWS.popitem(last=False)
+    return flow, mesh
+
+
+def run_member_task(base: dict, member: int, overrides: dict, parameters: dict,
+                    options: dict) -> MemberSummary:
+    """Run one member and reduce it (the Dask task; also run in-process with workers = 0)."""
+    from driftlog.api import track
+    from driftlog.scenario import load_scenario, merge
+    from driftlog.trajectory import TrajectoryWriter
+
+    wall, cpu = time.perf_counter(), time.process_time()
+    scen = load_scenario(merge(base, overrides))
+    flow, mesh = _worker_flow(scen["flow"], options.get("grid"))
+    keep = options.get("trajectories")
+    out = Path(keep) / f"member_{member:06d}.nc" if keep else Path(f"member_{member:06d}.nc")
+    made = []
+
+    def writer(path, logs, attrs=None, flush_interval=10, obstacle_names=()):
+        inner = None
+        if keep:
+            a = dict(attrs or {}, ensemble_member=member,
+                     ensemble_parameters=json.dumps(parameters, default=str))
+            inner = TrajectoryWriter(path, logs, attrs=a, flush_interval=flush_interval,
+                                     obstacle_names=obstacle_names)
+        rec = MemberRecorder(mesh, logs, scen["time"]["start"], obstacle_names, inner)
+        made.append(rec)
+        return rec
+
+    res = track(scen, flow=flow, output=out, writer=writer)
+    info = dict(physics_level=res.physics["level"], rotation=bool(res.physics["rotation"]),
+                substeps=int(res.stats["substeps"]),
+                wall_seconds=time.perf_counter() - wall,
+                cpu_seconds=time.process_time() - cpu, driftlog_version=__version__,
+                worker_pid=os.getpid())
+    return made[0].summary(member, parameters, info)
+
+
+# --------------------------------------------------------------------- client side
+@dataclass
+class EnsembleResult:
+    """What an ensemble run produced."""
+
+    path: Path  # the aggregated results (UGRID NetCDF)
+    output: Path  # the output folder
+    members: int
+    done: int
+    failed: list  # dicts: member, parameters, error
+    ran: list  # members run by this call (not resumed)
+    resumed: int  # finished members read back from an earlier run
+    figures: list = field(default_factory=list)
+    timings: dict = field(default_factory=dict)
+    aggregate: Aggregate | None = field(default=None, repr=False)
+
+    def dataset(self):
+        """The aggregated results as an xarray Dataset."""
+        import xarray as xr
+
+        return xr.open_dataset(self.path)
+
+    def ugrid(self):
+        """The aggregated results as an xugrid UgridDataset (maps on the mesh)."""
+        import xugrid
+
+        return xugrid.open_dataset(self.path)
+
+
+def aggregation_grid(ensemble: Ensemble, flow_mesh):
+    """The regular aggregation grid of [ensemble] grid_* (a dict), or None for the flow mesh."""
+    s = ensemble.section
+    if s["grid_cell"] is None:
+        if flow_mesh is None:
+            raise ScenarioError("ensemble.grid_cell", None, "the flow has no mesh (an "
+                                "analytic field): give grid_cell, grid_origin and grid_size, "
+                                "the regular grid the maps are counted on")
+        return None
+    cell = s["grid_cell"]
+    if s["grid_origin"] is None or s["grid_size"] is None:
+        if flow_mesh is None:
+            key = "grid_origin" if s["grid_origin"] is None else "grid_size"
+            raise ScenarioError(f"ensemble.{key}", None, "is required for a flow without a "
+                                "mesh (analytic): the extent of the aggregation grid")
+        x0, y0, x1, y1 = flow_mesh.bounds
+    else:
+        x0, y0 = s["grid_origin"]
+        x1, y1 = x0 + s["grid_size"][0], y0 + s["grid_size"][1]
+    nx = max(int(np.ceil((x1 - x0) / cell - 1e-9)), 1)
+    ny = max(int(np.ceil((y1 - y0) / cell - 1e-9)), 1)
+    return dict(nx=nx, ny=ny, cell=float(cell), x0=float(x0), y0=float(y0))
+
+
+def _write_json(path: Path, data: dict):
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(data, indent=1, default=str))
+    os.replace(tmp, path)
+
+
+def _prepare_flow(ensemble: Ensemble, base: dict, out: Path):
+    """The [flow] section the workers open, and the flow's mesh (None for analytic flows)."""
+    from driftlog.flowfile import open_flow, write_flow
+    from driftlog.sources import flow_from_scenario
+
+    sec = base["flow"]
+    if sec["source"] == "analytic":
+        return sec, None
+    if sec["source"] == "file":
+        return sec, open_flow(sec["path"], dry_depth=sec["dry_depth"]).mesh
+    # solved or imported: once here, then every worker opens the flow file
+    path = out / "flow.nc"
+    if not path.is_file():
+        field_ = flow_from_scenario(ensemble.scenario)
+        if getattr(field_, "mesh", None) is None:
+            raise ScenarioError("flow.source", sec["source"], "gives a flow without a mesh; "
+                                "an ensemble needs a flow file or an analytic flow")
+        write_flow(path, field_, attrs={"source": f"{sec['source']} (for the ensemble)"})
+    new = dict(sec, source="file", path=str(path), steady_at=None)
+    return new, open_flow(path, dry_depth=sec["dry_depth"]).mesh
+
+
+def _finished(members_dir: Path, n: int) -> list[int]:
+    out = []
+    if members_dir.is_dir():
+        for p in members_dir.iterdir():
+            m = MEMBER_FILE.match(p.name)
+            if m and int(m.group(1)) < n:
+                out.append(int(m.group(1)))
+    return sorted(out)
+
+
+def open_member(output, member: int) -> MemberSummary:
+    """The summary of a finished member from an ensemble's output folder."""
+    return MemberSummary.from_npz(Path(output) / "members" / f"member_{member:06d}.npz")
+
+
+def _start_client(workers, scheduler, processes):
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="30s"), None
+        except OSError as exc:
+            raise DriftlogError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+    kw = dict(n_workers=workers, threads_per_worker=1, processes=processes,
+              dashboard_address=None, silence_logs=logging.ERROR)
+    if processes:  # one thread per worker process: no oversubscription by numba or BLAS
+        kw["env"] = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
+                     "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    cluster = LocalCluster(**kw)
+    return Client(cluster), cluster
+
+
+def _dask_results(client, tasks, token):
+    """Submit (member, args) tasks in a sliding window; yield (member, summary, error)."""
+    from distributed import as_completed
+
+    base_future = None
+    it = iter(tasks)
+    pending = {}
+    ac = as_completed()
+    window = 2 * max(sum(client.nthreads().values()), 1) + 2
+
+    def submit_next():
+        nonlocal base_future
+        try:
+            i, (base, *rest) = next(it)
+        except StopIteration:
+            return False
+        if base_future is None:  # the base scenario travels once, not in every task
+            base_future = client.scatter(base, broadcast=True)
+        fut = client.submit(run_member_task, base_future, *rest,
+                            key=f"driftlog-member-{token}-{i}", retries=0)
+        pending[fut] = i
+        ac.add(fut)
+        return True
+
+    for _ in range(window):
+        if not submit_next():
+            break
+    try:
+        for fut in ac:
+            i = pending.pop(fut)
+            if fut.status == "error":
+                exc, tb = fut.exception(), fut.traceback()
+                yield i, None, (exc, "".join(traceback.format_tb(tb)) if tb else "")
+            elif fut.status == "cancelled":
+                yield i, None, (DriftlogError("the task was cancelled (worker lost?)"), "")
+            else:
+                yield i, fut.result(), None
+            fut.release()
+            submit_next()
+    finally:
+        for fut in pending:
+            fut.cancel()
+
+
+def _local_results(tasks):
+    for i, args in tasks:
+        try:
+            yield i, run_member_task(*args), None
+        except KeyboardInterrupt:
+            raise
+        except Exception as exc:  # noqa: BLE001 - a failing member must not stop the others
+            yield i, None, (exc, traceback.format_exc())
+
+
+def run_ensemble(ensemble, workers=None, scheduler=None, client=None, resume=False,
+                 overwrite=False, progress=True, output=None, members=None, processes=True,
+                 figures=True, overrides=None) -> EnsembleResult:
+    """Run an ensemble (see the module docstring) and write its aggregated results.
+
+    Parameters
+    ----------
+    ensemble : path, TOML text, dict, Scenario or Ensemble
+    workers : int, optional
+        Local Dask workers (default: ``[ensemble] workers``, else the CPU count); 0 runs the
+        members in this process without Dask.
+    scheduler : str, optional
+        Address of a running Dask scheduler (default: ``[ensemble] scheduler``).
+    client : distributed.Client, optional
+        Use this client (its cluster is left running).
+    resume : bool
+        Keep the finished members found in the output folder and run only the others.
+    overwrite : bool
+        Delete an earlier run's results in the output folder first.
+    output : path, optional
+        Output folder (default: ``[ensemble] output``).
+    members : iterable of int, optional
+        Run only these members (the aggregate holds the finished ones).
+    processes : bool
+        LocalCluster workers as processes (default) or threads of this process.
+    figures : bool
+        Draw the PNG figures of the aggregate.
+    """
+    started = time.perf_counter()
+    ens = load_ensemble(ensemble, overrides)
+    sec = ens.section
+    out = Path(output or sec["output"]).resolve()
+    n = ens.members
+    members_dir, failed_dir = out / "members", out / "failed"
+    manifest_path = out / "manifest.json"
+    fp = ens.fingerprint()
+    if overwrite and out.is_dir():
+        for sub in ("members", "failed", "trajectories"):
+            shutil.rmtree(out / sub, ignore_errors=True)
+        for name in ("manifest.json", AGGREGATE_NAME):
+            (out / name).unlink(missing_ok=True)
+    if manifest_path.is_file():
+        old = json.loads(manifest_path.read_text())
+        if old.get("fingerprint") != fp:
+            raise DriftlogError(f"{out} holds the results of a different ensemble (fingerprint "
+                                f"{old.get('fingerprint')}, this one {fp}): choose another "
+                                "output folder, or overwrite (--overwrite)")
+    done_before = _finished(members_dir, n)
+    if done_before and not resume:
+        raise DriftlogError(f"{out} already holds {len(done_before)} finished members of this "
+                            "ensemble: resume (--resume) to run only the others, or overwrite "
+                            "(--overwrite) to start again")
+    for d in (members_dir, failed_dir):
+        d.mkdir(parents=True, exist_ok=True)
+    for p in members_dir.glob("*.tmp"):  # left by a run killed while writing
+        p.unlink(missing_ok=True)
+    base = ens.base()
+    flow_section, flow_mesh = _prepare_flow(ens, base, out)
+    base["flow"] = flow_section
+    grid = aggregation_grid(ens, flow_mesh)
+    mesh = _grid_mesh(grid) if grid else flow_mesh
+    manifest = dict(fingerprint=fp, members=n, sampling=sec["sampling"], seed=ens.seed,
+                    parameters=[p.path for p in ens.parameters], aggregation_faces=mesh.n_faces,
+                    driftlog_version=__version__, ensemble=json.loads(ens.scenario.to_json()),
+                    created=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"))
+    if manifest_path.is_file():
+        manifest["created"] = json.loads(manifest_path.read_text()).get("created")
+    _write_json(manifest_path, manifest)
+
+    agg = Aggregate(mesh, n, ens.parameters, sec["confidence"])
+    for i in done_before:  # read back: memory stays bounded, one member at a time
+        agg.add(MemberSummary.from_npz(members_dir / f"member_{i:06d}.npz"))
+    wanted = range(n) if members is None else sorted(set(int(i) for i in members))
+    todo = [i for i in wanted if agg.member_state[i] != 1]
+    options = dict(grid=grid, trajectories=str(out / "trajectories")
+                   if sec["keep_trajectories"] else None)
+    if options["trajectories"]:
+        Path(options["trajectories"]).mkdir(parents=True, exist_ok=True)
+    params = dict(zip(todo, ens.sample(todo), strict=True))
+
+    def tasks():
+        for i in todo:
+            yield i, (base, i, ens.member_overrides(i, base, params[i]), params[i], options)
+
+    workers = sec["workers"] if workers is None else workers
+    workers = (os.cpu_count() or 1) if workers is None else int(workers)
+    scheduler = scheduler if scheduler is not None else (sec["scheduler"] or None)
+    attrs = dict(ensemble=ens.scenario.to_json(), ensemble_fingerprint=fp,
+                 sampling=sec["sampling"], seed=ens.seed,
+                 flow_source=json.dumps(flow_section, default=str),
+                 aggregation_mesh="regular grid " + json.dumps(grid) if grid else "flow mesh")
+    table = ens.parameter_table()
+    agg_path = out / AGGREGATE_NAME
+    failures, ran = [], []
+    timings = dict(start_seconds=0.0)
+    own = None
+    bar = None
+    results = None
+    interrupted = False
+    try:
+        if todo:
+            if client is None and (workers > 0 or scheduler):
+                client, own = _start_client(workers, scheduler, processes)
+            timings["start_seconds"] = time.perf_counter() - started
+            results = (_dask_results(client, tasks(), f"{fp[:8]}-{uuid.uuid4().hex[:6]}")
+                       if client is not None else _local_results(tasks()))
+            if progress:
+                from tqdm import tqdm
+
+                bar = tqdm(total=len(todo) + len(done_before), initial=len(done_before),
+                           unit="member", desc="ensemble", mininterval=0.5, file=sys.stderr)
+            last_checkpoint = time.perf_counter()
+            t_run = time.perf_counter()
+            for i, summary, error in results:
+                if error is None:
+                    summary.to_npz(members_dir / f"member_{i:06d}.npz")
+                    (failed_dir / f"member_{i:06d}.json").unlink(missing_ok=True)
+                    agg.add(summary)
+                    ran.append(i)
+                    timings.setdefault("first_result_seconds", time.perf_counter() - started)
+                    timings["last_result_seconds"] = time.perf_counter() - started
+                else:
+                    exc, tb = error
+                    msg = (f"member {i} failed ({describe_parameters(params[i])}): "
+                           f"{type(exc).__name__}: {exc}")
+                    _write_json(failed_dir / f"member_{i:06d}.json",
+                                dict(member=i, parameters=params[i], error=str(exc),
+                                     type=type(exc).__name__, traceback=tb))
+                    agg.fail(i, f"{type(exc).__name__}: {exc}")
+                    failures.append(dict(member=i, parameters=params[i],
+                                         error=f"{type(exc).__name__}: {exc}"))
+                    (bar.write if bar is not None else _stderr)("driftlog: " + msg)
+                if bar is not None:
+                    bar.update(1)
+                if time.perf_counter() - last_checkpoint > sec["checkpoint_interval"]:
+                    agg.to_netcdf(agg_path, attrs, table)
+                    last_checkpoint = time.perf_counter()
+            timings["run_seconds"] = time.perf_counter() - t_run
+    except KeyboardInterrupt:
+        interrupted = True
+        raise
+    finally:
+        if bar is not None:
+            bar.close()
+        if results is not None:
+            results.close()  # cancels the tasks still pending
+        if own is not None:
+            client.close()
+            own.close()
+        timings["wall_seconds"] = time.perf_counter() - started
+        if ran and timings.get("run_seconds"):
+            timings["members_per_minute"] = 60.0 * len(ran) / timings["run_seconds"]
+        if len(ran) > 1 and timings["last_result_seconds"] > timings["first_result_seconds"]:
+            # after the first result: workers warm (imports, numba cache, flow opened)
+            timings["steady_members_per_minute"] = 60.0 * (len(ran) - 1) / (
+                timings["last_result_seconds"] - timings["first_result_seconds"])
+        agg.to_netcdf(agg_path, dict(attrs, interrupted=int(interrupted)), table)
+        manifest.update(done=agg.done, failed=agg.failed, timings=timings,
+                        updated=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"))
+        _write_json(manifest_path, manifest)
+    figs = []
+    if figures and agg.done:
+        from driftlog.ensemble.figures import plot_ensemble
+
+        figs = plot_ensemble(agg_path, out)
+    return EnsembleResult(agg_path, out, n, agg.done, failures, ran, len(done_before), figs,
+                          timings, agg)
+
+
+def _stderr(msg):
+    print(msg, file=sys.stderr)
+
+
+def run_member(ensemble, member: int, grid="auto") -> MemberSummary:
+    """Run one member in this process and return its summary (for checks and debugging)."""
+    ens = load_ensemble(ensemble)
+    base = ens.base()
+    if grid == "auto":
+        from driftlog.flowfile import open_flow
+
+        mesh = (open_flow(base["flow"]["path"]).mesh if base["flow"]["source"] == "file"
+                else None)
+        grid = aggregation_grid(ens, mesh)
+    values = ens.parameters_of(member)
+    return run_member_task(base, member, ens.member_overrides(member, base, values), values,
+                           dict(grid=grid, trajectories=None))
