@@ -70,18 +70,18 @@ def _background(ax, flow, t, kind, bounds, show_mesh=False):
 
         fv = flow.face_values(t)
         val = np.hypot(fv["u"], fv["v"]) if kind == "speed" else fv["h"]
-        fn = mesh.face_nodes
-        verts = [np.column_stack([mesh.node_x[f[:k]], mesh.node_y[f[:k]]])
-                 for f, k in zip(fn, mesh.face_n)] if mesh.n_faces <= 400_000 else None
-        if verts is None:
+        if mesh.n_faces > 2_000_000:
             return None
+        # (faces, corners, 2); triangles of a mixed mesh repeat their first node
+        fn = np.where(mesh.face_nodes >= 0, mesh.face_nodes, mesh.face_nodes[:, :1])
+        verts = np.stack([mesh.node_x[fn], mesh.node_y[fn]], axis=-1)
         wet = fv["h"] > flow.dry_depth
         val = np.ma.masked_where(~wet, val)
         pc = PolyCollection(verts, array=val, cmap="Blues" if kind == "depth" else "viridis",
                             edgecolors="0.6" if show_mesh else "face",
                             linewidths=0.2 if show_mesh else 0.0, zorder=0)
         ax.add_collection(pc)
-        dry = PolyCollection([v for v, w in zip(verts, wet) if not w], facecolors="0.85",
+        dry = PolyCollection(verts[~wet], facecolors="0.85",
                              edgecolors="face", linewidths=0.0, zorder=0)
         ax.add_collection(dry)
         walls = mesh.boundary_segments(["wall"])
@@ -178,9 +178,13 @@ def plot_trajectories(path, flow=None, background="speed", show_mesh=False, out=
 
 
 def animate(path, out, flow=None, background="speed", fps=20, max_frames=300, dpi=100):
-    """Animation of the logs over the flow: MP4 if ffmpeg is on the PATH, else GIF."""
+    """Animation of the logs over the flow: MP4 if ffmpeg is on the PATH, else GIF.
+
+    The figure is drawn in full once; each frame then restores that picture and draws only the
+    logs and the title on it (blitting), unless the flow is unsteady and its background changes.
+    Frames go to ffmpeg as raw RGBA (or to Pillow for a GIF), without a PNG round trip.
+    """
     plt = _mpl()
-    from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter
     from matplotlib.collections import PolyCollection
 
     ds = open_trajectories(path)
@@ -196,34 +200,95 @@ def animate(path, out, flow=None, background="speed", fps=20, max_frames=300, dp
         times = times[np.linspace(0, times.size - 1, max_frames).round().astype(int)]
     bounds = _bounds(ds, flow)
     w, h = bounds[2] - bounds[0], bounds[3] - bounds[1]
-    fig, ax = plt.subplots(figsize=(9, max(3.0, min(9.0, 9 * h / max(w, 1e-9))) + 1))
+    fig, ax = plt.subplots(figsize=(9, max(3.0, min(9.0, 9 * h / max(w, 1e-9))) + 1), dpi=dpi)
     bg = _background(ax, flow, float(times[0]), background, bounds)
     unsteady = flow is not None and getattr(flow, "mesh", None) is not None and \
         len(getattr(flow, "times", ())) > 1 and bg is not None
     ti = ds["trajectory_index"].values
     L, R = ds["length"].values, ds["radius"].values
     x, y, th = ds["x"].values, ds["y"].values, ds["theta"].values
-    logs = PolyCollection([], facecolors="saddlebrown", edgecolors="k", linewidths=0.5, zorder=4)
+    from matplotlib.collections import LineCollection
+
+    # the whole paths, faint, in the static picture: where each log is going
+    ax.add_collection(LineCollection([np.column_stack([x[ti == k], y[ti == k]])
+                                      for k in range(ds.sizes["trajectory"])],
+                                     colors="w", alpha=0.5, linewidths=0.8, zorder=2))
+    logs = PolyCollection([], facecolors="saddlebrown", edgecolors="k", linewidths=0.5, zorder=4,
+                          animated=True)
     ax.add_collection(logs)
     ax.set_xlim(bounds[0], bounds[2])
     ax.set_ylim(bounds[1], bounds[3])
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    title = ax.set_title("")
-
-    def frame(tk):
-        sel = np.flatnonzero(t == tk)
-        logs.set_verts(log_outlines(x[sel], y[sel], th[sel], L[ti[sel]], R[ti[sel]]))
-        if unsteady:
-            fv = flow.face_values(float(tk))
-            val = np.hypot(fv["u"], fv["v"]) if background == "speed" else fv["h"]
-            bg.set_array(np.ma.masked_where(fv["h"] <= flow.dry_depth, val))
-        title.set_text(f"t = {tk:.4g} s, {sel.size} logs")
-        return (logs, title)
-
-    anim = FuncAnimation(fig, frame, frames=times, blit=False)
-    writer = FFMpegWriter(fps=fps, bitrate=2400) if use_mp4 else PillowWriter(fps=fps)
-    anim.save(out, writer=writer, dpi=dpi)
-    plt.close(fig)
+    title = ax.set_title(" ", animated=True)
+    fig.tight_layout()
+    canvas = fig.canvas
+    canvas.draw()  # the layout is fixed from here on: the frames all have this size
+    width, height = canvas.get_width_height()
+    static = None if unsteady else canvas.copy_from_bbox(fig.bbox)
+    sink = _FrameSink(out, width, height, fps, use_mp4)
+    try:
+        for tk in times:
+            sel = np.flatnonzero(t == tk)
+            logs.set_verts(log_outlines(x[sel], y[sel], th[sel], L[ti[sel]], R[ti[sel]]))
+            title.set_text(f"t = {tk:.4g} s, {sel.size} logs")
+            if static is None:
+                fv = flow.face_values(float(tk))
+                val = np.hypot(fv["u"], fv["v"]) if background == "speed" else fv["h"]
+                bg.set_array(np.ma.masked_where(fv["h"] <= flow.dry_depth, val))
+                canvas.draw()
+            else:
+                canvas.restore_region(static)
+            ax.draw_artist(logs)
+            ax.draw_artist(title)
+            sink.write(np.asarray(canvas.buffer_rgba()))
+    except BaseException:
+        sink.abort()
+        raise
+    finally:
+        plt.close(fig)
+    sink.close()
     return out
+
+
+class _FrameSink:
+    """RGBA frames to an MP4 (an ffmpeg process reading raw video) or a GIF (Pillow)."""
+
+    def __init__(self, out, width, height, fps, mp4):
+        self.out, self.fps, self.mp4 = Path(out), fps, mp4
+        self.frames = []
+        self.proc = None
+        if mp4:
+            import subprocess
+
+            # yuv420p (what players expect) needs even sizes: pad by one pixel if odd
+            cmd = [shutil.which("ffmpeg"), "-y", "-loglevel", "error", "-f", "rawvideo",
+                   "-pix_fmt", "rgba", "-s", f"{width}x{height}", "-r", str(fps), "-i", "-",
+                   "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2:color=white", "-vcodec", "libx264",
+                   "-pix_fmt", "yuv420p", "-crf", "23", str(self.out)]
+            self.proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stderr=subprocess.PIPE)
+
+    def write(self, rgba):
+        if self.proc is not None:
+            self.proc.stdin.write(rgba.tobytes())
+        else:
+            from PIL import Image
+
+            self.frames.append(Image.fromarray(rgba[..., :3].copy()).quantize(colors=128))
+
+    def abort(self):
+        if self.proc is not None:
+            self.proc.kill()
+            self.proc.wait()
+
+    def close(self):
+        if self.proc is not None:
+            _, err = self.proc.communicate()
+            if self.proc.returncode != 0:
+                from driftlog.errors import DriftlogError
+
+                raise DriftlogError(f"ffmpeg failed writing {self.out}: {err.decode()[-500:]}")
+        elif self.frames:
+            self.frames[0].save(self.out, save_all=True, append_images=self.frames[1:],
+                                duration=int(1000 / self.fps), loop=0)
