@@ -203,13 +203,13 @@ def run_driftlog(path_or_flow, x, y, dt, duration, threads=1):
                  StepOptions(max_step=dt, length_fraction=1e9, angle_step=1e9, drag_fraction=0.0),
                  t_start=0.0, t_end=duration, output_interval=duration, hydro_step=duration)
     setup = time.perf_counter() - t0
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     tr.run()
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     nb.set_num_threads(nb.config.NUMBA_NUM_THREADS)
     if not np.all(logs.status == 1):
         raise RuntimeError(f"driftlog: {np.sum(logs.status != 1)} particles stopped floating")
-    return logs.state[:, 0].copy(), logs.state[:, 1].copy(), setup, wall
+    return logs.state[:, 0].copy(), logs.state[:, 1].copy(), setup, (wall, cpu)
 
 
 def _projection():
@@ -243,16 +243,16 @@ def run_opendrift(path, x, y, dt, duration):
         o.set_config(key, value)
     o.seed_elements(lon=lon, lat=lat, z=0.0, time=ORIGIN, wind_drift_factor=0.0)
     setup = time.perf_counter() - t0
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     o.run(duration=timedelta(seconds=duration), time_step=timedelta(seconds=dt),
           time_step_output=timedelta(seconds=duration), export_variables=["lon", "lat"])
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     lon_end = np.asarray(o.result.lon.isel(time=-1))
     lat_end = np.asarray(o.result.lat.isel(time=-1))
     if not np.all(np.isfinite(lon_end)):
         raise RuntimeError(f"OpenDrift: {np.sum(~np.isfinite(lon_end))} particles deactivated")
     xe, ye = proj(lon_end, lat_end)
-    return np.asarray(xe), np.asarray(ye), setup, wall
+    return np.asarray(xe), np.asarray(ye), setup, (wall, cpu)
 
 
 def parcels_fieldset(path):
@@ -289,15 +289,15 @@ def run_parcels(path, x, y, dt, duration):
     fs = parcels_fieldset(path)
     pset = parcels.ParticleSet(fs, pclass=get_default_particle(np.float64), x=x, y=y)
     setup = time.perf_counter() - t0
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     pset.execute(parcels.kernels.AdvectionRK4, dt=np.timedelta64(int(round(dt * 1e6)), "us"),
                  runtime=np.timedelta64(int(round(duration * 1e6)), "us"),
                  verbose_progress=False)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     xe, ye = np.asarray(pset.x, float), np.asarray(pset.y, float)
     if xe.size != x.size or not np.all(np.isfinite(xe)):
         raise RuntimeError(f"Parcels: {x.size - xe.size} particles removed or non-finite")
-    return xe, ye, setup, wall
+    return xe, ye, setup, (wall, cpu)
 
 
 RUNNERS = {"driftlog": run_driftlog, "OpenDrift": run_opendrift, "Parcels": run_parcels}
@@ -325,12 +325,14 @@ def speed(path, sizes, dt, duration, available, rng):
         cases = [("driftlog", 1), ("driftlog", 2)] + [(t, 1) for t in TOOLS[1:] if t in available]
         for tool, threads in cases:
             if tool == "driftlog":
-                xe, ye, setup, wall = run_driftlog(path, x, y, dt, duration, threads)
+                xe, ye, setup, (wall, cpu) = run_driftlog(path, x, y, dt, duration, threads)
             else:
-                xe, ye, setup, wall = RUNNERS[tool](path, x, y, dt, duration)
+                xe, ye, setup, (wall, cpu) = RUNNERS[tool](path, x, y, dt, duration)
             xx, yy = exact(x, y, duration)
             rows.append(dict(tool=tool, threads=threads, particles=n, steps=steps,
-                             setup_s=setup, run_s=wall, particle_steps_per_s=n * steps / wall,
+                             setup_s=setup, run_s=wall, cpu_s=cpu,
+                             particle_steps_per_s=n * steps / wall,
+                             particle_steps_per_cpu_s=n * steps / cpu,
                              max_error_m=float(np.max(np.hypot(xe - xx, ye - yy)))))
             print(rows[-1], flush=True)
     return rows
@@ -400,16 +402,16 @@ def figure(speed_rows, acc_rows, pos, start, dt_show, duration):
 
     fig, axes = plt.subplots(1, 3, figsize=(17, 5))
     ax = axes[0]
-    for tool, threads, mk in (("driftlog", 1, "o-"), ("driftlog", 2, "o--"),
-                              ("OpenDrift", 1, "s-"), ("Parcels", 1, "d-")):
-        r = [q for q in speed_rows if q["tool"] == tool and q["threads"] == threads]
+    for tool, mk in (("driftlog", "o-"), ("OpenDrift", "s-"), ("Parcels", "d-")):
+        r = [q for q in speed_rows if q["tool"] == tool and q["threads"] == 1]
         if r:
-            ax.loglog([q["particles"] for q in r], [q["particle_steps_per_s"] for q in r], mk,
-                      color=COLORS[tool],
-                      label=f"{tool}, {threads} thread{'s' if threads > 1 else ''}")
+            ax.loglog([q["particles"] for q in r], [q["particle_steps_per_cpu_s"] for q in r],
+                      mk, color=COLORS[tool], label=f"{tool} (CPU time)")
+            ax.loglog([q["particles"] for q in r], [q["particle_steps_per_s"] for q in r],
+                      mk[0] + ":", color=COLORS[tool], alpha=0.6, label=f"{tool} (wall time)")
     ax.set_xlabel("particles")
     ax.set_ylabel("particle-steps per second")
-    ax.set_title("Speed (RK4, run only)")
+    ax.set_title("Speed, one thread (RK4, run only)")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     ax = axes[1]
@@ -453,12 +455,15 @@ def markdown(info, speed_rows, acc_rows, pairs):
 
     lines = ["### Passive particles: driftlog (tracer) vs OpenDrift and Parcels", "",
              f"Measured on {info['machine']}; {info['versions']}.", "",
-             info["scene"], "", "Speed (run only; set-up apart):", "",
-             "| tool | threads | particles | steps | set-up (s) | run (s) | particle-steps/s "
-             "| max error (m) |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
+             info["scene"], "", "Speed (run only; set-up apart; CPU time of the process, all "
+             "threads, which on a shared machine is steadier than wall time):", "",
+             "| tool | threads | particles | steps | set-up (s) | run (s) | run CPU (s) "
+             "| particle-steps/s | per CPU second | max error (m) |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in speed_rows:
         lines.append(f"| {r['tool']} | {r['threads']} | {r['particles']} | {r['steps']} | "
-                     f"{g(r['setup_s'])} | {g(r['run_s'])} | {g(r['particle_steps_per_s'])} | "
+                     f"{g(r['setup_s'])} | {g(r['run_s'])} | {g(r['cpu_s'])} | "
+                     f"{g(r['particle_steps_per_s'])} | {g(r['particle_steps_per_cpu_s'])} | "
                      f"{g(r['max_error_m'])} |")
     lines += ["", f"Accuracy ({info['accuracy_particles']} particles, after "
               f"{info['duration']:g} s): error against the exact positions; the change of the "
