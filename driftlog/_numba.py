@@ -7,8 +7,16 @@ array whose length decides as first argument.
 """
 
 import functools
+import os
 
-import numba as nb
+# numba's OpenMP layer (GNU libgomp) spins its idle workers by default; on a machine whose
+# cores are shared with other jobs the spinning threads take the cores the working thread
+# needs (measured: 2 threads 10-20x slower than 1 on 1e3 logs, benchmarks/peers_tracking.py).
+# Passive waiting costs microseconds per parallel region.  Set before libgomp loads; a value
+# the user gave wins.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+import numba as nb  # noqa: E402
 
 __all__ = ["kernel", "PARALLEL_MIN"]
 
