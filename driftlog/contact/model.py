@@ -1,0 +1,298 @@
+"""The contact model the tracker calls each sub-step (``substep``) and at each record
+(``drain_hits``).
+
+Two methods:
+
+- ``event`` (the paper, MODEL.md 7-8): at the start of a sub-step, contacts within the
+  tolerance get impulses (eq. 11-15); the step is then chosen so that no pair overlaps by
+  more than the tolerance at its end, either by conservative advancement on the capsule
+  distance (``toi.conservative_step``) or by the paper's dichotomy (take the step; while
+  logs overlap at its end, halve it and redo).  A sub-step may end before the one asked: at
+  the next contact.  In a jam (many persistent contacts, eps < 1) the sub-steps collapse;
+  the method counts events and sub-steps within one free sub-step and stops with
+  ``ContactJamError`` (naming the logs, the time and the remedy) instead of looping.
+- ``moreau`` (``moreau.moreau_solve``): the whole step is taken, and all contact impulses of
+  the step are solved together by projected Gauss-Seidel; bounded cost, stable piles.
+
+Masses are the logs' m_b and I_b (MODEL.md 2, the paper's choice; see ``impulses``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from driftlog.contact.impulses import resolve_impulses
+from driftlog.contact.moreau import moreau_solve
+from driftlog.contact.native import NativeBackend
+from driftlog.contact.obstacles import Obstacles
+from driftlog.contact.toi import conservative_step, motion_margin
+from driftlog.errors import DriftlogError, ScenarioError
+
+__all__ = ["ContactModel", "ContactJamError", "Contacts"]
+
+
+class ContactJamError(DriftlogError):
+    """Event-driven contact stalled (a jam): too many events or sub-steps for no progress."""
+
+
+class Contacts:
+    """Contacts as arrays: bodies, obstacle index (-1 for log pairs), gap/normal/point."""
+
+    def __init__(self, body1, body2, obstacle, res):
+        self.body1, self.body2, self.obstacle, self.res = body1, body2, obstacle, res
+
+    def __len__(self):
+        return self.body1.size
+
+    @property
+    def gap(self):
+        return self.res[:, 0]
+
+    def select(self, mask):
+        return Contacts(self.body1[mask], self.body2[mask], self.obstacle[mask], self.res[mask])
+
+
+def _backend(name, obstacles):
+    if name == "native":
+        return NativeBackend(obstacles)
+    if name == "fcl":
+        from driftlog.contact.fcl_backend import FCLBackend
+
+        return FCLBackend(obstacles)
+    raise ScenarioError("contact.backend", name, "must be one of 'native', 'fcl'")
+
+
+class ContactModel:
+    """Contacts between logs, walls and obstacles.
+
+    Parameters
+    ----------
+    obstacles : Obstacles, optional
+    method : {"event", "moreau"}
+    time_of_impact : {"conservative", "dichotomy"}
+        How the event-driven method finds contact times.
+    restitution : float
+        eps in [0, 1].
+    backend : {"native", "fcl"}
+    tolerance : float
+        Contact distance tolerance relative to the smallest log radius: pairs closer than this
+        are in contact, and no accepted step overlaps by more.
+    max_events : int
+        Event-driven: impulses, or sub-steps, within one free sub-step above which the method
+        stops (a jam).
+    iterations : int
+        Moreau: Gauss-Seidel sweeps at most per step.
+    """
+
+    def __init__(self, obstacles=None, method="event", time_of_impact="conservative",
+                 restitution=1.0, backend="native", tolerance=1e-4, max_events=10000,
+                 iterations=200):
+        if method not in ("event", "moreau"):
+            raise ScenarioError("contact.method", method, "must be one of 'event', 'moreau'")
+        if time_of_impact not in ("conservative", "dichotomy"):
+            raise ScenarioError("contact.time_of_impact", time_of_impact,
+                                "must be one of 'conservative', 'dichotomy'")
+        if not 0.0 <= restitution <= 1.0:
+            raise ScenarioError("contact.restitution", restitution, "must be in [0, 1]")
+        self.obstacles = obstacles or Obstacles()
+        self.method, self.time_of_impact = method, time_of_impact
+        self.restitution = float(restitution)
+        self.backend = _backend(backend, self.obstacles)
+        self.tolerance = float(tolerance)
+        self.max_events = int(max_events)
+        self.iterations = int(iterations)
+        self.stats = dict(substeps=0, advances=0, rejected=0, events=0, detections=0,
+                          pgs_iterations=0, pgs_max_iterations=0, max_contacts=0,
+                          min_gap=np.inf)
+        self._hits = []
+        self._cache = None
+        self._window = None
+        self._active = np.empty(0, np.int64)
+
+    @property
+    def obstacle_names(self):
+        return list(self.obstacles.names)
+
+    @classmethod
+    def from_scenario(cls, scen, mesh=None):
+        """From a validated scenario's [contact] and [[obstacles]] (walls from ``mesh``)."""
+        c = scen["contact"]
+        obs = Obstacles.from_scenario(scen, mesh)
+        return cls(obs, method=c["method"], time_of_impact=c["time_of_impact"],
+                   restitution=c["restitution"], backend=c["backend"],
+                   tolerance=c["tolerance"], max_events=c["max_events"],
+                   iterations=c.get("iterations", 200))
+
+    # ----------------------------------------------------------------- detection
+    def detect(self, bodies, margin, S=None):
+        """Candidate contacts of ``bodies`` (tracker) within per-log ``margin``, measured."""
+        S = bodies.state if S is None else S
+        ll, lo = self.backend.candidates(S, bodies.length, bodies.radius, margin)
+        r_ll, r_lo = self.backend.gaps(S, bodies.length, bodies.radius, ll, lo)
+        self.stats["detections"] += 1
+        owner = self.obstacles.owner
+        return Contacts(np.concatenate([ll[:, 0], lo[:, 0]]),
+                        np.concatenate([ll[:, 1], np.full(lo.shape[0], -1, np.int64)]),
+                        np.concatenate([np.full(ll.shape[0], -1, np.int64),
+                                        owner[lo[:, 1]] if lo.shape[0] else
+                                        np.empty(0, np.int64)]),
+                        np.vstack([r_ll, r_lo]))
+
+    def _tol(self, bodies):
+        return self.tolerance * float(bodies.radius.min())
+
+    def _touching(self, bodies, tol):
+        """Contacts within tol at the current state (reusing the last step's end check)."""
+        S = bodies.state
+        key = (bodies.t, S.shape[0])
+        if self._cache is not None and self._cache[0] == key and np.array_equal(
+                self._cache[1], S[:, :3]):
+            C = self._cache[2]
+        else:
+            C = self.detect(bodies, np.full(S.shape[0], tol))
+        return C.select(C.gap <= tol)
+
+    def _remember(self, bodies, C):
+        self._cache = ((bodies.t, bodies.state.shape[0]), bodies.state[:, :3].copy(), C)
+
+    # ----------------------------------------------------------------- hits
+    def _record(self, bodies, C, impulse, t):
+        hit = impulse > 0.0
+        if not hit.any():
+            return
+        ids = bodies.ids
+        b2 = C.body2[hit]
+        other = np.where(b2 >= 0, ids[np.maximum(b2, 0)], -(C.obstacle[hit] + 1))
+        self._hits.append(dict(time=np.full(hit.sum(), t), log_id=ids[C.body1[hit]],
+                               other=other, impulse=impulse[hit], x=C.res[hit, 3],
+                               y=C.res[hit, 4]))
+
+    def drain_hits(self):
+        """Contacts since the last call: dict of arrays time, log_id, other, impulse, x, y."""
+        keys = ("time", "log_id", "other", "impulse", "x", "y")
+        if not self._hits:
+            return {k: np.empty(0) for k in keys}
+        out = {k: np.concatenate([h[k] for h in self._hits]) for k in keys}
+        self._hits = []
+        return out
+
+    # ----------------------------------------------------------------- stepping
+    def substep(self, bodies, dt):
+        """Advance ``bodies`` (the tracker) by at most dt with contacts; returns the step."""
+        self.stats["substeps"] += 1
+        if bodies.state.shape[0] == 0:
+            bodies.advance(dt)
+            return dt
+        if self.method == "moreau":
+            return self._moreau(bodies, dt)
+        return self._event(bodies, dt)
+
+    def _inverse_masses(self, bodies):
+        return 1.0 / bodies.mass, 1.0 / bodies.inertia
+
+    def _min_step(self, bodies):
+        so = getattr(bodies, "step_options", None)
+        return so.min_step if so is not None else 1e-12
+
+    def _jam(self, bodies, C, why):
+        logs = np.concatenate([C.body1, C.body2[C.body2 >= 0]]) if len(C) else np.empty(0, int)
+        ids, counts = np.unique(bodies.ids[logs], return_counts=True) if logs.size else ([], [])
+        worst = [int(i) for i in np.asarray(ids)[np.argsort(counts)[::-1][:10]]]
+        raise ContactJamError(
+            f"event-driven contact stalls at t = {bodies.t:.6g} s: {why}; logs {worst} are in "
+            f"persistent contact ({len(C)} contacts, restitution {self.restitution}): a jam, "
+            "where impulses and contact times cannot make progress.  Use contact.method = "
+            "\"moreau\" (time-stepping contact, stable in jams), or raise contact.max_events")
+
+    def _count(self, bodies, dt, events, C):
+        """Jam watch: events and sub-steps within one free sub-step of simulated time."""
+        w = self._window
+        if w is None or bodies.t - w[0] >= w[1]:
+            w = self._window = [bodies.t, dt, 0, 0]
+        w[2] += events
+        w[3] += 1
+        if w[2] > self.max_events or w[3] > self.max_events:
+            self._jam(bodies, C, f"{w[2]} impulses and {w[3]} sub-steps within {w[1]:.3g} s "
+                      f"of simulated time (contact.max_events = {self.max_events})")
+
+    def _event(self, bodies, dt):
+        st = self.stats
+        tol = self._tol(bodies)
+        S = bodies.state
+        C = self._touching(bodies, tol)
+        events = 0
+        if len(C):
+            inv_m, inv_i = self._inverse_masses(bodies)
+            imp = np.zeros(len(C))
+            vscale = float(np.abs(S[:, 3:5]).max()) + 1e-3
+            events = resolve_impulses(S, inv_m, inv_i, C.body1, C.body2, C.res,
+                                      self.restitution, 1e-10 * vscale, self.max_events, imp)
+            if events < 0:
+                self._jam(bodies, C, f"{self.max_events} impulses in one sub-step and contacts "
+                          "still approach (contact.max_events)")
+            st["events"] += events
+            st["max_contacts"] = max(st["max_contacts"], len(C))
+            self._record(bodies, C, imp, bodies.t)
+        self._count(bodies, dt, events, C)
+        h = dt
+        if self.time_of_impact == "conservative":
+            margin = motion_margin(S, bodies.length, bodies.radius, dt, tol)
+            A = self.detect(bodies, margin)
+            if len(A):
+                h = conservative_step(S, bodies.length, bodies.radius, A.body1, A.body2, A.res,
+                                      tol, dt)
+        min_step = self._min_step(bodies)
+        while True:
+            if h < min_step:
+                self._jam(bodies, C, f"the contact sub-step fell to {h:.3g} s (below "
+                          f"min_step = {min_step:.3g} s)")
+            saved = bodies.save()
+            bodies.advance(h)
+            st["advances"] += 1
+            E = self.detect(bodies, np.full(bodies.state.shape[0], tol))
+            gmin = float(E.gap.min()) if len(E) else np.inf
+            if gmin >= -tol:
+                break
+            bodies.restore(saved)
+            h *= 0.5
+            st["rejected"] += 1
+        st["min_gap"] = min(st["min_gap"], gmin)
+        self._remember(bodies, E)
+        return h
+
+    def _moreau(self, bodies, dt):
+        st = self.stats
+        tol = self._tol(bodies)
+        S0 = bodies.state.copy()
+        t0 = bodies.t
+        bodies.advance(dt)
+        st["advances"] += 1
+        S = bodies.state
+        # candidates over the motion of the step: start and free-end velocities
+        fast = S0.copy()
+        fast[:, 3:6] = np.maximum(np.abs(S0[:, 3:6]), np.abs(S[:, 3:6]))
+        margin = motion_margin(fast, bodies.length, bodies.radius, dt, tol)
+        C = self.detect(bodies, margin, S=S0)
+        if len(C) == 0:
+            self._active = np.empty(0, np.int64)
+            return dt
+        inv_m, inv_i = self._inverse_masses(bodies)
+        P = np.zeros(len(C))
+        vscale = float(np.abs(S[:, 3:5]).max()) + 1e-3
+        it, _ = moreau_solve(S0, S, inv_m, inv_i, C.body1, C.body2, C.res, dt,
+                             self.restitution, tol, tol, 1e-9 * vscale, self.iterations, P)
+        st["pgs_iterations"] += it
+        st["pgs_max_iterations"] = max(st["pgs_max_iterations"], it)
+        st["max_contacts"] = max(st["max_contacts"], len(C))
+        if hasattr(bodies, "invalidate_flow"):
+            bodies.invalidate_flow()
+        # a hit is a contact that starts pushing (not one that keeps pushing)
+        on = P > 0.0
+        n_all = int(bodies.ids.max()) + 2 + len(self.obstacles.names)
+        key = (bodies.ids[C.body1] * n_all
+               + np.where(C.body2 >= 0, bodies.ids[np.maximum(C.body2, 0)],
+                          bodies.ids.max() + 1 + C.obstacle))
+        new = on & ~np.isin(key, self._active)
+        self._active = key[on]
+        self._record(bodies, C, np.where(new, P, 0.0), t0)
+        return dt
