@@ -37,13 +37,16 @@ class BallisticLogs:
         self.advances = 0
 
     def save(self):
+        """A copy of the state and time."""
         return self.state.copy(), self.t
 
     def restore(self, saved):
+        """Back to a ``save()``."""
         np.copyto(self.state, saved[0])
         self.t = saved[1]
 
     def advance(self, dt):
+        """Free motion over dt."""
         s = self.state
         s[:, 0] += dt * s[:, 3]
         s[:, 1] += dt * s[:, 4]
@@ -65,8 +68,11 @@ class BallisticLogs:
 
 
 def run_contacts(model, bodies, t_end, max_step=None):
-    """Advance ``bodies`` to ``t_end`` through ``model.substep`` (the tracker's loop, minus the
-    flow); ``max_step`` bounds the sub-step (default: the paper's bound)."""
+    """Advance ``bodies`` to ``t_end`` through ``model.substep``.
+
+    The tracker's loop, minus the flow; ``max_step`` bounds the sub-step (default: the
+    paper's bound).
+    """
     while bodies.t < t_end - 1e-12 * max(1.0, abs(t_end)):
         dt = min(bodies.max_step() if max_step is None else max_step, t_end - bodies.t)
         model.substep(bodies, dt)

@@ -11,6 +11,10 @@ I_b (MODEL.md 2), as in the paper: added mass is a property of the fluid's react
 acceleration over a time scale, not of an instantaneous collision, and leaving it out keeps the
 impulse exactly conservative between logs.
 
+Option (not in the paper): approach speeds below ``rest_speed`` do not bounce.  A log held
+against a pier by the flow otherwise bounces at ever smaller speeds, an infinity of impacts in
+finite time (Zeno); without bounce the contact rests.  0 (the default) is the paper.
+
 Several simultaneous contacts are resolved one at a time, sweeping over them in a fixed order
 until none approaches (sequential impulses): each single impulse conserves momentum (and, with
 eps = 1, kinetic energy) exactly, so the sweep does too.
@@ -30,10 +34,11 @@ def _cross(ax, ay, bx, by):
 
 
 @nb.njit(cache=True)
-def pair_impulse(S, inv_m, inv_i, b1, b2, nx, ny, cx, cy, eps, vtol):
+def pair_impulse(S, inv_m, inv_i, b1, b2, nx, ny, cx, cy, eps, vtol, rest_speed=0.0):
     """Apply the impulse of one contact to S (in place); returns j (0 if not approaching).
 
-    ``b2 < 0``: the other body is fixed (a wall or an obstacle).
+    ``b2 < 0``: the other body is fixed (a wall or an obstacle).  Approach speeds below
+    ``rest_speed`` are resting contact: no bounce (eps = 0).
     """
     r1x, r1y = cx - S[b1, 0], cy - S[b1, 1]
     v1x = S[b1, 3] - S[b1, 5] * r1y  # U + omega x r, with omega x r = omega (-r_y, r_x)
@@ -51,7 +56,8 @@ def pair_impulse(S, inv_m, inv_i, b1, b2, nx, ny, cx, cy, eps, vtol):
     vn = vx * nx + vy * ny
     if vn >= -vtol or k <= 0.0:
         return 0.0
-    j = -(1.0 + eps) * vn / k  # eq. 13
+    e = eps if vn < -rest_speed else 0.0
+    j = -(1.0 + e) * vn / k  # eq. 13
     S[b1, 3] += j * nx * inv_m[b1]
     S[b1, 4] += j * ny * inv_m[b1]
     S[b1, 5] += rn1 * j * inv_i[b1]
@@ -64,7 +70,7 @@ def pair_impulse(S, inv_m, inv_i, b1, b2, nx, ny, cx, cy, eps, vtol):
 
 @nb.njit(cache=True)
 def resolve_impulses(S, inv_m, inv_i, body1, body2, normal_point, eps, vtol, max_events,
-                     impulse):
+                     impulse, rest_speed=0.0):
     """Sweep the contacts, applying impulses until none approaches.
 
     Parameters
@@ -77,6 +83,7 @@ def resolve_impulses(S, inv_m, inv_i, body1, body2, normal_point, eps, vtol, max
     vtol : approach speeds below this are contact at rest (no impulse).
     max_events : stop after this many impulses.
     impulse : (k,) accumulated impulse of each contact (output, added to).
+    rest_speed : approach speeds below this do not bounce (0: the paper, eps everywhere).
 
     Returns
     -------
@@ -90,7 +97,7 @@ def resolve_impulses(S, inv_m, inv_i, body1, body2, normal_point, eps, vtol, max
         for c in range(body1.size):
             j = pair_impulse(S, inv_m, inv_i, body1[c], body2[c], normal_point[c, 1],
                              normal_point[c, 2], normal_point[c, 3], normal_point[c, 4], eps,
-                             vtol)
+                             vtol, rest_speed)
             if j != 0.0:
                 impulse[c] += j
                 applied += 1

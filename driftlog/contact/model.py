@@ -1,5 +1,4 @@
-"""The contact model the tracker calls each sub-step (``substep``) and at each record
-(``drain_hits``).
+"""The contact model: the tracker calls ``substep`` each sub-step, ``drain_hits`` at records.
 
 Two methods:
 
@@ -21,9 +20,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from driftlog.contact.geometry import NRES
 from driftlog.contact.impulses import resolve_impulses
 from driftlog.contact.moreau import moreau_solve
-from driftlog.contact.native import NativeBackend
+from driftlog.contact.native import NativeBackend, end_contacts
 from driftlog.contact.obstacles import Obstacles
 from driftlog.contact.toi import conservative_step, motion_margin
 from driftlog.errors import DriftlogError, ScenarioError
@@ -38,18 +38,22 @@ class ContactJamError(DriftlogError):
 class Contacts:
     """Contacts as arrays: bodies, obstacle index (-1 for log pairs), gap/normal/point."""
 
-    def __init__(self, body1, body2, obstacle, res):
+    def __init__(self, body1, body2, obstacle, res, key):
         self.body1, self.body2, self.obstacle, self.res = body1, body2, obstacle, res
+        self.key = key  # one integer per (log, log or obstacle capsule) pair
 
     def __len__(self):
         return self.body1.size
 
     @property
     def gap(self):
+        """Signed gaps (negative: overlap)."""
         return self.res[:, 0]
 
     def select(self, mask):
-        return Contacts(self.body1[mask], self.body2[mask], self.obstacle[mask], self.res[mask])
+        """The contacts where ``mask`` is true."""
+        return Contacts(self.body1[mask], self.body2[mask], self.obstacle[mask], self.res[mask],
+                        self.key[mask])
 
 
 def _backend(name, obstacles):
@@ -82,11 +86,13 @@ class ContactModel:
         stops (a jam).
     iterations : int
         Moreau: Gauss-Seidel sweeps at most per step.
+    rest_speed : float
+        Approach speeds below this do not bounce (resting contact; 0: the paper).
     """
 
     def __init__(self, obstacles=None, method="event", time_of_impact="conservative",
                  restitution=1.0, backend="native", tolerance=1e-4, max_events=10000,
-                 iterations=200):
+                 iterations=200, rest_speed=0.0):
         if method not in ("event", "moreau"):
             raise ScenarioError("contact.method", method, "must be one of 'event', 'moreau'")
         if time_of_impact not in ("conservative", "dichotomy"):
@@ -101,6 +107,11 @@ class ContactModel:
         self.tolerance = float(tolerance)
         self.max_events = int(max_events)
         self.iterations = int(iterations)
+        self.rest_speed = float(rest_speed)
+        self.check_overlap = True  # Moreau: measure the overlap after each step (stats)
+        self.near = 0.05  # event: pairs closer than this share of the radius that separate
+        # at their contact point do not bound the step (toi.conservative_step)
+        self.motion_share = 0.25  # Moreau: motion per step near contacts, share of the radius
         self.stats = dict(substeps=0, advances=0, rejected=0, events=0, detections=0,
                           pgs_iterations=0, pgs_max_iterations=0, max_contacts=0,
                           min_gap=np.inf)
@@ -111,6 +122,7 @@ class ContactModel:
 
     @property
     def obstacle_names(self):
+        """Names of the obstacles (hit records: other = -(index + 1))."""
         return list(self.obstacles.names)
 
     @classmethod
@@ -121,7 +133,7 @@ class ContactModel:
         return cls(obs, method=c["method"], time_of_impact=c["time_of_impact"],
                    restitution=c["restitution"], backend=c["backend"],
                    tolerance=c["tolerance"], max_events=c["max_events"],
-                   iterations=c.get("iterations", 200))
+                   iterations=c.get("iterations", 200), rest_speed=c.get("rest_speed", 0.0))
 
     # ----------------------------------------------------------------- detection
     def detect(self, bodies, margin, S=None):
@@ -131,12 +143,43 @@ class ContactModel:
         r_ll, r_lo = self.backend.gaps(S, bodies.length, bodies.radius, ll, lo)
         self.stats["detections"] += 1
         owner = self.obstacles.owner
-        return Contacts(np.concatenate([ll[:, 0], lo[:, 0]]),
-                        np.concatenate([ll[:, 1], np.full(lo.shape[0], -1, np.int64)]),
+        n = S.shape[0]
+        b1 = np.concatenate([ll[:, 0], lo[:, 0]])
+        other = np.concatenate([ll[:, 1], n + lo[:, 1]])
+        return Contacts(b1, np.concatenate([ll[:, 1], np.full(lo.shape[0], -1, np.int64)]),
                         np.concatenate([np.full(ll.shape[0], -1, np.int64),
                                         owner[lo[:, 1]] if lo.shape[0] else
                                         np.empty(0, np.int64)]),
-                        np.vstack([r_ll, r_lo]))
+                        np.vstack([r_ll, r_lo]), b1 * (n + owner.size) + other)
+
+    def detect_manifold(self, bodies, margin, S=None):
+        """``detect`` plus the axis-end contacts of each pair (for the time-stepping solve)."""
+        S = bodies.state if S is None else S
+        C = self.detect(bodies, margin, S)
+        if len(C) == 0:
+            return C
+        n = S.shape[0]
+        is_ll = C.body2 >= 0
+        ll = np.column_stack([C.body1[is_ll], C.body2[is_ll]])
+        caps = C.key[~is_ll] % (n + self.obstacles.owner.size) - n
+        lo = np.column_stack([C.body1[~is_ll], caps])
+        e_ll, e_lo = end_contacts(S, bodies.length, bodies.radius, self.obstacles.capsules,
+                                  ll, lo)
+        rep = lambda a: np.repeat(a, 4)  # noqa: E731
+        ends = Contacts(np.concatenate([rep(ll[:, 0]), rep(lo[:, 0])]),
+                        np.concatenate([rep(ll[:, 1]), np.full(4 * len(lo), -1, np.int64)]),
+                        np.concatenate([np.full(4 * len(ll), -1, np.int64),
+                                        rep(C.obstacle[~is_ll])]),
+                        np.vstack([e_ll.reshape(-1, NRES), e_lo.reshape(-1, NRES)]),
+                        np.concatenate([rep(C.key[is_ll]), rep(C.key[~is_ll])]))
+        # ends far apart (beyond the margin of the pair) cannot touch in this step
+        m1 = margin[ends.body1] + np.where(ends.body2 >= 0, margin[np.maximum(ends.body2, 0)],
+                                           0.0)
+        ends = ends.select(ends.gap <= m1)
+        return Contacts(*(np.concatenate([a, b]) for a, b in
+                          ((C.body1, ends.body1), (C.body2, ends.body2),
+                           (C.obstacle, ends.obstacle))),
+                        np.vstack([C.res, ends.res]), np.concatenate([C.key, ends.key]))
 
     def _tol(self, bodies):
         return self.tolerance * float(bodies.radius.min())
@@ -226,13 +269,18 @@ class ContactModel:
             imp = np.zeros(len(C))
             vscale = float(np.abs(S[:, 3:5]).max()) + 1e-3
             events = resolve_impulses(S, inv_m, inv_i, C.body1, C.body2, C.res,
-                                      self.restitution, 1e-10 * vscale, self.max_events, imp)
+                                      self.restitution, 1e-10 * vscale, self.max_events, imp,
+                                      self.rest_speed)
             if events < 0:
                 self._jam(bodies, C, f"{self.max_events} impulses in one sub-step and contacts "
                           "still approach (contact.max_events)")
             st["events"] += events
             st["max_contacts"] = max(st["max_contacts"], len(C))
-            self._record(bodies, C, imp, bodies.t)
+            # a hit is a contact that starts (a log resting on a pier, bounced back by the
+            # flow at every step, is one hit)
+            self._record(bodies, C, np.where(np.isin(C.key, self._active), 0.0, imp),
+                         bodies.t)
+        self._active = C.key
         self._count(bodies, dt, events, C)
         h = dt
         if self.time_of_impact == "conservative":
@@ -240,7 +288,7 @@ class ContactModel:
             A = self.detect(bodies, margin)
             if len(A):
                 h = conservative_step(S, bodies.length, bodies.radius, A.body1, A.body2, A.res,
-                                      tol, dt)
+                                      tol, dt, self.near * float(bodies.radius.min()))
         min_step = self._min_step(bodies)
         while True:
             if h < min_step:
@@ -251,7 +299,7 @@ class ContactModel:
             st["advances"] += 1
             E = self.detect(bodies, np.full(bodies.state.shape[0], tol))
             gmin = float(E.gap.min()) if len(E) else np.inf
-            if gmin >= -tol:
+            if gmin >= -tol or self._overlaps_kept(C, E, tol):
                 break
             bodies.restore(saved)
             h *= 0.5
@@ -260,11 +308,37 @@ class ContactModel:
         self._remember(bodies, E)
         return h
 
+    @staticmethod
+    def _overlaps_kept(C, E, tol):
+        """True if every pair overlapping by more than tol at the end did so at the start.
+
+        And deepened by less than tol: logs seeded overlapping are not a contact the step
+        missed.
+        """
+        deep = E.gap < -tol
+        order = np.argsort(C.key)
+        k = np.searchsorted(C.key[order], E.key[deep])
+        k = np.minimum(k, max(len(C) - 1, 0))
+        if len(C) == 0:
+            return False
+        found = C.key[order][k] == E.key[deep]
+        before = C.gap[order][k]
+        return bool(np.all(found & (before < -tol) & (E.gap[deep] >= before - tol)))
+
     def _moreau(self, bodies, dt):
         st = self.stats
         tol = self._tol(bodies)
         S0 = bodies.state.copy()
         t0 = bodies.t
+        # near contacts, no log moves more than a share of the smallest radius per step: the
+        # contact geometry is linearised at the start of the step
+        near = self.detect(bodies, motion_margin(S0, bodies.length, bodies.radius, dt, tol))
+        if len(near):
+            idx = np.unique(np.concatenate([near.body1, near.body2[near.body2 >= 0]]))
+            reach = 0.5 * bodies.length[idx] + bodies.radius[idx]
+            speed = float((np.hypot(S0[idx, 3], S0[idx, 4]) + np.abs(S0[idx, 5]) * reach).max())
+            if speed > 0.0:
+                dt = min(dt, self.motion_share * float(bodies.radius.min()) / speed)
         bodies.advance(dt)
         st["advances"] += 1
         S = bodies.state
@@ -272,7 +346,7 @@ class ContactModel:
         fast = S0.copy()
         fast[:, 3:6] = np.maximum(np.abs(S0[:, 3:6]), np.abs(S[:, 3:6]))
         margin = motion_margin(fast, bodies.length, bodies.radius, dt, tol)
-        C = self.detect(bodies, margin, S=S0)
+        C = self.detect_manifold(bodies, margin, S=S0)
         if len(C) == 0:
             self._active = np.empty(0, np.int64)
             return dt
@@ -286,6 +360,10 @@ class ContactModel:
         st["max_contacts"] = max(st["max_contacts"], len(C))
         if hasattr(bodies, "invalidate_flow"):
             bodies.invalidate_flow()
+        if self.check_overlap:
+            E = self.detect(bodies, np.full(S.shape[0], tol))
+            if len(E):
+                st["min_gap"] = min(st["min_gap"], float(E.gap.min()))
         # a hit is a contact that starts pushing (not one that keeps pushing)
         on = P > 0.0
         n_all = int(bodies.ids.max()) + 2 + len(self.obstacles.names)
@@ -293,6 +371,7 @@ class ContactModel:
                + np.where(C.body2 >= 0, bodies.ids[np.maximum(C.body2, 0)],
                           bodies.ids.max() + 1 + C.obstacle))
         new = on & ~np.isin(key, self._active)
-        self._active = key[on]
+        # touching or pushing: a contact that flickers within the tolerance is one hit
+        self._active = key[on | (C.gap <= tol)]
         self._record(bodies, C, np.where(new, P, 0.0), t0)
         return dt

@@ -14,7 +14,7 @@ from driftlog._numba import kernel
 from driftlog.contact.broadphase import StaticGrid, grid_pairs, log_boxes
 from driftlog.contact.geometry import NRES, capsule_gap, log_endpoints
 
-__all__ = ["NativeBackend"]
+__all__ = ["NativeBackend", "end_contacts"]
 
 
 @kernel
@@ -33,6 +33,57 @@ def _log_obstacle_gaps(pairs, S, length, radius, caps, out):
         ax, ay, bx, by = log_endpoints(S[i, 0], S[i, 1], S[i, 2], length[i])
         capsule_gap(ax, ay, bx, by, radius[i], caps[c, 0], caps[c, 1], caps[c, 2], caps[c, 3],
                     caps[c, 4], out[k])
+
+
+@nb.njit(cache=True)
+def _ends_against(ax, ay, bx, by, r1, cx, cy, dx, dy, r2, flip, out, row):
+    """Gaps of the two axis ends of capsule 1 (as discs) to capsule 2, in out[row:row+2].
+
+    ``flip``: capsule 1 is body 2 of the contact (normal reversed).
+    """
+    for e in range(2):
+        px, py = (ax, ay) if e == 0 else (bx, by)
+        capsule_gap(px, py, px, py, r1, cx, cy, dx, dy, r2, out[row + e])
+        if flip:
+            out[row + e, 1] = -out[row + e, 1]
+            out[row + e, 2] = -out[row + e, 2]
+
+
+@kernel
+def _log_log_manifold(pairs, S, length, radius, out):
+    for k in nb.prange(pairs.shape[0]):
+        i, j = pairs[k, 0], pairs[k, 1]
+        ax, ay, bx, by = log_endpoints(S[i, 0], S[i, 1], S[i, 2], length[i])
+        cx, cy, dx, dy = log_endpoints(S[j, 0], S[j, 1], S[j, 2], length[j])
+        _ends_against(ax, ay, bx, by, radius[i], cx, cy, dx, dy, radius[j], False, out[k], 0)
+        _ends_against(cx, cy, dx, dy, radius[j], ax, ay, bx, by, radius[i], True, out[k], 2)
+
+
+@kernel
+def _log_obstacle_manifold(pairs, S, length, radius, caps, out):
+    for k in nb.prange(pairs.shape[0]):
+        i, c = pairs[k, 0], pairs[k, 1]
+        ax, ay, bx, by = log_endpoints(S[i, 0], S[i, 1], S[i, 2], length[i])
+        _ends_against(ax, ay, bx, by, radius[i], caps[c, 0], caps[c, 1], caps[c, 2],
+                      caps[c, 3], caps[c, 4], False, out[k], 0)
+        # the obstacle's ends against the log (a wall's corner pressing on a log's side)
+        _ends_against(caps[c, 0], caps[c, 1], caps[c, 2], caps[c, 3], caps[c, 4], ax, ay, bx,
+                      by, radius[i], True, out[k], 2)
+
+
+def end_contacts(S, length, radius, caps, ll, lo):
+    """Contacts of the capsules' axis ends (4 per pair: ends of 1 on 2, ends of 2 on 1).
+
+    A log lying along a wall or along another log touches it on a line; one contact point
+    (the closest) lets it rock from end to end in a time-stepping solve, the ends hold it.
+    """
+    r_ll = np.empty((ll.shape[0], 4, NRES))
+    r_lo = np.empty((lo.shape[0], 4, NRES))
+    if ll.shape[0]:
+        _log_log_manifold(ll, S, length, radius, r_ll)
+    if lo.shape[0]:
+        _log_obstacle_manifold(lo, S, length, radius, caps, r_lo)
+    return r_ll, r_lo
 
 
 class NativeBackend:

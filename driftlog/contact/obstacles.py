@@ -1,5 +1,7 @@
-"""Obstacles as static capsules: bridge piers (circles), polygons, polylines, mesh walls, and
-3D obstacle meshes (meshio formats) cut by the horizontal plane of the logs.
+"""Obstacles as static capsules: piers, polygons, polylines, mesh walls, cut 3D meshes.
+
+Bridge piers are circles, 3D obstacle meshes (meshio formats) are cut by the horizontal plane
+of the logs.
 
 Every obstacle becomes a set of static capsules (ax, ay, bx, by, r): a circle is a capsule of
 zero length, an edge a capsule of zero radius.  ``owner`` gives each capsule's obstacle index,
@@ -59,7 +61,8 @@ def read_obstacle_mesh(path, key="obstacles.path"):
     try:
         m = meshio.read(path)
     except Exception as exc:  # meshio raises many kinds
-        raise ScenarioError(key, str(path), f"cannot be read as a mesh by meshio ({exc})")
+        raise ScenarioError(key, str(path),
+                            f"cannot be read as a mesh by meshio ({exc})") from None
     v = np.asarray(m.points, float)
     if v.shape[1] == 2:
         raise ScenarioError(key, str(path), "is a 2D mesh; obstacle meshes need 3D points "
@@ -98,16 +101,20 @@ class Obstacles:
         return k
 
     def add_circle(self, center, radius, name="pier"):
+        """A circle (a bridge pier): a capsule of zero length."""
         cx, cy = center
         return self.add(name, "circle", [cx, cy, cx, cy, radius])
 
     def add_polygon(self, points, name="polygon"):
+        """A closed polygon: its edges (zero radius)."""
         return self.add(name, "polygon", _edges(points, closed=True))
 
     def add_segments(self, points, name="segments"):
+        """An open polyline: its segments (zero radius)."""
         return self.add(name, "segments", _edges(points, closed=False))
 
     def add_mesh(self, path, z, name="mesh", key="obstacles.path"):
+        """A 3D surface mesh cut by the plane at height z (kept whole for FCL)."""
         v, t = read_obstacle_mesh(path, key)
         seg = cut_triangles(v, t, z)
         if len(seg) == 0:
