@@ -206,9 +206,17 @@ class ContactModel:
         ids = bodies.ids
         b2 = C.body2[hit]
         other = np.where(b2 >= 0, ids[np.maximum(b2, 0)], -(C.obstacle[hit] + 1))
-        self._hits.append(dict(time=np.full(hit.sum(), t), log_id=ids[C.body1[hit]],
-                               other=other, impulse=impulse[hit], x=C.res[hit, 3],
-                               y=C.res[hit, 4]))
+        log = ids[C.body1[hit]]
+        # one hit per log and body at an instant (a log on two edges of a polygon, or on
+        # a pier at two points, is one hit): impulses summed, point impulse-weighted
+        pair, inv = np.unique(np.column_stack([log, other]), axis=0, return_inverse=True)
+        inv = inv.ravel()
+        j = impulse[hit]
+        jsum = np.bincount(inv, j, len(pair))
+        self._hits.append(dict(time=np.full(len(pair), t), log_id=pair[:, 0], other=pair[:, 1],
+                               impulse=jsum,
+                               x=np.bincount(inv, j * C.res[hit, 3], len(pair)) / jsum,
+                               y=np.bincount(inv, j * C.res[hit, 4], len(pair)) / jsum))
 
     def drain_hits(self):
         """Contacts since the last call: dict of arrays time, log_id, other, impulse, x, y."""
