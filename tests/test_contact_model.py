@@ -28,7 +28,7 @@ def test_closed_box_conserves_energy(rng):
     b.state[:, :2] += 5.0
     obs = Obstacles()
     obs.add_polygon([[0, 0], [10, 0], [10, 10], [0, 10]], name="box")
-    m = ContactModel(obs, restitution=1.0)
+    m = ContactModel(obs, restitution=1.0, rest_speed=0.0)  # the paper: eps at every speed
     e0 = kinetic_energy(b.state, b.mass, b.inertia)
     run_contacts(m, b, 20.0)
     h = m.drain_hits()
@@ -45,7 +45,7 @@ def test_free_cloud_conserves_momenta(rng):
     momentum to round-off over thousands of collisions."""
     b = _grid_logs(rng, 9, 1.3, density=rng.uniform(500, 900, 81))
     b.state[:, 3:5] -= 0.8 * b.state[:, :2]  # converge on the centre
-    m = ContactModel(restitution=1.0)
+    m = ContactModel(restitution=1.0, rest_speed=0.0)
     e0, p0 = kinetic_energy(b.state, b.mass, b.inertia), np.array(momenta(b.state, b.mass,
                                                                            b.inertia))
     run_contacts(m, b, 10.0)
@@ -89,7 +89,7 @@ def test_no_interpenetration_10000_logs(rng):
 
 
 def _channel(method, n, piers, t_end, extra=None, eps=0.5, tmp=None, count_x=(-25, 10),
-             rest_speed=0.0, tolerance=1e-4):
+             rest_speed=0.01, tolerance=1e-4):
     scen = {
         "flow": {"source": "analytic", "kind": "uniform", "velocity": [1.0, 0.0], "depth": 1.0},
         "time": {"start": 0.0, "end": t_end, "output_interval": 1.0},
@@ -117,7 +117,7 @@ def test_channel_with_piers_track(tmp_path):
     piers = [{"name": f"pier_{k}", "type": "circle", "center": [15.0, y], "radius": 0.4}
              for k, y in enumerate((-2.0, 0.0, 2.0))]
     res = track(_channel("event", 30, piers, 40.0, tmp=tmp_path, count_x=(-12, 10), eps=1.0,
-                         tolerance=0.01))
+                         tolerance=0.01, rest_speed=0.0))
     ds = res.dataset()
     names = __import__("json").loads(ds.attrs["obstacle_names"])
     assert names[:3] == ["pier_0", "pier_1", "pier_2"]

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from driftlog.contact.geometry import NRES
-from driftlog.contact.impulses import resolve_impulses
+from driftlog.contact.impulses import resolve_impulses, separate_resting
 from driftlog.contact.moreau import moreau_solve
 from driftlog.contact.native import NativeBackend, end_contacts
 from driftlog.contact.obstacles import Obstacles
@@ -87,12 +87,14 @@ class ContactModel:
     iterations : int
         Moreau: Gauss-Seidel sweeps at most per step.
     rest_speed : float
-        Approach speeds below this do not bounce (resting contact; 0: the paper).
+        Approach speeds below this do not bounce (resting contact; 0: the paper).  Without it a
+        log pushed on a wall by the flow bounces ever less, ever more often (Zeno) and the
+        event-driven step collapses.
     """
 
     def __init__(self, obstacles=None, method="event", time_of_impact="conservative",
                  restitution=1.0, backend="native", tolerance=1e-4, max_events=10000,
-                 iterations=200, rest_speed=0.0):
+                 iterations=200, rest_speed=0.01):
         if method not in ("event", "moreau"):
             raise ScenarioError("contact.method", method, "must be one of 'event', 'moreau'")
         if time_of_impact not in ("conservative", "dichotomy"):
@@ -113,7 +115,7 @@ class ContactModel:
         # at their contact point do not bound the step (toi.conservative_step)
         self.motion_share = 0.25  # Moreau: motion per step near contacts, share of the radius
         self.stats = dict(substeps=0, advances=0, rejected=0, events=0, detections=0,
-                          pgs_iterations=0, pgs_max_iterations=0, max_contacts=0,
+                          pgs_iterations=0, separations=0, pgs_max_iterations=0, max_contacts=0,
                           min_gap=np.inf)
         self._hits = []
         self._cache = None
@@ -133,7 +135,7 @@ class ContactModel:
         return cls(obs, method=c["method"], time_of_impact=c["time_of_impact"],
                    restitution=c["restitution"], backend=c["backend"],
                    tolerance=c["tolerance"], max_events=c["max_events"],
-                   iterations=c.get("iterations", 200), rest_speed=c.get("rest_speed", 0.0))
+                   iterations=c.get("iterations", 200), rest_speed=c.get("rest_speed", 0.01))
 
     # ----------------------------------------------------------------- detection
     def detect(self, bodies, margin, S=None):
@@ -288,6 +290,11 @@ class ContactModel:
             # flow at every step, is one hit)
             self._record(bodies, C, np.where(np.isin(C.key, self._active), 0.0, imp),
                          bodies.t)
+            if self.rest_speed > 0.0 and separate_resting(S, inv_m, C.body1, C.body2, C.res,
+                                                          self.rest_speed):
+                st["separations"] += 1
+                if hasattr(bodies, "invalidate_flow"):
+                    bodies.invalidate_flow()
         self._active = C.key
         self._count(bodies, dt, events, C)
         h = dt
