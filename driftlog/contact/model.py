@@ -6,7 +6,8 @@ Two methods:
   tolerance get impulses (eq. 11-15); the step is then chosen so that no pair overlaps by
   more than the tolerance at its end, either by conservative advancement on the capsule
   distance (``toi.conservative_step``) or by the paper's dichotomy (take the step; while
-  logs overlap at its end, halve it and redo).  A sub-step may end before the one asked: at
+  logs overlap at its end, halve it and redo; the next steps stay within the bracket where
+  the overlap was seen, so that the bisection converges on the contact).  A sub-step may end before the one asked: at
   the next contact.  In a jam (many persistent contacts, eps < 1) the sub-steps collapse;
   the method counts events and sub-steps within one free sub-step and stops with
   ``ContactJamError`` (naming the logs, the time and the remedy) instead of looping.
@@ -121,6 +122,7 @@ class ContactModel:
         self._cache = None
         self._window = None
         self._active = np.empty(0, np.int64)
+        self._bracket = None
 
     @property
     def obstacle_names(self):
@@ -304,6 +306,12 @@ class ContactModel:
             if len(A):
                 h = conservative_step(S, bodies.length, bodies.radius, A.body1, A.body2, A.res,
                                       tol, dt, self.near * float(bodies.radius.min()))
+        elif self._bracket is not None:
+            # dichotomy: an overlap was seen by time _bracket; bisect up to it, do not jump it
+            if events or bodies.t >= self._bracket:
+                self._bracket = None
+            else:
+                h = min(h, self._bracket - bodies.t)
         min_step = self._min_step(bodies)
         while True:
             if h < min_step:
@@ -317,6 +325,8 @@ class ContactModel:
             if gmin >= -tol or self._overlaps_kept(C, E, tol):
                 break
             bodies.restore(saved)
+            if self.time_of_impact == "dichotomy":
+                self._bracket = bodies.t + h
             h *= 0.5
             st["rejected"] += 1
         st["min_gap"] = min(st["min_gap"], gmin)
