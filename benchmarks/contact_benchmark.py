@@ -124,8 +124,9 @@ def part_whole_step(quick, rows):
                 sim += tk.t - t_before
                 steps += 1
             wall = time.perf_counter() - t0
-            rows.append(dict(logs=n, contact=mode, substeps=steps, ms_per_substep=1e3 * wall / steps,
-                             simulated_s=sim, simulated_s_per_wall_s=sim / wall))
+            rows.append(dict(logs=n, contact=mode, substeps=steps,
+                             ms_per_substep=1e3 * wall / steps, simulated_s=sim,
+                             simulated_s_per_wall_s=sim / wall))
             print(rows[-1])
 
 

@@ -7,9 +7,10 @@ Two methods:
   more than the tolerance at its end, either by conservative advancement on the capsule
   distance (``toi.conservative_step``) or by the paper's dichotomy (take the step; while
   logs overlap at its end, halve it and redo; the next steps stay within the bracket where
-  the overlap was seen, so that the bisection converges on the contact).  A sub-step may end before the one asked: at
-  the next contact.  In a jam (many persistent contacts, eps < 1) the sub-steps collapse;
-  the method counts events and sub-steps within one free sub-step and stops with
+  the overlap was seen, so that the bisection converges on the contact).  A sub-step may
+  end before the one asked: at the next contact.  In a jam (many persistent contacts,
+  eps < 1) the sub-steps collapse; the method counts events and sub-steps within one free
+  sub-step and stops with
   ``ContactJamError`` (naming the logs, the time and the remedy) instead of looping.
 - ``moreau`` (``moreau.moreau_solve``): the whole step is taken, and all contact impulses of
   the step are solved together by projected Gauss-Seidel; bounded cost, stable piles.
