@@ -16,6 +16,11 @@ Two methods:
   the step are solved together by projected Gauss-Seidel; bounded cost, stable piles.
 
 Masses are the logs' m_b and I_b (MODEL.md 2, the paper's choice; see ``impulses``).
+
+Hits (``drain_hits``) are contacts that start: one record per log and other body (a log id,
+or -(obstacle index + 1)) at the instant the contact begins, with its impulse (Moreau-Jean:
+the impulse of the step where it begins; an impact may spread over two steps).
+
 """
 
 from __future__ import annotations
