@@ -63,6 +63,13 @@ class Contacts:
                         self.key[mask])
 
 
+def _body_pairs(bodies, C):
+    """One integer per (log, other body) by log id, stable when the floating set changes."""
+    ids = bodies.ids
+    other = np.where(C.body2 >= 0, ids[np.maximum(C.body2, 0)], (1 << 31) + C.obstacle)
+    return ids[C.body1].astype(np.int64) * (1 << 32) + other
+
+
 def _backend(name, obstacles):
     if name == "native":
         return NativeBackend(obstacles)
@@ -296,14 +303,15 @@ class ContactModel:
             st["max_contacts"] = max(st["max_contacts"], len(C))
             # a hit is a contact that starts (a log resting on a pier, bounced back by the
             # flow at every step, is one hit)
-            self._record(bodies, C, np.where(np.isin(C.key, self._active), 0.0, imp),
+            pairs = _body_pairs(bodies, C)
+            self._record(bodies, C, np.where(np.isin(pairs, self._active), 0.0, imp),
                          bodies.t)
             if self.rest_speed > 0.0 and separate_resting(S, inv_m, C.body1, C.body2, C.res,
                                                           self.rest_speed):
                 st["separations"] += 1
                 if hasattr(bodies, "invalidate_flow"):
                     bodies.invalidate_flow()
-        self._active = C.key
+        self._active = _body_pairs(bodies, C)
         self._count(bodies, dt, events, C)
         h = dt
         if self.time_of_impact == "conservative":
@@ -397,10 +405,7 @@ class ContactModel:
                 st["min_gap"] = min(st["min_gap"], float(E.gap.min()))
         # a hit is a contact that starts pushing (not one that keeps pushing)
         on = P > 0.0
-        n_all = int(bodies.ids.max()) + 2 + len(self.obstacles.names)
-        key = (bodies.ids[C.body1] * n_all
-               + np.where(C.body2 >= 0, bodies.ids[np.maximum(C.body2, 0)],
-                          bodies.ids.max() + 1 + C.obstacle))
+        key = _body_pairs(bodies, C)
         new = on & ~np.isin(key, self._active)
         # touching or pushing: a contact that flickers within the tolerance is one hit
         self._active = key[on | (C.gap <= tol)]
