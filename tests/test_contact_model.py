@@ -123,6 +123,8 @@ def test_channel_with_piers_track(tmp_path):
     ds = res.dataset()
     names = __import__("json").loads(ds.attrs["obstacle_names"])
     assert names[:3] == ["pier_0", "pier_1", "pier_2"]
+    stats = __import__("json").loads(ds.attrs["contact_stats"])
+    assert stats["events"] > 0 and stats["min_gap"] >= -0.01 * 0.1 * 1.01
     other = ds.hit_other.values
     on_piers = np.isin(other, [-1, -2, -3])
     assert on_piers.sum() >= 3 and (other >= 0).sum() >= 1
