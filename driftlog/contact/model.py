@@ -341,11 +341,27 @@ class ContactModel:
             bodies.restore(saved)
             if self.time_of_impact == "dichotomy":
                 self._bracket = bodies.t + h
-            h *= 0.5
+                h *= 0.5  # the paper
+            else:
+                # the bound held at constant velocities; a force closed the gap faster (a log
+                # pushed on a wall): shorten the step in proportion to the closing measured
+                h = self._shorter(C, E, tol, h)
             st["rejected"] += 1
         st["min_gap"] = min(st["min_gap"], gmin)
         self._remember(bodies, E)
         return h
+
+    @staticmethod
+    def _shorter(C, E, tol, h):
+        """A step after which the deepest pair, closing as it did over h, ends above -tol."""
+        k = int(np.argmin(E.gap))
+        g_end = float(E.gap[k])
+        same = np.flatnonzero(C.key == E.key[k])
+        g0 = float(C.gap[same[0]]) if same.size else tol
+        closing = g0 - g_end
+        if closing <= 0.0:
+            return 0.5 * h
+        return min(0.5 * h, max(h / 16.0, 0.9 * h * max(g0 + tol, 0.0) / closing))
 
     @staticmethod
     def _overlaps_kept(C, E, tol):
