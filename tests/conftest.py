@@ -1,7 +1,12 @@
 import os
 
-import numpy as np
-import pytest
+# pytest -n 2 runs two worker processes on a 2-core machine: one numba thread each, or four
+# threads contend for two cores (set before numba is imported by the tests)
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
 
 
 def pytest_addoption(parser):
