@@ -17,6 +17,9 @@ Modules: ``riemann`` (HLL, HLLC), ``reconstruction`` (MUSCL gradients and limite
 """
 
 from driftlog.solver.boundaries import Boundary
+from driftlog.solver.config import build_solver, flow_from_scenario, solve_scenario
 from driftlog.solver.model import ShallowWaterSolver
+from driftlog.solver.run import SolveResult
 
-__all__ = ["ShallowWaterSolver", "Boundary"]
+__all__ = ["ShallowWaterSolver", "Boundary", "SolveResult", "flow_from_scenario",
+           "solve_scenario", "build_solver"]

@@ -243,6 +243,36 @@ class ShallowWaterSolver:
                              self.arrival_depth)
         return dt
 
+    def run(self, t_end, output=None, output_interval=None, progress=False, resume=False,
+            attrs=None):
+        """Advance to ``t_end`` (s), writing the flow file ``output`` every ``output_interval``.
+
+        ``resume=True`` continues from the last snapshot of ``output`` (state, volume
+        balance and extremes).  Returns a ``driftlog.solver.run.SolveResult`` (steps, wall
+        time, cell-updates/s, volume error).
+        """
+        from driftlog.solver.run import run_solver
+
+        return run_solver(self, t_end, output=output, output_interval=output_interval,
+                          progress=progress, resume=resume, attrs=attrs)
+
+    def set_from_flow(self, path, time=None):
+        """Start from a flow file's snapshot at ``time`` (default its last) on the same mesh."""
+        from driftlog.errors import FlowFileError
+        from driftlog.flowfile import open_flow
+
+        flow = open_flow(path, dry_depth=self.dry_depth)
+        if flow.mesh.n_faces != self.mesh.n_faces:
+            raise FlowFileError(f"{path}: has {flow.mesh.n_faces} faces, the solver's mesh "
+                                f"{self.mesh.n_faces}: initial state from another mesh")
+        times = np.asarray(flow.times)
+        i = times.size - 1 if time is None else int(np.argmin(np.abs(times - time)))
+        if time is not None and abs(times[i] - time) > 1e-9 * max(1.0, abs(time)):
+            raise FlowFileError(f"{path}: no snapshot at t = {time} s (it has "
+                                f"{times[0]}..{times[-1]} s)")
+        snap = flow.read_snapshot(i)
+        self.set_state(snap[0], snap[1], snap[2], t=float(times[i]))
+
     def advance_to(self, t_end):
         """Step until time ``t_end`` exactly (the last step is shortened); returns steps."""
         n = 0

@@ -27,8 +27,8 @@ def lsq_geometry(mesh):
     """Centroid offsets to the neighbours (n_faces, nmax, 2) and the inverse normal matrices.
 
     Returns ``(offset, minv, edge_offset)``: ``minv`` (n_faces, 3) holds (a, b, c) of the
-    symmetric inverse of sum d d^T, zero where the neighbours do not span the plane (a face
-    with a single neighbour); ``edge_offset`` (n_faces, nmax, 2) goes from the centroid to
+    symmetric pseudo-inverse of sum d d^T (the gradient along the line of the neighbours
+    where they do not span the plane); ``edge_offset`` (n_faces, nmax, 2) goes from the centroid to
     each edge midpoint.
     """
     nb_ = mesh.face_neighbours
@@ -36,11 +36,14 @@ def lsq_geometry(mesh):
     j = np.where(ok, nb_, 0)
     dx = np.where(ok, mesh.face_x[j] - mesh.face_x[:, None], 0.0)
     dy = np.where(ok, mesh.face_y[j] - mesh.face_y[:, None], 0.0)
-    sxx, sxy, syy = (dx * dx).sum(1), (dx * dy).sum(1), (dy * dy).sum(1)
-    det = sxx * syy - sxy * sxy
-    good = det > 1e-10 * (sxx + syy) ** 2
-    inv = np.where(good, 1.0 / np.where(good, det, 1.0), 0.0)
-    minv = np.column_stack([syy * inv, -sxy * inv, sxx * inv])
+    m = np.empty((mesh.n_faces, 2, 2))
+    m[:, 0, 0] = (dx * dx).sum(1)
+    m[:, 0, 1] = m[:, 1, 0] = (dx * dy).sum(1)
+    m[:, 1, 1] = (dy * dy).sum(1)
+    # pseudo-inverse: neighbours on one line (a strip one cell wide) still give the gradient
+    # along that line
+    p = np.linalg.pinv(m, rcond=1e-10, hermitian=True)
+    minv = np.column_stack([p[:, 0, 0], p[:, 0, 1], p[:, 1, 1]])
     fe = mesh.face_edges
     e = np.where(fe >= 0, fe, 0)
     ex = np.where(fe >= 0, mesh.edge_x[e] - mesh.face_x[:, None], 0.0)
@@ -55,7 +58,7 @@ def limited_gradients(h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge
     for f in nb.prange(h.shape[0]):
         for k in range(NGRAD):
             grad[f, k] = 0.0
-        if h[f] <= hdry or minv[f, 0] == 0.0:
+        if h[f] <= hdry or (minv[f, 0] == 0.0 and minv[f, 2] == 0.0):
             continue
         front = False
         for k in range(face_n[f]):
