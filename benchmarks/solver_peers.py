@@ -63,6 +63,7 @@ STRIP_CELLS = {"full": (100, 200, 400, 800, 1600), "quick": (100, 200, 400)}
 ANUGA_RUNS = (("DE0", None), ("DE1", None), ("DE0", 0.0))  # algorithm, limiter beta override
 BETAS = ("beta_w", "beta_w_dry", "beta_uh", "beta_uh_dry", "beta_vh", "beta_vh_dry")
 FOAM_COURANT = 0.5  # shallowWaterFoam's fixed step: Courant number on |u| + sqrt(g h)
+PROFILE_AT = {"ritter": 0.05, "stoker": 400}  # the resolution whose profiles are plotted
 REPEAT_BUDGET = 3.0  # s: repeat a run while the repeats so far took less than this
 
 
@@ -96,6 +97,25 @@ def triangle_strip(cell):
 def square_strip(nx):
     dx = LENGTH / nx
     return Mesh.regular_grid(nx, 1, dx, dx)
+
+
+def bore(mesh, h):
+    """How sharp the computed Stoker bore is: cells in its 10-90 % rise, overshoot.
+
+    The exact bore at t = 6 s jumps from the plateau h_m down to h_r at x_s; counted are the
+    cells within 0.5 m of x_s whose depth lies between h_r + 0.1 (h_m - h_r) and
+    h_r + 0.9 (h_m - h_r), and the largest depth there above h_m, as a fraction of the jump.
+    """
+    exact_depth("stoker", 0.0)
+    xs, hs = _EXACT["stoker"]
+    i = int(np.argmin(np.diff(hs)))  # the steepest drop: the bore
+    x_s, h_m, h_r = 0.5 * (xs[i] + xs[i + 1]), hs[i], hs[i + 1]
+    jump = h_m - h_r
+    near = np.abs(mesh.face_x - x_s) < 0.5
+    hn = h[near]
+    rise = (hn > h_r + 0.1 * jump) & (hn < h_r + 0.9 * jump)
+    return {"bore_cells": int(rise.sum()),
+            "bore_overshoot": float(max(hn.max() - h_m, 0.0) / jump)}
 
 
 def best_of(fn):
@@ -196,6 +216,10 @@ def _row(solver, order_label, case, mesh, size, r):
            "repeats": len(r["walls"])}
     if "solver_time" in r:
         row["solver_time_s"] = r["solver_time"]
+    if case == "stoker":
+        row.update(bore(mesh, r["h"]))
+    if size == PROFILE_AT[case] or (case == "stoker" and mesh.n_faces == PROFILE_AT[case]):
+        row["_profile"] = (mesh.face_x, r["h"])
     print(f"  {solver:<28} {order_label:<26} {mesh.n_faces:>7} cells {r['steps']:>6} steps "
           f"{r['wall']:8.3f} s  L1 {err:.3e} m  {row['cell_updates_per_s']:.3g} cell-updates/s",
           flush=True)
@@ -334,6 +358,38 @@ def plot(tri_rows, strip_rows, path):
     plt.close(fig)
 
 
+def plot_profiles(tri_rows, strip_rows, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(13, 4.5))
+    for ax, rows, case, title in (
+            (axes[0], tri_rows, "ritter",
+             f"A. Ritter at 6 s, {PROFILE_AT['ritter'] * 1e3:g} mm triangles (every centroid)"),
+            (axes[1], strip_rows, "stoker",
+             f"B. Stoker at 6 s, {PROFILE_AT['stoker']} cells")):
+        x = np.linspace(0.0, LENGTH, 4001)
+        ax.plot(x, 1e3 * exact_depth(case, x), "k-", lw=1.0, label="exact (SWASHES)")
+        for r in rows:
+            if "_profile" not in r:
+                continue
+            fx, h = r["_profile"]
+            o = np.argsort(fx)
+            ax.plot(fx[o], 1e3 * h[o], ".", ms=2 if case == "ritter" else 3,
+                    label=f"{r['solver']}, order {r['order']}")
+        ax.set_xlim(3.0, 9.0)
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("depth h (mm)")
+        ax.set_title(title, fontsize=10)
+        ax.legend(fontsize=7, markerscale=3)
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def versions():
     import numba
 
@@ -394,7 +450,8 @@ def main(argv=None):
                   "and field reading included).")
     write_table("shallow_water_peers_triangles", tri_rows, COLUMNS,
                 "Solver peers A: ANUGA on the same triangles (Ritter, dry bed)", tri_note)
-    write_table("shallow_water_peers_strip", strip_rows, COLUMNS + ["solver_time_s"],
+    write_table("shallow_water_peers_strip", strip_rows,
+                COLUMNS + ["solver_time_s", "bore_cells", "bore_overshoot"],
                 "Solver peers B: shallowWaterFoam on the same cells (Stoker, wet bed)",
                 strip_note)
     targets = {}
@@ -417,7 +474,8 @@ def main(argv=None):
             f.write(text)
         print(text)
     plot(tri_rows, strip_rows, RESULTS / "shallow_water_peers.png")
-    clean = [{k: v for k, v in r.items() if k != "walls"} for r in tri_rows + strip_rows]
+    plot_profiles(tri_rows, strip_rows, RESULTS / "shallow_water_peers_profiles.png")
+    clean = [{k: v for k, v in r.items() if not k.startswith("_")} for r in tri_rows + strip_rows]
     result = {"machine": where, "mode": mode, "versions": versions(), "notes": notes,
               "threads": "NUMBA_NUM_THREADS=1, OMP_NUM_THREADS=1, OpenFOAM serial",
               "end_time_s": T_END, "outputs": N_OUT + 1, "anuga_settings": anuga_meta,
