@@ -52,7 +52,8 @@ def update_extremes(h, hu, hv, z, t, hdry, arrival_depth, max_level, max_depth, 
 class Extremes:
     """The running extremes of a run (arrays of n_faces)."""
 
-    def __init__(self, n_faces):
+    def __init__(self, n_faces, parallel=False):
+        self._kernel = update_extremes.parallel if parallel else update_extremes.serial
         self.max_level = np.full(n_faces, -np.inf)
         self.max_depth = np.zeros(n_faces)
         self.max_speed = np.zeros(n_faces)
@@ -60,7 +61,7 @@ class Extremes:
 
     def update(self, h, hu, hv, z, t, hdry, arrival_depth):
         """Fold the state at time t in."""
-        update_extremes(h, hu, hv, z, t, hdry, arrival_depth, self.max_level, self.max_depth,
+        self._kernel(h, hu, hv, z, t, hdry, arrival_depth, self.max_level, self.max_depth,
                         self.max_speed, self.arrival)
 
     def arrays(self):

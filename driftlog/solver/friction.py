@@ -2,9 +2,13 @@
 
 The friction source ``-g n^2 |q| q / h^(7/3)`` (Manning; Strickler K = 1/n) is stiff where the
 water is shallow: explicitly it flips the sign of q once dt g n^2 |q| / h^(7/3) > 1.  Treated
-semi-implicitly, q^(n+1) (1 + dt g n^2 |q*| / h^(n+1)^(7/3)) = q*, the factor only ever slows
-the flow down, whatever the depth and the step (stable at small depths), and keeps the
-direction of q.  Dry faces (h <= dry depth) keep no momentum.
+semi-implicitly, q^(n+1) (1 + dt g n^2 |q^n| / h^(n+1)^(7/3)) = q*, with q* the explicit
+update, the factor only ever slows the flow down, whatever the depth and the step (stable at
+small depths), and keeps the direction of q.  |q| is taken at the start of the stage, not
+from q*: then a steady state (q^(n+1) = q^n) balances the fluxes against g n^2 |q| q / h^(7/3)
+exactly, whatever dt (with |q*| the steady state carries an O(dt) friction error, which made
+MacDonald's channel first order at second order).  Dry faces (h <= dry depth) keep no
+momentum.
 """
 
 from __future__ import annotations
@@ -38,9 +42,11 @@ def euler_stage(h0, hu0, hv0, dh, dhu, dhv, dt, gn2, hdry, h, hu, hv):
             hu[f] = 0.0
             hv[f] = 0.0
             continue
-        qx = hu0[f] + dt * dhu[f]
-        qy = hv0[f] + dt * dhv[f]
-        k = manning_factor(dt, gn2[0] if scalar_n else gn2[f], hn, qx, qy)
+        qx0 = hu0[f]
+        qy0 = hv0[f]
+        qx = qx0 + dt * dhu[f]
+        qy = qy0 + dt * dhv[f]
+        k = manning_factor(dt, gn2[0] if scalar_n else gn2[f], hn, qx0, qy0)
         h[f] = hn
         hu[f] = qx * k
         hv[f] = qy * k

@@ -23,6 +23,9 @@ __all__ = ["ShallowWaterSolver", "GRAVITY", "DEFAULT_CFL"]
 
 GRAVITY = 9.81
 DEFAULT_CFL = {1: 0.9, 2: 0.8}
+# faces from which the kernels run on numba's threads: below, waking the thread pool at each
+# of the ~8 kernel calls of a step costs more than the work (and far more on a loaded machine)
+PARALLEL_FACES = 20000
 
 
 def _per_face(value, n, key):
@@ -62,11 +65,13 @@ class ShallowWaterSolver:
     arrival_depth : float
         Depth (m) that marks the arrival of the flood at a face (default 0.05 m).
     gravity : float
+    parallel : bool, optional
+        Run the kernels on numba's threads (default: from PARALLEL_FACES faces on).
     """
 
     def __init__(self, mesh, bed=None, order=1, riemann="hllc", cfl=None, manning=None,
                  strickler=None, dry_depth=1e-6, boundaries=None, arrival_depth=ARRIVAL_DEPTH,
-                 gravity=GRAVITY):
+                 gravity=GRAVITY, parallel=None):
         if order not in (1, 2):
             raise ScenarioError("solver.order", order, "must be 1 or 2")
         if riemann not in RIEMANN:
@@ -101,6 +106,11 @@ class ShallowWaterSolver:
         self.dry_depth, self.gravity, self.arrival_depth = float(dry_depth), float(gravity), \
             float(arrival_depth)
         self._gn2 = np.ascontiguousarray(self.gravity * n * n)
+        par = nf >= PARALLEL_FACES if parallel is None else bool(parallel)
+        self.parallel = par
+        pick = (lambda k: k.parallel) if par else (lambda k: k.serial)
+        self._k_grad, self._k_edges, self._k_faces, self._k_euler, self._k_heun = map(
+            pick, (limited_gradients, edge_fluxes, face_residuals, euler_stage, heun_average))
         self.boundaries = BoundarySet(mesh, boundaries, key="solver.boundaries")
         # geometry, once
         self._ef = np.ascontiguousarray(mesh.edge_faces)
@@ -136,7 +146,7 @@ class ShallowWaterSolver:
         self.inflow_volume = np.zeros(n_tags)   # m3 entered through each tag so far
         self.outflow_volume = np.zeros(n_tags)  # m3 left through each tag so far
         self.initial_volume = 0.0
-        self.extremes = Extremes(nf)
+        self.extremes = Extremes(nf, parallel=self.parallel)
 
     # ----------------------------------------------------------------- state
     @property
@@ -170,7 +180,7 @@ class ShallowWaterSolver:
         self.inflow_volume[:] = 0.0
         self.outflow_volume[:] = 0.0
         self.initial_volume = self.volume()
-        self.extremes = Extremes(nf)
+        self.extremes = Extremes(nf, parallel=self.parallel)
         self.extremes.update(self.h, self.hu, self.hv, self.bed, self.t, self.dry_depth,
                              self.arrival_depth)
 
@@ -193,14 +203,14 @@ class ShallowWaterSolver:
         bs.update(t, h, m.bed, m.dry_depth)
         if m.order == 2:
             offset, minv, eoff = m._lsq
-            limited_gradients(h, hu, hv, m.bed, m.dry_depth, m._fn, m._nbr, offset, minv, eoff,
+            m._k_grad(h, hu, hv, m.bed, m.dry_depth, m._fn, m._nbr, offset, minv, eoff,
                               m._grad)
         fm, fx0, fy0, fx1, fy1, sp = m._flux
-        edge_fluxes(m._ef, m._nx, m._ny, m._len, m._off0, m._off1, h, hu, hv, m.bed, m._grad,
+        m._k_edges(m._ef, m._nx, m._ny, m._len, m._off0, m._off1, h, hu, hv, m.bed, m._grad,
                     m.order, RIEMANN[m.riemann], m.gravity, m.dry_depth, bs.slot, bs.kind,
                     bs.value, fm, fx0, fy0, fx1, fy1, sp)
         dh, dhu, dhv, rate = m._res
-        face_residuals(m._fe, m._fn, m._ef, m._area, fm, fx0, fy0, fx1, fy1, sp, m.order,
+        m._k_faces(m._fe, m._fn, m._ef, m._area, fm, fx0, fy0, fx1, fy1, sp, m.order,
                        dh, dhu, dhv, rate)
         return float(rate.max())
 
@@ -217,7 +227,7 @@ class ShallowWaterSolver:
         dh, dhu, dhv, _ = self._res
         if self.order == 1:
             self._bflux_sum[:] = fm[bedges]
-            euler_stage(self.h, self.hu, self.hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
+            self._k_euler(self.h, self.hu, self.hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
                         self.h, self.hu, self.hv)
         else:
             h0, hu0, hv0 = self._save
@@ -225,13 +235,13 @@ class ShallowWaterSolver:
             hu0[:] = self.hu
             hv0[:] = self.hv
             self._bflux_sum[:] = 0.5 * fm[bedges]
-            euler_stage(h0, hu0, hv0, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
+            self._k_euler(h0, hu0, hv0, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
                         self.h, self.hu, self.hv)
             self._rates(self.h, self.hu, self.hv, self.t + dt)
             self._bflux_sum += 0.5 * fm[bedges]
-            euler_stage(self.h, self.hu, self.hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
+            self._k_euler(self.h, self.hu, self.hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
                         self.h, self.hu, self.hv)
-            heun_average(h0, hu0, hv0, self.h, self.hu, self.hv)
+            self._k_heun(h0, hu0, hv0, self.h, self.hu, self.hv)
         vol = self._bflux_sum * dt  # m3 out (>0) or in (<0) per boundary edge
         bs = self.boundaries
         n = len(self.mesh.tag_names)
