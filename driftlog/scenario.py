@@ -602,4 +602,8 @@ register_section(Section("solver", [
     Key("initial", "table", {}, "initial state: type = dry | level | depth | file; value (m); "
         "polygon = [[x, y], ...] (level or depth only inside); velocity = [u, v]; path and "
         "time (file)"),
+    Key("sea", "table", {}, "a sea found from the bed: level = sea surface (m); boundary "
+        "edges at or below it are tagged (tag, default 'sea') with an imposed level (boundary "
+        "= 'level', default) or a free outflow ('free'); faces below it connected to them "
+        "start filled to it"),
 ], doc="driftlog's shallow-water solver ([flow] source = 'solver')", check=_check_solver))

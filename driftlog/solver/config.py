@@ -94,6 +94,10 @@ def check_solver_section(t, prefix, scen):
                                 "type = " + " | ".join(KINDS))
         as_boundary(spec, f"{prefix}.boundaries.{tag}")
     _check_initial(t["initial"] or {}, f"{prefix}.initial")
+    if t.get("sea"):
+        from driftlog.floodsetup import check_sea
+
+        check_sea(t["sea"], f"{prefix}.sea")
 
 
 def _check_initial(ini, key):
@@ -163,9 +167,15 @@ def build_solver(sec, mesh=None):
     from driftlog.solver.model import ShallowWaterSolver
 
     mesh = build_mesh(sec) if mesh is None else mesh
+    boundaries, coast = sec["boundaries"], None
+    if sec.get("sea"):  # a sea found from the bed: its coast tagged, its water filled below
+        from driftlog.floodsetup import apply_sea
+
+        boundaries = dict(boundaries or {})
+        coast = apply_sea(mesh, sec["sea"], boundaries)
     s = ShallowWaterSolver(mesh, order=sec["order"], riemann=sec["riemann"], cfl=sec["cfl"],
                            manning=sec["manning"], strickler=sec["strickler"],
-                           dry_depth=sec["dry_depth"], boundaries=sec["boundaries"],
+                           dry_depth=sec["dry_depth"], boundaries=boundaries,
                            arrival_depth=sec["arrival_depth"])
     ini = sec["initial"] or {}
     kind = ini.get("type", "dry")
@@ -185,6 +195,10 @@ def build_solver(sec, mesh=None):
         inside = MplPath(np.asarray(ini["polygon"], float)).contains_points(
             np.column_stack([mesh.face_x, mesh.face_y]))
         h = np.where(inside, h, 0.0)
+    if coast is not None:
+        from driftlog.floodsetup import fill_sea
+
+        h = fill_sea(mesh, s.bed, h, float(sec["sea"]["level"]), coast)
     s.set_state(h, h * vel[0], h * vel[1], t=sec["start"])
     return s
 
