@@ -32,8 +32,8 @@ ANUGA_DE0 = 4.7e6  # ANUGA's first-order DE0 per core on this kind of machine (i
 
 def square_mesh(n_faces):
     """Quality triangles (min angle 30 degrees) filling a 1 km square, about n_faces of them."""
-    # Triangle's 30-degree meshes come out about 2.5 faces per (sqrt(3)/4) cell_size^2
-    cell = np.sqrt(1e6 / (n_faces * np.sqrt(3) / 4 * 2.5))
+    # Triangle's 30-degree meshes come out about 1 face per 0.63 x (sqrt(3)/4) cell_size^2
+    cell = np.sqrt(1e6 / (n_faces * np.sqrt(3) / 4 * 0.63))
     return polygon_mesh(rectangle(0, 0, 1000, 1000), cell)
 
 
