@@ -22,12 +22,13 @@ the coarsest mesh first; a run shorter than a few seconds is repeated and the be
 Threads: ``NUMBA_NUM_THREADS=1`` and ``OMP_NUM_THREADS=1`` (ANUGA's OpenMP kernels), set
 before anything is imported; OpenFOAM runs serial.
 
-    python benchmarks/solver_peers.py            # 4 resolutions each (about 8 min)
+    python benchmarks/solver_peers.py            # 4 and 5 resolutions (about 7 min)
     python benchmarks/solver_peers.py --quick    # 3 coarse resolutions (under 2 min)
 
 writes benchmarks/results/shallow_water_peers_{triangles,strip}.{csv,md},
-shallow_water_peers.json and shallow_water_peers.png (work-precision: L1 error of h against
-wall time, one curve per solver and order).
+shallow_water_peers.json, shallow_water_peers.png (work-precision: L1 error of h against
+wall and CPU time, one curve per solver and order) and shallow_water_peers_profiles.png
+(depth profiles against the exact ones); ``--quick`` writes shallow_water_peers_quick*.
 """
 
 import os
@@ -415,6 +416,7 @@ def main(argv=None):
     p.add_argument("--skip-openfoam", action="store_true")
     args = p.parse_args(argv)
     mode = "quick" if args.quick else "full"
+    base = "shallow_water_peers" + ("_quick" if args.quick else "")  # quick keeps the full run
     with_anuga, with_foam = not args.skip_anuga, not args.skip_openfoam
     notes = {}
     if with_anuga:
@@ -448,9 +450,9 @@ def main(argv=None):
                   "shallowWaterFoam with a fixed step at Courant "
                   f"{FOAM_COURANT} on |u| + sqrt(g h), wall time of the whole process (mesh "
                   "and field reading included).")
-    write_table("shallow_water_peers_triangles", tri_rows, COLUMNS,
+    write_table(f"{base}_triangles", tri_rows, COLUMNS,
                 "Solver peers A: ANUGA on the same triangles (Ritter, dry bed)", tri_note)
-    write_table("shallow_water_peers_strip", strip_rows,
+    write_table(f"{base}_strip", strip_rows,
                 COLUMNS + ["solver_time_s", "bore_cells", "bore_overshoot"],
                 "Solver peers B: shallowWaterFoam on the same cells (Stoker, wet bed)",
                 strip_note)
@@ -470,11 +472,11 @@ def main(argv=None):
             lines += [f"| {k} | {v['wall_s']:.3g} | {cpus[k]['cpu_s']:.3g} | {v['bound']} |"
                       for k, v in times.items()]
         text = "\n".join(lines) + "\n"
-        with open(RESULTS / f"shallow_water_peers_{name}.md", "a") as f:
+        with open(RESULTS / f"{base}_{name}.md", "a") as f:
             f.write(text)
         print(text)
-    plot(tri_rows, strip_rows, RESULTS / "shallow_water_peers.png")
-    plot_profiles(tri_rows, strip_rows, RESULTS / "shallow_water_peers_profiles.png")
+    plot(tri_rows, strip_rows, RESULTS / f"{base}.png")
+    plot_profiles(tri_rows, strip_rows, RESULTS / f"{base}_profiles.png")
     clean = [{k: v for k, v in r.items() if not k.startswith("_")} for r in tri_rows + strip_rows]
     result = {"machine": where, "mode": mode, "versions": versions(), "notes": notes,
               "threads": "NUMBA_NUM_THREADS=1, OMP_NUM_THREADS=1, OpenFOAM serial",
@@ -482,7 +484,7 @@ def main(argv=None):
               "openfoam_courant": FOAM_COURANT, "time_to_error": targets,
               "triangles": clean[:len(tri_rows)], "strip": clean[len(tri_rows):],
               "total_wall_s": time.perf_counter() - t0}
-    (RESULTS / "shallow_water_peers.json").write_text(json.dumps(result, indent=1))
+    (RESULTS / f"{base}.json").write_text(json.dumps(result, indent=1))
     print(f"total {result['total_wall_s']:.0f} s; results in {RESULTS}")
 
 
