@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-
 from driftlog.adapters.anuga_case import anuga_available, anuga_boundary, anuga_domain
+
 from driftlog.errors import FlowFileError
 from driftlog.mesh import Mesh
 from driftlog.mesher import channel_mesh
