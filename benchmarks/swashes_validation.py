@@ -104,7 +104,9 @@ def observed_orders(rows):
 NOTES = {
     "lake at rest, immersed bump": "well balanced: error and speed at round-off, no order",
     "lake at rest, emerged bump": "well balanced with a dry bump top: round-off, no order",
-    "transcritical with shock": "a shock: order 1 at most in L1 for any scheme",
+    "transcritical with shock": "a shock: order 1 at most in L1 for any scheme; at order 2 "
+                                "small standing oscillations downstream of the stationary "
+                                "shock stop the error falling at 400 cells",
     "Stoker dam break (wet)": "shock and contact discontinuities: order < 1 expected",
     "Ritter dam break (dry)": "dry front (h ~ (x_f - x)^2 kink): order about 1 or less",
     "subcritical over a bump": "smooth: order 1 and 2 expected (the bed's kinks at x = 8, "
@@ -175,6 +177,10 @@ def main(argv=None):
         for order in (1, 2):
             rows = [run_case(case, n * case["factor"], order) for n in base]
             slope = observed_orders(rows)
+            if case["kind"] == "rest":  # round-off (and SWASHES' 7 printed digits): no order
+                slope = float("nan")
+                for r in rows:
+                    r["order_obs"] = ""
             for r in rows:
                 o = "" if r["order_obs"] == "" else f"{r['order_obs']:.2f}"
                 print(f"{r['case']:<33} o{order} n={r['n']:<5} L1(h)={r['l1_h']:.3e} "
