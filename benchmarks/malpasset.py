@@ -15,6 +15,8 @@ A, B, C.  Writes benchmarks/results/malpasset{.md,.json} and malpasset_{levels,a
     python benchmarks/malpasset.py                 # 4000 s (about 40 min on 2 busy cores)
     python benchmarks/malpasset.py --quick         # 600 s, the first gauges only
     python benchmarks/malpasset.py --flow /tmp/m.nc --compare-only   # re-plot a stored run
+    python benchmarks/malpasset.py --order 2 --end 300 --flow /tmp/o2.nc --solve-only
+    python benchmarks/malpasset.py --flow /tmp/m.nc --compare-only --versus /tmp/o2.nc
 """
 
 from __future__ import annotations
@@ -82,6 +84,9 @@ def main(argv=None):
     p.add_argument("--flow", default=None, help="flow file (default /tmp/malpasset_<end>.nc)")
     p.add_argument("--compare-only", action="store_true", help="compare a stored run")
     p.add_argument("--solve-only", action="store_true", help="run, do not compare")
+    p.add_argument("--versus", help="another stored run (e.g. --order 2 --end 300) whose "
+                   "arrival times join the table")
+    p.add_argument("--notes", default="", help="a finding to print under the table")
     a = p.parse_args(argv)
     end = a.end or (600.0 if a.quick else 4000.0)
     flow = Path(a.flow or f"/tmp/malpasset_o{a.order}_{end:g}.nc")
@@ -93,7 +98,8 @@ def main(argv=None):
     from malpasset_compare import compare
 
     compare(flow, data_dir(), quick=a.quick or end < 4000.0, dam=MALPASSET_DAM,
-            observations=read_observations(data_dir() / "observations.csv"), results=RESULTS)
+            observations=read_observations(data_dir() / "observations.csv"), results=RESULTS,
+            notes=a.notes, versus=a.versus)
     return 0
 
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from driftlog.mesh import read_mesh
 
-__all__ = ["compare", "point_results", "statistics", "chainage", "DISC"]
+__all__ = ["compare", "point_results", "statistics", "chainage", "versus_table", "DISC"]
 
 # m: the transformers' positions are given to the nearest 100 m (5500, 4400...): their
 # arrival is also read as the first arrival within this distance
@@ -221,7 +221,27 @@ def _figures(rows, extra, observations, stem, results):
     plt.close(fig)
 
 
-def compare(flow, data, quick, dam, observations, results, notes=""):
+def versus_table(rows, other, observations, dam):
+    """Markdown: arrival times of this run and of another stored run (``other``, e.g. the
+    second order over a shorter time) at the points the other run reached."""
+    other_rows, extra = point_results(other, observations, dam)
+    with netCDF4.Dataset(other) as ds:
+        facts = {a: ds.getncattr(a) for a in ("solver_order",) if a in ds.ncattrs()}
+    order = facts.get("solver_order", "?")
+    lines = [f"Arrival times against a second run ({Path(other).name}: order {order}, "
+             f"{extra['end']:g} s), at the points it reached (s; face / first within "
+             f"{DISC:g} m):", "",
+             "| point | observed | this run | other run |", "|---|---|---|---|"]
+    for r, q in zip(rows, other_rows, strict=False):
+        if not (np.isfinite(r["observed_arrival_s"]) and np.isfinite(q["computed_arrival_s"])):
+            continue
+        lines.append(f"| {r['id']} | {r['observed_arrival_s']:.0f} | "
+                     f"{r['computed_arrival_s']:.0f} / {r['disc_arrival_s']:.0f} | "
+                     f"{q['computed_arrival_s']:.0f} / {q['disc_arrival_s']:.0f} |")
+    return "\n".join(lines)
+
+
+def compare(flow, data, quick, dam, observations, results, notes="", versus=None):
     """Compare the stored run ``flow`` with the observations; write tables and figures."""
     flow = Path(flow)
     rows, extra = point_results(flow, observations, dam)
@@ -234,6 +254,9 @@ def compare(flow, data, quick, dam, observations, results, notes=""):
                           and r["computed_arrival_s"] <= extra["end"] / 2] or [0.0])
         rows = [r for r in rows if r["chainage_m"] <= km_reached]
     stats = statistics(rows)
+    if versus is not None:
+        notes = (notes + "\n\n" if notes else "") + versus_table(rows, versus, observations,
+                                                               dam)
     stem = "malpasset_quick" if quick else "malpasset"
     title = (f"Malpasset dam break, driftlog solver, first {extra['end']:g} s (points reached "
              f"in the first half)" if quick else "Malpasset dam break, driftlog solver, 4000 s")
