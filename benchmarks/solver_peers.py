@@ -11,6 +11,8 @@ A. Ritter's dam break on a dry bed (SWASHES ``1 3 1 2``: 5 mm of still water on 
    Euler in time, limited second-order reconstruction in space with beta = 0.5), DE1 (second
    order in time and space: Runge-Kutta 2, beta = 1), and DE0 with every limiter beta set to 0
    (slopes zeroed: first order in space), so that each order has its peer.
+C. Stoker's dam break on a wet bed (below) on the triangles of A, the same five runs (a shock
+   instead of a dry front).
 B. Stoker's dam break on a wet bed (SWASHES ``1 3 1 1``: 5 mm against 1 mm, 6 s) on a strip
    of square cells one cell wide, which OpenFOAM extrudes to hexahedra: driftlog at first and
    second order and shallowWaterFoam (v1912, written and read back by
@@ -22,10 +24,10 @@ the coarsest mesh first; a run shorter than a few seconds is repeated and the be
 Threads: ``NUMBA_NUM_THREADS=1`` and ``OMP_NUM_THREADS=1`` (ANUGA's OpenMP kernels), set
 before anything is imported; OpenFOAM runs serial.
 
-    python benchmarks/solver_peers.py            # 4 and 5 resolutions (about 7 min)
+    python benchmarks/solver_peers.py            # 3 to 5 resolutions (about 9 min)
     python benchmarks/solver_peers.py --quick    # 3 coarse resolutions (under 2 min)
 
-writes benchmarks/results/shallow_water_peers_{triangles,strip}.{csv,md},
+writes benchmarks/results/shallow_water_peers_{triangles,triangles_stoker,strip}.{csv,md},
 shallow_water_peers.json, shallow_water_peers.png (work-precision: L1 error of h against
 wall and CPU time, one curve per solver and order) and shallow_water_peers_profiles.png
 (depth profiles against the exact ones); ``--quick`` writes shallow_water_peers_quick*.
@@ -64,7 +66,9 @@ STRIP_CELLS = {"full": (100, 200, 400, 800, 1600), "quick": (100, 200, 400)}
 ANUGA_RUNS = (("DE0", None), ("DE1", None), ("DE0", 0.0))  # algorithm, limiter beta override
 BETAS = ("beta_w", "beta_w_dry", "beta_uh", "beta_uh_dry", "beta_vh", "beta_vh_dry")
 FOAM_COURANT = 0.5  # shallowWaterFoam's fixed step: Courant number on |u| + sqrt(g h)
-PROFILE_AT = {"ritter": 0.05, "stoker": 400}  # the resolution whose profiles are plotted
+TRI_STOKER_CELLS = {"full": (0.1, 0.05, 0.025), "quick": (0.1, 0.07, 0.05)}
+# the resolution whose profiles are plotted: cell size (m) on triangles, cells on the strip
+PROFILE_AT = {"triangles": 0.05, "triangles_stoker": 0.05, "strip": 400}
 REPEAT_BUDGET = 3.0  # s: repeat a run while the repeats so far took less than this
 
 
@@ -208,7 +212,7 @@ def run_foam(case, mesh, workdir):
 
 
 # --------------------------------------------------------------------------- the runs
-def _row(solver, order_label, case, mesh, size, r):
+def _row(solver, order_label, part, case, mesh, size, r):
     err = l1_error(case, mesh, r["h"])
     row = {"solver": solver, "order": order_label, "cell_size_mm": 1e3 * size,
            "cells": mesh.n_faces, "steps": r["steps"], "wall_s": r["wall"], "cpu_s": r["cpu"],
@@ -217,9 +221,9 @@ def _row(solver, order_label, case, mesh, size, r):
            "repeats": len(r["walls"])}
     if "solver_time" in r:
         row["solver_time_s"] = r["solver_time"]
-    if case == "stoker":
+    if part == "strip":
         row.update(bore(mesh, r["h"]))
-    if size == PROFILE_AT[case] or (case == "stoker" and mesh.n_faces == PROFILE_AT[case]):
+    if (mesh.n_faces if part == "strip" else size) == PROFILE_AT[part]:
         row["_profile"] = (mesh.face_x, r["h"])
     print(f"  {solver:<28} {order_label:<26} {mesh.n_faces:>7} cells {r['steps']:>6} steps "
           f"{r['wall']:8.3f} s  L1 {err:.3e} m  {row['cell_updates_per_s']:.3g} cell-updates/s",
@@ -234,8 +238,7 @@ def anuga_label(algorithm, beta):
                                   "DE1": "2 (beta 1), RK2"}[algorithm]
 
 
-def triangles_part(cells, workdir, with_anuga):
-    case = "ritter"
+def triangles_part(case, part, cells, workdir, with_anuga):
     rows, meta = [], {}
     warm = triangle_strip(cells[0])
     for order in (1, 2):
@@ -244,24 +247,24 @@ def triangles_part(cells, workdir, with_anuga):
         run_anuga(case, warm, "DE0", None, workdir)
     for size in cells:
         mesh = triangle_strip(size)
-        print(f"triangles, {size} m: {mesh.n_faces} triangles", flush=True)
+        print(f"{case}, triangles, {size} m: {mesh.n_faces} triangles", flush=True)
         for order in (1, 2):
             r = best_of(lambda o=order, m=mesh: run_driftlog(case, m, o, workdir))
-            rows.append(_row("driftlog", {1: "1", 2: "2 (MUSCL, Heun)"}[order], case, mesh,
-                             size, r))
+            rows.append(_row("driftlog", {1: "1", 2: "2 (MUSCL, Heun)"}[order], part, case,
+                             mesh, size, r))
         if not with_anuga:
             continue
         for algorithm, beta in ANUGA_RUNS:
             r = best_of(lambda a=algorithm, b=beta, m=mesh: run_anuga(case, m, a, b, workdir))
             name, label = anuga_label(algorithm, beta)
-            rows.append(_row(name, label, case, mesh, size, r))
+            rows.append(_row(name, label, part, case, mesh, size, r))
             meta[name] = {"cfl": r["cfl"], "timestepping": r["timestepping"],
                           "beta_w": r["beta_w"]}
     return rows, meta
 
 
 def strip_part(cells, workdir, with_foam):
-    case = "stoker"
+    case, part = "stoker", "strip"
     rows = []
     warm = square_strip(cells[0])
     for order in (1, 2):
@@ -272,12 +275,12 @@ def strip_part(cells, workdir, with_foam):
         print(f"strip of squares, {size} m: {nx} cells", flush=True)
         for order in (1, 2):
             r = best_of(lambda o=order, m=mesh: run_driftlog(case, m, o, workdir))
-            rows.append(_row("driftlog", {1: "1", 2: "2 (MUSCL, Heun)"}[order], case, mesh,
-                             size, r))
+            rows.append(_row("driftlog", {1: "1", 2: "2 (MUSCL, Heun)"}[order], part, case,
+                             mesh, size, r))
         if with_foam:
             r = best_of(lambda m=mesh: run_foam(case, m, workdir))
-            rows.append(_row("shallowWaterFoam", "2 in space (LUST), Euler", case, mesh, size,
-                             r))
+            rows.append(_row("shallowWaterFoam", "2 in space (LUST), Euler", "strip", case, mesh,
+                             size, r))
     return rows
 
 
@@ -328,66 +331,66 @@ def time_to_error(rows, second_order_only=False, key="wall_s"):
     return target, out
 
 
-def plot(tri_rows, strip_rows, path):
+def plot(parts, path):
+    """Work-precision: L1 error against wall time (top) and CPU time (bottom), one panel per
+    part."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(2, 2, figsize=(12, 10))
+    n = len(parts)
+    fig, axes = plt.subplots(2, n, figsize=(6 * n, 10), squeeze=False)
     style = {"driftlog": "o-", "ANUGA": "s--", "shallowWaterFoam": "^:"}
-    panels = []
-    for row, (key, what) in enumerate((("wall_s", "wall time (s)"),
-                                       ("cpu_s", "CPU time (s)"))):
-        panels += [(axes[row, 0], tri_rows, key, what,
-                    "A. Ritter dry dam break, unstructured triangles"),
-                   (axes[row, 1], strip_rows, key, what,
-                    "B. Stoker wet dam break, strip of squares / hexahedra")]
-    for ax, rows, tkey, what, title in panels:
-        for key in dict.fromkeys((r["solver"], r["order"]) for r in rows):
-            sel = [r for r in rows if (r["solver"], r["order"]) == key]
-            mark = next(v for k, v in style.items() if key[0].startswith(k))
-            ax.loglog([r[tkey] for r in sel], [r["l1_error_m"] for r in sel], mark,
-                      label=f"{key[0]}, order {key[1]}")
-        ax.set_xlabel(f"{what}, one thread, 6 s simulated, 7 outputs")
-        ax.set_ylabel("L1 error of h against SWASHES (m)")
-        ax.set_title(title, fontsize=10)
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+    for row, (tkey, what) in enumerate((("wall_s", "wall time (s)"), ("cpu_s", "CPU time (s)"))):
+        for col, part in enumerate(parts):
+            ax = axes[row, col]
+            rows = part["rows"]
+            for key in dict.fromkeys((r["solver"], r["order"]) for r in rows):
+                sel = [r for r in rows if (r["solver"], r["order"]) == key]
+                mark = next(v for k, v in style.items() if key[0].startswith(k))
+                ax.loglog([r[tkey] for r in sel], [r["l1_error_m"] for r in sel], mark,
+                          label=f"{key[0]}, order {key[1]}")
+            ax.set_xlabel(f"{what}, one thread, 6 s simulated, 7 outputs")
+            ax.set_ylabel("L1 error of h against SWASHES (m)")
+            ax.set_title(part["panel"], fontsize=10)
+            ax.grid(True, which="both", alpha=0.3)
+            ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def plot_profiles(tri_rows, strip_rows, path):
+def plot_profiles(parts, path):
+    """Depth at 6 s against x, every cell of one resolution, beside the exact profile."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(13, 4.5))
-    for ax, rows, case, title in (
-            (axes[0], tri_rows, "ritter",
-             f"A. Ritter at 6 s, {PROFILE_AT['ritter'] * 1e3:g} mm triangles (every centroid)"),
-            (axes[1], strip_rows, "stoker",
-             f"B. Stoker at 6 s, {PROFILE_AT['stoker']} cells")):
+    n = len(parts)
+    fig, axes = plt.subplots(1, n, figsize=(6.5 * n, 4.5), squeeze=False)
+    for ax, part in zip(axes[0], parts, strict=True):
+        case = part["case"]
+        at = PROFILE_AT[part["key"]]
+        where = f"{at} cells" if part["key"] == "strip" else f"{at * 1e3:g} mm triangles"
         x = np.linspace(0.0, LENGTH, 4001)
         ax.plot(x, 1e3 * exact_depth(case, x), "k-", lw=1.0, label="exact (SWASHES)")
-        for r in rows:
+        for r in part["rows"]:
             if "_profile" not in r:
                 continue
             fx, h = r["_profile"]
             o = np.argsort(fx)
-            ax.plot(fx[o], 1e3 * h[o], ".", ms=2 if case == "ritter" else 3,
+            ax.plot(fx[o], 1e3 * h[o], ".", ms=2 if part["key"] != "strip" else 3,
                     label=f"{r['solver']}, order {r['order']}")
         ax.set_xlim(3.0, 9.0)
         ax.set_xlabel("x (m)")
         ax.set_ylabel("depth h (mm)")
-        ax.set_title(title, fontsize=10)
+        ax.set_title(f"{part['panel'].split(',')[0]} at 6 s, {where} (every cell)", fontsize=10)
         ax.legend(fontsize=7, markerscale=3)
         ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
@@ -431,40 +434,57 @@ def main(argv=None):
         if not foam_available():
             with_foam = False
             notes["openfoam"] = "not run: shallowWaterFoam not found"
+    common = ("7 outputs each; one thread each. L1 error: area-weighted mean |h - h_exact| at "
+              "the centroids. `wall_vs_driftlog_oN`: wall time over driftlog's at order N on "
+              "the same mesh.")
+    parts = [
+        {"key": "triangles", "case": "ritter",
+         "panel": "A. Ritter dry dam break, unstructured triangles",
+         "title": "Solver peers A: ANUGA on the same triangles (Ritter, dry bed)",
+         "note": f"Ritter's dam break (SWASHES 1 3 1 2) at t = {T_END:g} s in a {LENGTH:g} m x "
+                 f"{WIDTH:g} m strip of unstructured triangles (driftlog's mesher), walls all "
+                 "round, the same triangles for every solver; " + common},
+        {"key": "triangles_stoker", "case": "stoker",
+         "panel": "C. Stoker wet dam break, unstructured triangles",
+         "title": "Solver peers C: ANUGA on the same triangles (Stoker, wet bed)",
+         "note": f"Stoker's dam break (SWASHES 1 3 1 1) at t = {T_END:g} s on the triangles "
+                 "of A; " + common},
+        {"key": "strip", "case": "stoker",
+         "panel": "B. Stoker wet dam break, strip of squares / hexahedra",
+         "title": "Solver peers B: shallowWaterFoam on the same cells (Stoker, wet bed)",
+         "note": f"Stoker's dam break (SWASHES 1 3 1 1) at t = {T_END:g} s on a strip of "
+                 "square cells one cell wide (hexahedra, one cell thick, for OpenFOAM); "
+                 f"shallowWaterFoam with a fixed step at Courant {FOAM_COURANT} on "
+                 "|u| + sqrt(g h), wall time of the whole process (mesh and field reading "
+                 "included); " + common,
+         "extra": ["solver_time_s", "bore_cells", "bore_overshoot"]},
+    ]
     t0 = time.perf_counter()
+    anuga_meta = {}
     with tempfile.TemporaryDirectory(prefix="solver_peers_") as work:
-        tri_rows, anuga_meta = triangles_part(TRI_CELLS[mode], work, with_anuga)
-        strip_rows = strip_part(STRIP_CELLS[mode], work, with_foam)
-    for rows in (tri_rows, strip_rows):
+        cells = {"triangles": TRI_CELLS[mode], "triangles_stoker": TRI_STOKER_CELLS[mode]}
+        for part in parts:
+            if part["key"] == "strip":
+                part["rows"] = strip_part(STRIP_CELLS[mode], work, with_foam)
+            else:
+                part["rows"], meta = triangles_part(part["case"], part["key"], cells[part["key"]],
+                                                    work, with_anuga)
+                anuga_meta.update(meta)
+    targets = {}
+    for part in parts:
+        rows = part["rows"]
         observed_orders(rows)
         ratios(rows, "1")
         ratios(rows, "2")
-    where = machine()
-    tri_note = (f"Ritter's dam break (SWASHES 1 3 1 2) at t = {T_END:g} s in a {LENGTH:g} m x "
-                f"{WIDTH:g} m strip of unstructured triangles (driftlog's mesher), walls all "
-                "round, the same triangles for every solver; 7 outputs each; one thread each. "
-                "L1 error: area-weighted mean |h - h_exact| at the centroids. "
-                "`wall_vs_driftlog_oN`: wall time over driftlog's at order N on the same mesh.")
-    strip_note = (f"Stoker's dam break (SWASHES 1 3 1 1) at t = {T_END:g} s on a strip of "
-                  "square cells one cell wide (hexahedra, one cell thick, for OpenFOAM); "
-                  "shallowWaterFoam with a fixed step at Courant "
-                  f"{FOAM_COURANT} on |u| + sqrt(g h), wall time of the whole process (mesh "
-                  "and field reading included).")
-    write_table(f"{base}_triangles", tri_rows, COLUMNS,
-                "Solver peers A: ANUGA on the same triangles (Ritter, dry bed)", tri_note)
-    write_table(f"{base}_strip", strip_rows,
-                COLUMNS + ["solver_time_s", "bore_cells", "bore_overshoot"],
-                "Solver peers B: shallowWaterFoam on the same cells (Stoker, wet bed)",
-                strip_note)
-    targets = {}
-    for name, rows in (("triangles", tri_rows), ("strip", strip_rows)):
+        write_table(f"{base}_{part['key']}", rows, COLUMNS + part.get("extra", []),
+                    part["title"], part["note"])
         lines = []
-        targets[name] = []
+        targets[part["key"]] = []
         for second, what in ((False, "curves"), (True, "second-order curves")):
             target, times = time_to_error(rows, second)
             _, cpus = time_to_error(rows, second, "cpu_s")
-            targets[name].append({"l1_error_m": target, "curves": what, "wall_s": times,
-                                  "cpu_s": cpus})
+            targets[part["key"]].append({"l1_error_m": target, "curves": what, "wall_s": times,
+                                         "cpu_s": cpus})
             lines += ["", f"Time to reach the same L1 error, {target:.3g} m (the finest error "
                       f"of the least accurate of the {what}), log-log interpolated along "
                       "each curve:", "", "| solver, order | wall time (s) | CPU time (s) | how |",
@@ -472,18 +492,19 @@ def main(argv=None):
             lines += [f"| {k} | {v['wall_s']:.3g} | {cpus[k]['cpu_s']:.3g} | {v['bound']} |"
                       for k, v in times.items()]
         text = "\n".join(lines) + "\n"
-        with open(RESULTS / f"{base}_{name}.md", "a") as f:
+        with open(RESULTS / f"{base}_{part['key']}.md", "a") as f:
             f.write(text)
         print(text)
-    plot(tri_rows, strip_rows, RESULTS / f"{base}.png")
-    plot_profiles(tri_rows, strip_rows, RESULTS / f"{base}_profiles.png")
-    clean = [{k: v for k, v in r.items() if not k.startswith("_")} for r in tri_rows + strip_rows]
-    result = {"machine": where, "mode": mode, "versions": versions(), "notes": notes,
+    plot(parts, RESULTS / f"{base}.png")
+    plot_profiles(parts, RESULTS / f"{base}_profiles.png")
+    result = {"machine": machine(), "mode": mode, "versions": versions(), "notes": notes,
               "threads": "NUMBA_NUM_THREADS=1, OMP_NUM_THREADS=1, OpenFOAM serial",
               "end_time_s": T_END, "outputs": N_OUT + 1, "anuga_settings": anuga_meta,
-              "openfoam_courant": FOAM_COURANT, "time_to_error": targets,
-              "triangles": clean[:len(tri_rows)], "strip": clean[len(tri_rows):],
-              "total_wall_s": time.perf_counter() - t0}
+              "openfoam_courant": FOAM_COURANT, "time_to_error": targets}
+    for part in parts:
+        result[part["key"]] = [{k: v for k, v in r.items() if not k.startswith("_")}
+                               for r in part["rows"]]
+    result["total_wall_s"] = time.perf_counter() - t0
     (RESULTS / f"{base}.json").write_text(json.dumps(result, indent=1))
     print(f"total {result['total_wall_s']:.0f} s; results in {RESULTS}")
 
