@@ -104,13 +104,12 @@ def observed_orders(rows):
 NOTES = {
     "lake at rest, immersed bump": "well balanced: error and speed at round-off, no order",
     "lake at rest, emerged bump": "well balanced with a dry bump top: round-off, no order",
-    "transcritical with shock": "a shock: order 1 at most in L1 for any scheme; at order 2 "
-                                "small standing oscillations downstream of the stationary "
-                                "shock stop the error falling at 400 cells",
+    "transcritical with shock": "a shock: order 1 at most in L1 asymptotically (second order "
+                                "still gains on the smooth parts at these sizes)",
     "Stoker dam break (wet)": "shock and contact discontinuities: order < 1 expected",
     "Ritter dam break (dry)": "dry front (h ~ (x_f - x)^2 kink): order about 1 or less",
-    "subcritical over a bump": "smooth: order 1 and 2 expected (the bed's kinks at x = 8, "
-                               "12 m and the limiter at extrema can lower the second)",
+    "subcritical over a bump": "smooth (but for the bed's kinks at x = 8 and 12 m): order 1 "
+                               "and 2 expected",
     "transcritical, no shock": "smooth but sonic at the crest (limiter clips there)",
     "MacDonald long channel, Manning": "smooth, but a steep bed (0.11 m per 10 m cell on "
                                        "0.75 m depth): the hydrostatic reconstruction's known "

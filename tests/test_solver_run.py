@@ -241,3 +241,32 @@ def test_scenario_errors_name_the_key(tmp_path, patch, key):
 def test_unknown_boundary_tag_is_an_error():
     with pytest.raises(ScenarioError, match="solver.boundaries.upstream"):
         ShallowWaterSolver(channel_mesh(1.0, 0.2, 0.1), boundaries={"upstream": "wall"})
+
+
+def test_initial_states_level_in_polygon_depth_and_file(tmp_path):
+    mesh = channel_mesh(2.0, 0.5, 0.1)
+    s = ShallowWaterSolver(mesh, bed=0.1 * mesh.face_x)
+    s.set_level(0.15, polygon=[[0, 0], [1, 0], [1, 0.5], [0, 0.5]])
+    inside = mesh.face_x < 1.0
+    assert np.allclose(s.h[inside], np.maximum(0.15 - 0.1 * mesh.face_x[inside], 0.0))
+    assert np.all(s.h[mesh.face_x > 1.0 + 0.1] == 0.0)
+    s.run(0.5, output=tmp_path / "a.nc")
+    b = ShallowWaterSolver(mesh, bed=0.1 * mesh.face_x)
+    b.set_from_flow(tmp_path / "a.nc")
+    assert b.t == 0.5
+    assert np.array_equal(b.h, s.h)
+    assert np.allclose(b.hu, s.hu, rtol=1e-12, atol=1e-15)  # from velocities: h (hu / h)
+    with pytest.raises(Exception, match="no snapshot"):
+        b.set_from_flow(tmp_path / "a.nc", time=0.3)
+
+
+def test_depth_boundary_and_strickler():
+    mesh = strip(2.0, 10, width=0.2)
+    s = ShallowWaterSolver(mesh, strickler=1e9,  # K huge: no friction, same as manning=0
+                           boundaries={"inflow": {"type": "depth", "value": 0.3},
+                                       "outflow": {"type": "depth", "value": 0.3}})
+    s.set_level(0.1)
+    s.advance_to(20.0)
+    assert np.allclose(s.h, 0.3, atol=5e-3)
+    with pytest.raises(ScenarioError, match="strickler"):
+        ShallowWaterSolver(mesh, manning=0.02, strickler=30)

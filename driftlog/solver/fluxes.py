@@ -41,8 +41,10 @@ def _side_state(f, dx, dy, h, hu, hv, z, hdry, order, grad):
         return hf, u, v, z[f]
     he = hf + grad[f, 2] * dx + grad[f, 3] * dy
     eta = hf + z[f] + grad[f, 0] * dx + grad[f, 1] * dy
-    return (he, u + grad[f, 4] * dx + grad[f, 5] * dy, v + grad[f, 6] * dx + grad[f, 7] * dy,
-            eta - he)
+    if he <= hdry:
+        return he, 0.0, 0.0, eta - he
+    return (he, (hu[f] + grad[f, 4] * dx + grad[f, 5] * dy) / he,
+            (hv[f] + grad[f, 6] * dx + grad[f, 7] * dy) / he, eta - he)
 
 
 @kernel

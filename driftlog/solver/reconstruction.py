@@ -1,9 +1,15 @@
 """Second-order (MUSCL) reconstruction: limited least-squares gradients on faces.
 
-The free-surface level eta, the depth h and the velocities u, v get a least-squares gradient
+The free-surface level eta, the depth h and the unit discharges hu, hv get a least-squares gradient
 from the centroids of the face's neighbours, limited by Barth & Jespersen (1989) so that the
 values at the edge midpoints stay within the range of the face and its neighbours: a
 reconstructed depth is never negative, and a constant level (a lake at rest) stays constant.
+The velocity at an edge is the reconstructed discharge over the reconstructed depth: limiting
+the velocities themselves left standing oscillations behind a stationary hydraulic jump
+(SWASHES' transcritical flow with shock: L1 error 1.1e-3 m against 3.3e-4 m at 400 cells).
+Where that velocity would go further than one range beyond the range of the face's and its
+neighbours' velocities (thin water: a small reconstructed depth), the face's depth and
+discharges fall back to first order.
 The bed at an edge is eta - h there, which keeps the scheme well balanced with the hydrostatic
 reconstruction (Audusse et al. 2004, sect. 4).
 
@@ -20,7 +26,7 @@ from driftlog._numba import kernel
 
 __all__ = ["lsq_geometry", "limited_gradients", "NGRAD"]
 
-NGRAD = 8  # d(eta)/dx, d(eta)/dy, dh/dx, dh/dy, du/dx, du/dy, dv/dx, dv/dy
+NGRAD = 8  # d(eta)/dx, d(eta)/dy, dh/dx, dh/dy, d(hu)/dx, d(hu)/dy, d(hv)/dx, d(hv)/dy
 
 
 def lsq_geometry(mesh):
@@ -54,7 +60,7 @@ def lsq_geometry(mesh):
 
 @kernel
 def limited_gradients(h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset, grad):
-    """Fill ``grad`` (n_faces, 8) with the limited gradients of eta, h, u, v."""
+    """Fill ``grad`` (n_faces, 8) with the limited gradients of eta, h, hu, hv."""
     for f in nb.prange(h.shape[0]):
         for k in range(NGRAD):
             grad[f, k] = 0.0
@@ -68,7 +74,7 @@ def limited_gradients(h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge
         if front:
             continue
         hi = h[f]
-        qi = (hi + z[f], hi, hu[f] / hi, hv[f] / hi)
+        qi = (hi + z[f], hi, hu[f], hv[f])
         for q in range(4):
             qc = qi[q]
             rx = 0.0
@@ -85,9 +91,9 @@ def limited_gradients(h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge
                 elif q == 1:
                     qj = hj
                 elif q == 2:
-                    qj = hu[j] / hj
+                    qj = hu[j]
                 else:
-                    qj = hv[j] / hj
+                    qj = hv[j]
                 d = qj - qc
                 rx += offset[f, k, 0] * d
                 ry += offset[f, k, 1] * d
@@ -105,3 +111,36 @@ def limited_gradients(h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge
             phi = max(phi, 0.0)
             grad[f, 2 * q] = phi * gx
             grad[f, 2 * q + 1] = phi * gy
+        # the edge velocity hu_e / h_e must stay within the neighbourhood's velocities: in thin
+        # water a small h_e would make it arbitrarily large (and the time step tiny)
+        umin = hu[f] / hi
+        umax = umin
+        vmin = hv[f] / hi
+        vmax = vmin
+        for k in range(face_n[f]):
+            j = neighbours[f, k]
+            if j >= 0:
+                uj = hu[j] / h[j]
+                vj = hv[j] / h[j]
+                umin = min(umin, uj)
+                umax = max(umax, uj)
+                vmin = min(vmin, vj)
+                vmax = max(vmax, vj)
+        # smooth extrema overshoot by O(dx^2): allow one neighbourhood range beyond the range
+        tol = 1e-12 * (abs(umin) + abs(umax) + abs(vmin) + abs(vmax)) + 1e-300
+        du = umax - umin + tol
+        dv = vmax - vmin + tol
+        umin -= du
+        umax += du
+        vmin -= dv
+        vmax += dv
+        for k in range(face_n[f]):
+            dx = edge_offset[f, k, 0]
+            dy = edge_offset[f, k, 1]
+            he = hi + grad[f, 2] * dx + grad[f, 3] * dy
+            ue = (hu[f] + grad[f, 4] * dx + grad[f, 5] * dy) / he
+            ve = (hv[f] + grad[f, 6] * dx + grad[f, 7] * dy) / he
+            if he <= hdry or ue < umin or ue > umax or ve < vmin or ve > vmax:
+                for m in range(2, NGRAD):  # depth and discharges at first order here
+                    grad[f, m] = 0.0
+                break
