@@ -208,6 +208,10 @@ def test_cli_solve(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "out.nc" in out and "volume error" in out
     assert main(["solve", str(f), "-o", str(tmp_path / "out.nc"), "--quiet", "--resume"]) == 0
+    f.write_text(SCENARIO.format(path=tmp_path / "unused.nc").replace("end = 1.0", "end = 2.0"))
+    # another [solver] section: resuming that file would mix two computations
+    assert main(["solve", str(f), "-o", str(tmp_path / "out.nc"), "--quiet", "--resume"]) == 2
+    assert "cannot resume" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("patch, key", [

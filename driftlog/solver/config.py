@@ -209,7 +209,7 @@ def _default_path(scenario):
 
 
 def _stored(path, digest):
-    """'done', 'partial' or None: the state of a stored flow computed from the same section."""
+    """('stored', last time) for a flow file computed from the same section, else (None, None)."""
     import netCDF4
 
     if not path.is_file():
@@ -234,9 +234,15 @@ def solve_scenario(scenario, output=None, resume=False, progress=False):
     attrs = dict(scenario.attrs())
     attrs["solver_hash"] = digest
     attrs["title"] = scenario["title"] or "driftlog solver flow"
+    resume = resume and path.exists()
+    if resume and _stored(path, digest)[0] is None:
+        from driftlog.errors import FlowFileError
+
+        raise FlowFileError(f"{path}: cannot resume: it was not computed from this [solver] "
+                            f"section (solver_hash differs from {digest}); run without --resume")
     s = build_solver(sec)
     res = s.run(sec["end"], output=path, output_interval=sec["output_interval"],
-                progress=progress, resume=resume and path.exists(), attrs=attrs)
+                progress=progress, resume=resume, attrs=attrs)
     return res, path
 
 
