@@ -2,9 +2,9 @@
 
 cell-updates/s = faces x time steps / seconds (a second-order step, two flux passes, counts
 once), for meshes of about 1e4, 1e5 and 1e6 triangles, 1 and 2 numba threads, first and
-second order (HLLC); 1 thread runs the serial kernels, 2 threads the prange ones.  The state is a dam break over the whole square (every face wet, fluxes
-non-trivial).  Wall and process (CPU) time are both reported: on a shared machine the wall
-time also counts waiting for a core.
+second order (HLLC); 1 thread runs the serial kernels, 2 threads the prange ones.  The state
+is a dam break over the whole square (every face wet, fluxes non-trivial).  Wall and process
+(CPU) time are both reported: on a shared machine the wall time also counts waiting for a core.
 
     python benchmarks/solver_throughput.py            # 1e4, 1e5, 1e6 faces
     python benchmarks/solver_throughput.py --quick    # 1e4, 1e5 faces
