@@ -8,6 +8,7 @@ array whose length decides as first argument.
 
 import functools
 import os
+import types
 
 # numba's OpenMP layer (GNU libgomp) spins its idle workers by default; on a machine whose
 # cores are shared with other jobs the spinning threads take the cores the working thread
@@ -23,12 +24,23 @@ __all__ = ["kernel", "PARALLEL_MIN"]
 PARALLEL_MIN = 2048
 
 
+def _renamed(f, suffix):
+    g = types.FunctionType(f.__code__, f.__globals__, f.__name__ + suffix, f.__defaults__,
+                           f.__closure__)
+    g.__qualname__ = f.__qualname__ + suffix
+    g.__module__ = f.__module__
+    return g
+
+
 def kernel(func=None, *, size_arg=0):
     """Decorator: ``f(*args)`` runs the serial or the parallel compilation of ``func``."""
 
     def wrap(f):
         serial = nb.njit(cache=True)(f)
-        parallel = nb.njit(cache=True, parallel=True)(f)
+        # numba's cache index does not tell parallel from serial compilations of one function:
+        # under one name, whichever was cached last is loaded for both (the "serial" kernel then
+        # wakes the thread pool on every call).  The parallel copy gets its own name.
+        parallel = nb.njit(cache=True, parallel=True)(_renamed(f, "_parallel"))
 
         @functools.wraps(f)
         def call(*args):
