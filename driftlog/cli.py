@@ -297,6 +297,33 @@ def cmd_cases(args):
 
 
 
+# --------------------------------------------------------------------- solve
+@command
+def add_solve(sub):
+    p = _sub(sub, "solve", "compute a flow with driftlog's shallow-water solver ([solver] "
+             "section)", "driftlog solve scenario.toml -o flow.nc\n  driftlog solve "
+             "scenario.toml -o flow.nc --resume     (continue a stopped run)")
+    p.add_argument("scenario", help="scenario file with a [solver] section")
+    p.add_argument("-o", "--output", help="flow file to write (default: [flow] path, or "
+                   "solver_flow.nc beside the scenario)")
+    p.add_argument("--resume", action="store_true", help="continue from the last snapshot "
+                   "of the output file")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(run=cmd_solve)
+
+
+def cmd_solve(args):
+    from driftlog.scenario import load_scenario
+    from driftlog.solver import solve_scenario
+
+    scen = load_scenario(args.scenario, overrides={"flow": {"source": "solver"}})
+    res, path = solve_scenario(scen, output=args.output, resume=args.resume,
+                               progress=not args.quiet)
+    print(f"flow file: {path}")
+    print(res.summary())
+    return 0
+
+
 # --------------------------------------------------------------------- import
 @command
 def add_import(sub):

@@ -95,7 +95,10 @@ def polygon_mesh(outer, cell_size, holes=(), side_tags=None, min_angle=30.0, ref
     if hole_points:
         data["holes"] = np.array(hole_points)
     area = np.sqrt(3) / 4 * cell_size ** 2
-    out = triangle.triangulate(data, f"pq{min_angle:g}a{area:.10g}")
+    # positional notation: Triangle reads "a6.8e-05" as area 6.8 followed by its -e switch
+    a = np.format_float_positional(area, precision=10, unique=False, fractional=False,
+                                   trim="-")
+    out = triangle.triangulate(data, f"pq{min_angle:g}a{a}")
     if refine is not None:
         tri = out["triangles"]
         c = out["vertices"][tri].mean(axis=1)

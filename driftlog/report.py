@@ -29,6 +29,8 @@ ITEMS = [
      "shallow-water solver against SWASHES exact solutions"),
     ("malpasset", "malpasset.py", ["--quick"], "the Malpasset dam break against observations"),
     ("solver", "solver_throughput.py", ["--quick"], "solver throughput and peers"),
+    ("shallow_water_peers", "solver_peers.py", ["--quick"],
+     "the solver beside ANUGA and shallowWaterFoam: same meshes, wall time and error"),
     ("contact", "contact_benchmark.py", ["--quick"], "contact detection and contact times"),
     ("ensemble", "ensemble_benchmark.py", ["--quick"], "ensembles on Dask: members per minute"),
     ("import", "import_benchmark.py", ["--snapshots", "10", "--skip-openfoam"],

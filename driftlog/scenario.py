@@ -548,3 +548,58 @@ register_section(Section("ensemble", [
     Key("checkpoint_interval", "float", 60.0, "seconds between rewrites of the aggregated "
         "results while the ensemble runs", "s", min=0.0, exclusive_min=True),
 ], doc="ensembles: many members on one flow (driftlog ensemble)", check=_check_ensemble))
+
+
+# --------------------------------------------------------------------- [solver]
+def _check_solver(t, prefix, scen):
+    # the cross-key rules (boundaries, initial state) live with the solver that uses them
+    from driftlog.solver.config import check_solver_section
+
+    check_solver_section(t, prefix, scen)
+
+
+register_section(Section("solver", [
+    Key("mesh", "str", "channel", "the mesh: a channel built here, or a mesh file",
+        choices=("channel", "file")),
+    Key("channel", "floats", None, "channel [x0, y0, length, width]; x0 side tagged inflow, "
+        "the other end outflow, banks wall", "m", length=4),
+    Key("cell_size", "float", None, "target triangle edge length of the channel mesh", "m",
+        min=0.0, exclusive_min=True),
+    Key("structured", "bool", False, "channel of squares instead of triangles (no holes)"),
+    Key("piers", "any", [], "circular piers [[x, y, radius], ...] cut out of the channel "
+        "(tagged wall)", "m"),
+    Key("holes", "any", [], "polygonal holes [[[x, y], ...], ...] cut out of the channel", "m"),
+    Key("mesh_file", "path", "", "mesh file read by driftlog.mesh.read_mesh (mesh = 'file')",
+        must_exist=True),
+    Key("bed", "str", "flat", "bed elevation: flat at bed_level, a slope falling along +x from "
+        "bed_level at x0, a piecewise-linear profile along x, or the mesh file's node "
+        "elevations", choices=("flat", "slope", "profile", "mesh")),
+    Key("bed_level", "float", 0.0, "bed level (flat) or bed level at x0 (slope)", "m"),
+    Key("slope", "float", 0.0, "bed slope, positive falling towards +x (bed = 'slope')", "m/m"),
+    Key("bed_profile", "points", None, "bed [[x, z], ...] along x, linear between points, "
+        "constant beyond (bed = 'profile')", "m"),
+    Key("manning", "float", None, "Manning coefficient n (or give strickler)", "s m-1/3",
+        min=0.0),
+    Key("strickler", "float", None, "Strickler coefficient K = 1/n", "m1/3 s-1", min=0.0,
+        exclusive_min=True),
+    Key("order", "int", 1, "1: first order (explicit Euler); 2: MUSCL + Heun", min=1, max=2),
+    Key("riemann", "str", "hllc", "Riemann solver", choices=("hllc", "hll")),
+    Key("cfl", "float", None, "fraction of the positivity-preserving time step (default 0.9 "
+        "at order 1, 0.8 at order 2)", min=0.0, max=1.0, exclusive_min=True),
+    Key("dry_depth", "float", 1e-6, "depth below which a face has no velocity", "m", min=0.0,
+        exclusive_min=True),
+    Key("arrival_depth", "float", 0.05, "depth marking the flood's arrival at a face "
+        "(arrival_time output)", "m", min=0.0, exclusive_min=True),
+    Key("start", "float", 0.0, "start time", "s"),
+    Key("end", "float", None, "end time of the computation (required with [flow] source = "
+        "'solver')", "s"),
+    Key("output_interval", "float", None, "time between snapshots of the flow file (default: "
+        "start and end only)", "s", min=0.0, exclusive_min=True),
+    Key("boundaries", "table", {}, "conditions by boundary tag: [solver.boundaries.<tag>] "
+        "type = wall | level | depth | discharge | froude | rating | free; "
+        "value = number or series = [[t, v], ...]; rating: "
+        "table = [[level, Q], ...]; tags not listed are walls"),
+    Key("initial", "table", {}, "initial state: type = dry | level | depth | file; value (m); "
+        "polygon = [[x, y], ...] (level or depth only inside); velocity = [u, v]; path and "
+        "time (file)"),
+], doc="driftlog's shallow-water solver ([flow] source = 'solver')", check=_check_solver))

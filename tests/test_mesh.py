@@ -164,3 +164,12 @@ def test_channel_mesher_with_piers():
     assert m.locate([500.0], [45.0])[0] == -1  # inside a pier: outside the mesh
     with pytest.raises(MeshError):
         polygon_mesh([[0, 0], [1, 0]], 0.1)
+
+
+@pytest.mark.parametrize("cell", [0.05, 0.0125, 0.002])
+def test_small_cells_get_their_size(cell):
+    # the area switch must not be written in exponent notation (Triangle would read
+    # "a6.8e-05" as area 6.8 and the -e switch): the mesh refines with the cell size
+    m = polygon_mesh([[0, 0], [40 * cell, 0], [40 * cell, 8 * cell], [0, 8 * cell]], cell)
+    assert m.face_area.max() <= np.sqrt(3) / 4 * cell ** 2 * (1 + 1e-9)
+    assert m.n_faces > 40 * 8 * 2

@@ -1,0 +1,243 @@
+"""Solving a scenario's flow: the ``[solver]`` section's checks, mesh, solver and runs.
+
+The keys are registered in ``driftlog.scenario`` (``driftlog scenario keys --section solver``).
+
+    [flow]
+    source = "solver"
+    path = "flow.nc"                  # where the computed flow is kept (reused when current)
+
+    [solver]
+    mesh = "channel"
+    channel = [0.0, 0.0, 10.0, 1.0]   # x0, y0, length, width (m)
+    cell_size = 0.05
+    piers = [[5.0, 0.5, 0.05]]        # circular piers: x, y, radius (holes, tagged wall)
+    bed = "slope"
+    slope = 0.001
+    manning = 0.012
+    end = 60.0
+    output_interval = 1.0
+    [solver.boundaries.inflow]
+    type = "discharge"
+    value = 0.018                     # or series = [[t, Q], ...]
+    [solver.boundaries.outflow]
+    type = "froude"
+    value = 0.18
+    [solver.initial]
+    type = "level"
+    value = 0.05
+
+A flow computed from a ``[solver]`` section stores a hash of the section in its attributes
+(``solver_hash``); ``flow_from_scenario`` reuses the file when the hash matches and it reaches
+the end time, resumes it when it stopped early, and recomputes it otherwise.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+
+from driftlog.errors import ScenarioError
+from driftlog.solver.boundaries import KINDS, as_boundary
+
+__all__ = ["build_mesh", "build_solver", "solve_scenario", "flow_from_scenario",
+           "solver_hash", "check_solver_section", "INITIAL_TYPES"]
+
+INITIAL_TYPES = ("dry", "level", "depth", "file")
+INITIAL_KEYS = ("type", "value", "polygon", "outside", "velocity", "path", "time")
+
+
+def check_solver_section(t, prefix, scen):
+    """Cross-key checks of the [solver] section (scenario.py registers the keys)."""
+    flow = scen.get("flow") or {}
+    if flow.get("source") != "solver" and t["end"] is None:
+        return  # not used
+    if t["end"] is None:
+        raise ScenarioError(f"{prefix}.end", None, "is required when [flow] source = 'solver': "
+                            "the end time of the computation (s)")
+    if t["mesh"] == "file" and not t["mesh_file"]:
+        raise ScenarioError(f"{prefix}.mesh_file", "", "is required when mesh = 'file'")
+    if t["mesh"] == "channel":
+        if t["channel"] is None:
+            raise ScenarioError(f"{prefix}.channel", None, "is required when mesh = 'channel': "
+                                "[x0, y0, length, width] (m)")
+        if t["channel"][2] <= 0 or t["channel"][3] <= 0:
+            raise ScenarioError(f"{prefix}.channel", t["channel"], "length and width must be > 0")
+        if t["cell_size"] is None:
+            raise ScenarioError(f"{prefix}.cell_size", None, "is required when mesh = 'channel'")
+    if t["bed"] == "mesh" and t["mesh"] != "file":
+        raise ScenarioError(f"{prefix}.bed", "mesh", "bed = 'mesh' needs mesh = 'file' (node "
+                            "elevations of the mesh file)")
+    if t["bed"] == "profile" and (t["bed_profile"] is None or len(t["bed_profile"]) < 2
+                                  or np.any(np.diff([p[0] for p in t["bed_profile"]]) <= 0)):
+        raise ScenarioError(f"{prefix}.bed_profile", t["bed_profile"], "bed = 'profile' needs "
+                            "at least two [x, z] points with x increasing")
+    if t["manning"] is not None and t["strickler"] is not None:
+        raise ScenarioError(f"{prefix}.strickler", t["strickler"], "give manning or "
+                            "strickler, not both")
+    for i, p in enumerate(t["piers"] or []):
+        if (not isinstance(p, list) or len(p) != 3
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in p)
+                or p[2] <= 0):
+            raise ScenarioError(f"{prefix}.piers[{i}]", p, "must be [x, y, radius] with "
+                                "radius > 0 (m)")
+    for i, h in enumerate(t["holes"] or []):
+        a = np.asarray(h, dtype=object)
+        if a.ndim != 2 or a.shape[0] < 3 or a.shape[1] != 2:
+            raise ScenarioError(f"{prefix}.holes[{i}]", h, "must be a polygon [[x, y], ...] "
+                                "of at least 3 points")
+    for tag, spec in (t["boundaries"] or {}).items():
+        if not isinstance(spec, dict):
+            raise ScenarioError(f"{prefix}.boundaries.{tag}", spec, "must be a table with "
+                                "type = " + " | ".join(KINDS))
+        as_boundary(spec, f"{prefix}.boundaries.{tag}")
+    _check_initial(t["initial"] or {}, f"{prefix}.initial")
+
+
+def _check_initial(ini, key):
+    for k in ini:
+        if k not in INITIAL_KEYS:
+            raise ScenarioError(f"{key}.{k}", ini[k], "unknown key; [solver.initial] has "
+                                + ", ".join(INITIAL_KEYS))
+    kind = ini.get("type", "dry")
+    if kind not in INITIAL_TYPES:
+        raise ScenarioError(f"{key}.type", kind, "must be one of "
+                            + ", ".join(repr(k) for k in INITIAL_TYPES))
+    if kind in ("level", "depth"):
+        v = ini.get("value")
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise ScenarioError(f"{key}.value", v, f"initial type {kind!r} needs a number (m)")
+        if kind == "depth" and v < 0:
+            raise ScenarioError(f"{key}.value", v, "a depth must be >= 0 m")
+    if kind == "file" and not ini.get("path"):
+        raise ScenarioError(f"{key}.path", None, "initial type 'file' needs the path of a "
+                            "flow file on the same mesh")
+    if "polygon" in ini:
+        p = ini["polygon"]
+        if (not isinstance(p, list) or len(p) < 3
+                or not all(isinstance(q, list) and len(q) == 2 for q in p)):
+            raise ScenarioError(f"{key}.polygon", p, "must be [[x, y], ...] with >= 3 points")
+    if "velocity" in ini:
+        v = ini["velocity"]
+        if not isinstance(v, list) or len(v) != 2:
+            raise ScenarioError(f"{key}.velocity", v, "must be [u, v] (m/s)")
+
+
+def solver_hash(section) -> str:
+    """A hash of the validated [solver] section (what decides whether a stored flow is current)."""
+    text = json.dumps(section, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def build_mesh(sec):
+    """The mesh of a [solver] section, node elevations set from its bed keys."""
+    from driftlog.mesh import read_mesh
+    from driftlog.mesher import channel_mesh, circle
+
+    if sec["mesh"] == "file":
+        mesh = read_mesh(sec["mesh_file"])
+        x0 = float(mesh.node_x.min())
+    else:
+        x0, y0, length, width = sec["channel"]
+        holes = [circle((p[0], p[1]), p[2], sec["cell_size"]) for p in sec["piers"] or []]
+        holes += [np.asarray(h, dtype=float) for h in sec["holes"] or []]
+        mesh = channel_mesh(length, width, sec["cell_size"], x0=x0, y0=y0, holes=holes,
+                            structured=sec["structured"])
+    x = mesh.node_x
+    if sec["bed"] == "flat":
+        mesh.node_z = np.full(mesh.n_nodes, sec["bed_level"])
+    elif sec["bed"] == "slope":
+        mesh.node_z = sec["bed_level"] - sec["slope"] * (x - x0)
+    elif sec["bed"] == "profile":
+        p = np.asarray(sec["bed_profile"], dtype=float)
+        mesh.node_z = np.interp(x, p[:, 0], p[:, 1])
+    elif mesh.node_z is None:
+        raise ScenarioError("solver.bed", "mesh", f"{sec['mesh_file']} has no node elevations")
+    return mesh
+
+
+def build_solver(sec, mesh=None):
+    """A ShallowWaterSolver from a validated [solver] section, with its initial state."""
+    from driftlog.solver.model import ShallowWaterSolver
+
+    mesh = build_mesh(sec) if mesh is None else mesh
+    s = ShallowWaterSolver(mesh, order=sec["order"], riemann=sec["riemann"], cfl=sec["cfl"],
+                           manning=sec["manning"], strickler=sec["strickler"],
+                           dry_depth=sec["dry_depth"], boundaries=sec["boundaries"],
+                           arrival_depth=sec["arrival_depth"])
+    ini = sec["initial"] or {}
+    kind = ini.get("type", "dry")
+    vel = ini.get("velocity", [0.0, 0.0])
+    if kind == "file":
+        s.set_from_flow(ini["path"], ini.get("time"))
+        return s
+    if kind == "level":
+        h = np.maximum(float(ini["value"]) - s.bed, 0.0)
+    elif kind == "depth":
+        h = np.full(mesh.n_faces, float(ini["value"]))
+    else:
+        h = np.zeros(mesh.n_faces)
+    if "polygon" in ini:
+        from matplotlib.path import Path as MplPath
+
+        inside = MplPath(np.asarray(ini["polygon"], float)).contains_points(
+            np.column_stack([mesh.face_x, mesh.face_y]))
+        h = np.where(inside, h, 0.0)
+    s.set_state(h, h * vel[0], h * vel[1], t=sec["start"])
+    return s
+
+
+def _default_path(scenario):
+    p = scenario["flow"].get("path") or ""
+    return Path(p) if p else scenario.base_dir / "solver_flow.nc"
+
+
+def _stored(path, digest):
+    """'done', 'partial' or None: the state of a stored flow computed from the same section."""
+    import netCDF4
+
+    if not path.is_file():
+        return None, None
+    try:
+        with netCDF4.Dataset(path) as ds:
+            if getattr(ds, "solver_hash", None) != digest:
+                return None, None
+            n = len(ds.dimensions["time"])
+            return "stored", float(ds.variables["time"][n - 1]) if n else None
+    except OSError:
+        return None, None
+
+
+def solve_scenario(scenario, output=None, resume=False, progress=False):
+    """Run the solver of a validated scenario; returns (SolveResult, path of the flow file)."""
+    sec = scenario["solver"]
+    if sec["end"] is None:
+        raise ScenarioError("solver.end", None, "is required to run the solver")
+    path = Path(output) if output else _default_path(scenario)
+    digest = solver_hash(sec)
+    attrs = dict(scenario.attrs())
+    attrs["solver_hash"] = digest
+    attrs["title"] = scenario["title"] or "driftlog solver flow"
+    s = build_solver(sec)
+    res = s.run(sec["end"], output=path, output_interval=sec["output_interval"],
+                progress=progress, resume=resume and path.exists(), attrs=attrs)
+    return res, path
+
+
+def flow_from_scenario(scenario, progress=False):
+    """The flow of a scenario with [flow] source = 'solver', as a MeshFlowField.
+
+    Reuses ``[flow] path`` when it was computed from the same [solver] section and reaches the
+    end time, resumes it when it stopped before, and computes it otherwise.
+    """
+    from driftlog.flowfile import open_flow
+
+    sec = scenario["solver"]
+    path = _default_path(scenario)
+    state, t_last = _stored(path, solver_hash(sec))
+    if state is None or t_last is None or t_last < sec["end"]:
+        solve_scenario(scenario, output=path, resume=state is not None and t_last is not None,
+                       progress=progress)
+    return open_flow(path, dry_depth=scenario["flow"]["dry_depth"])

