@@ -226,6 +226,10 @@ class Tracker:
         np.copyto(self.flag, flag)
         self._F_valid = valid
 
+    def invalidate_flow(self):
+        """The positions were moved from outside (a contact model): sample the flow again."""
+        self._F_valid = False
+
     def advance(self, dt, have_d0=False):
         """Integrate the free motion of the floating logs over dt (no contacts).
 

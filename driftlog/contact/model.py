@@ -1,0 +1,385 @@
+"""The contact model: the tracker calls ``substep`` each sub-step, ``drain_hits`` at records.
+
+Two methods:
+
+- ``event`` (the paper, MODEL.md 7-8): at the start of a sub-step, contacts within the
+  tolerance get impulses (eq. 11-15); the step is then chosen so that no pair overlaps by
+  more than the tolerance at its end, either by conservative advancement on the capsule
+  distance (``toi.conservative_step``) or by the paper's dichotomy (take the step; while
+  logs overlap at its end, halve it and redo).  A sub-step may end before the one asked: at
+  the next contact.  In a jam (many persistent contacts, eps < 1) the sub-steps collapse;
+  the method counts events and sub-steps within one free sub-step and stops with
+  ``ContactJamError`` (naming the logs, the time and the remedy) instead of looping.
+- ``moreau`` (``moreau.moreau_solve``): the whole step is taken, and all contact impulses of
+  the step are solved together by projected Gauss-Seidel; bounded cost, stable piles.
+
+Masses are the logs' m_b and I_b (MODEL.md 2, the paper's choice; see ``impulses``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from driftlog.contact.geometry import NRES
+from driftlog.contact.impulses import resolve_impulses
+from driftlog.contact.moreau import moreau_solve
+from driftlog.contact.native import NativeBackend, end_contacts
+from driftlog.contact.obstacles import Obstacles
+from driftlog.contact.toi import conservative_step, motion_margin
+from driftlog.errors import DriftlogError, ScenarioError
+
+__all__ = ["ContactModel", "ContactJamError", "Contacts"]
+
+
+class ContactJamError(DriftlogError):
+    """Event-driven contact stalled (a jam): too many events or sub-steps for no progress."""
+
+
+class Contacts:
+    """Contacts as arrays: bodies, obstacle index (-1 for log pairs), gap/normal/point."""
+
+    def __init__(self, body1, body2, obstacle, res, key):
+        self.body1, self.body2, self.obstacle, self.res = body1, body2, obstacle, res
+        self.key = key  # one integer per (log, log or obstacle capsule) pair
+
+    def __len__(self):
+        return self.body1.size
+
+    @property
+    def gap(self):
+        """Signed gaps (negative: overlap)."""
+        return self.res[:, 0]
+
+    def select(self, mask):
+        """The contacts where ``mask`` is true."""
+        return Contacts(self.body1[mask], self.body2[mask], self.obstacle[mask], self.res[mask],
+                        self.key[mask])
+
+
+def _backend(name, obstacles):
+    if name == "native":
+        return NativeBackend(obstacles)
+    if name == "fcl":
+        from driftlog.contact.fcl_backend import FCLBackend
+
+        return FCLBackend(obstacles)
+    raise ScenarioError("contact.backend", name, "must be one of 'native', 'fcl'")
+
+
+class ContactModel:
+    """Contacts between logs, walls and obstacles.
+
+    Parameters
+    ----------
+    obstacles : Obstacles, optional
+    method : {"event", "moreau"}
+    time_of_impact : {"conservative", "dichotomy"}
+        How the event-driven method finds contact times.
+    restitution : float
+        eps in [0, 1].
+    backend : {"native", "fcl"}
+    tolerance : float
+        Contact distance tolerance relative to the smallest log radius: pairs closer than this
+        are in contact, and no accepted step overlaps by more.
+    max_events : int
+        Event-driven: impulses, or sub-steps, within one free sub-step above which the method
+        stops (a jam).
+    iterations : int
+        Moreau: Gauss-Seidel sweeps at most per step.
+    rest_speed : float
+        Approach speeds below this do not bounce (resting contact; 0: the paper).
+    """
+
+    def __init__(self, obstacles=None, method="event", time_of_impact="conservative",
+                 restitution=1.0, backend="native", tolerance=1e-4, max_events=10000,
+                 iterations=200, rest_speed=0.0):
+        if method not in ("event", "moreau"):
+            raise ScenarioError("contact.method", method, "must be one of 'event', 'moreau'")
+        if time_of_impact not in ("conservative", "dichotomy"):
+            raise ScenarioError("contact.time_of_impact", time_of_impact,
+                                "must be one of 'conservative', 'dichotomy'")
+        if not 0.0 <= restitution <= 1.0:
+            raise ScenarioError("contact.restitution", restitution, "must be in [0, 1]")
+        self.obstacles = obstacles or Obstacles()
+        self.method, self.time_of_impact = method, time_of_impact
+        self.restitution = float(restitution)
+        self.backend = _backend(backend, self.obstacles)
+        self.tolerance = float(tolerance)
+        self.max_events = int(max_events)
+        self.iterations = int(iterations)
+        self.rest_speed = float(rest_speed)
+        self.check_overlap = True  # Moreau: measure the overlap after each step (stats)
+        self.near = 0.05  # event: pairs closer than this share of the radius that separate
+        # at their contact point do not bound the step (toi.conservative_step)
+        self.motion_share = 0.25  # Moreau: motion per step near contacts, share of the radius
+        self.stats = dict(substeps=0, advances=0, rejected=0, events=0, detections=0,
+                          pgs_iterations=0, pgs_max_iterations=0, max_contacts=0,
+                          min_gap=np.inf)
+        self._hits = []
+        self._cache = None
+        self._window = None
+        self._active = np.empty(0, np.int64)
+
+    @property
+    def obstacle_names(self):
+        """Names of the obstacles (hit records: other = -(index + 1))."""
+        return list(self.obstacles.names)
+
+    @classmethod
+    def from_scenario(cls, scen, mesh=None):
+        """From a validated scenario's [contact] and [[obstacles]] (walls from ``mesh``)."""
+        c = scen["contact"]
+        obs = Obstacles.from_scenario(scen, mesh)
+        return cls(obs, method=c["method"], time_of_impact=c["time_of_impact"],
+                   restitution=c["restitution"], backend=c["backend"],
+                   tolerance=c["tolerance"], max_events=c["max_events"],
+                   iterations=c.get("iterations", 200), rest_speed=c.get("rest_speed", 0.0))
+
+    # ----------------------------------------------------------------- detection
+    def detect(self, bodies, margin, S=None):
+        """Candidate contacts of ``bodies`` (tracker) within per-log ``margin``, measured."""
+        S = bodies.state if S is None else S
+        ll, lo = self.backend.candidates(S, bodies.length, bodies.radius, margin)
+        r_ll, r_lo = self.backend.gaps(S, bodies.length, bodies.radius, ll, lo)
+        self.stats["detections"] += 1
+        owner = self.obstacles.owner
+        n = S.shape[0]
+        b1 = np.concatenate([ll[:, 0], lo[:, 0]])
+        other = np.concatenate([ll[:, 1], n + lo[:, 1]])
+        return Contacts(b1, np.concatenate([ll[:, 1], np.full(lo.shape[0], -1, np.int64)]),
+                        np.concatenate([np.full(ll.shape[0], -1, np.int64),
+                                        owner[lo[:, 1]] if lo.shape[0] else
+                                        np.empty(0, np.int64)]),
+                        np.vstack([r_ll, r_lo]), b1 * (n + owner.size) + other)
+
+    def detect_manifold(self, bodies, margin, S=None):
+        """``detect`` plus the axis-end contacts of each pair (for the time-stepping solve)."""
+        S = bodies.state if S is None else S
+        C = self.detect(bodies, margin, S)
+        if len(C) == 0:
+            return C
+        n = S.shape[0]
+        is_ll = C.body2 >= 0
+        ll = np.column_stack([C.body1[is_ll], C.body2[is_ll]])
+        caps = C.key[~is_ll] % (n + self.obstacles.owner.size) - n
+        lo = np.column_stack([C.body1[~is_ll], caps])
+        e_ll, e_lo = end_contacts(S, bodies.length, bodies.radius, self.obstacles.capsules,
+                                  ll, lo)
+        rep = lambda a: np.repeat(a, 4)  # noqa: E731
+        ends = Contacts(np.concatenate([rep(ll[:, 0]), rep(lo[:, 0])]),
+                        np.concatenate([rep(ll[:, 1]), np.full(4 * len(lo), -1, np.int64)]),
+                        np.concatenate([np.full(4 * len(ll), -1, np.int64),
+                                        rep(C.obstacle[~is_ll])]),
+                        np.vstack([e_ll.reshape(-1, NRES), e_lo.reshape(-1, NRES)]),
+                        np.concatenate([rep(C.key[is_ll]), rep(C.key[~is_ll])]))
+        # ends far apart (beyond the margin of the pair) cannot touch in this step
+        m1 = margin[ends.body1] + np.where(ends.body2 >= 0, margin[np.maximum(ends.body2, 0)],
+                                           0.0)
+        ends = ends.select(ends.gap <= m1)
+        return Contacts(*(np.concatenate([a, b]) for a, b in
+                          ((C.body1, ends.body1), (C.body2, ends.body2),
+                           (C.obstacle, ends.obstacle))),
+                        np.vstack([C.res, ends.res]), np.concatenate([C.key, ends.key]))
+
+    def _tol(self, bodies):
+        return self.tolerance * float(bodies.radius.min())
+
+    def _touching(self, bodies, tol):
+        """Contacts within tol at the current state (reusing the last step's end check)."""
+        S = bodies.state
+        key = (bodies.t, S.shape[0])
+        if self._cache is not None and self._cache[0] == key and np.array_equal(
+                self._cache[1], S[:, :3]):
+            C = self._cache[2]
+        else:
+            C = self.detect(bodies, np.full(S.shape[0], tol))
+        return C.select(C.gap <= tol)
+
+    def _remember(self, bodies, C):
+        self._cache = ((bodies.t, bodies.state.shape[0]), bodies.state[:, :3].copy(), C)
+
+    # ----------------------------------------------------------------- hits
+    def _record(self, bodies, C, impulse, t):
+        hit = impulse > 0.0
+        if not hit.any():
+            return
+        ids = bodies.ids
+        b2 = C.body2[hit]
+        other = np.where(b2 >= 0, ids[np.maximum(b2, 0)], -(C.obstacle[hit] + 1))
+        log = ids[C.body1[hit]]
+        # one hit per log and body at an instant (a log on two edges of a polygon, or on
+        # a pier at two points, is one hit): impulses summed, point impulse-weighted
+        pair, inv = np.unique(np.column_stack([log, other]), axis=0, return_inverse=True)
+        inv = inv.ravel()
+        j = impulse[hit]
+        jsum = np.bincount(inv, j, len(pair))
+        self._hits.append(dict(time=np.full(len(pair), t), log_id=pair[:, 0], other=pair[:, 1],
+                               impulse=jsum,
+                               x=np.bincount(inv, j * C.res[hit, 3], len(pair)) / jsum,
+                               y=np.bincount(inv, j * C.res[hit, 4], len(pair)) / jsum))
+
+    def drain_hits(self):
+        """Contacts since the last call: dict of arrays time, log_id, other, impulse, x, y."""
+        keys = ("time", "log_id", "other", "impulse", "x", "y")
+        if not self._hits:
+            return {k: np.empty(0) for k in keys}
+        out = {k: np.concatenate([h[k] for h in self._hits]) for k in keys}
+        self._hits = []
+        return out
+
+    # ----------------------------------------------------------------- stepping
+    def substep(self, bodies, dt):
+        """Advance ``bodies`` (the tracker) by at most dt with contacts; returns the step."""
+        self.stats["substeps"] += 1
+        if bodies.state.shape[0] == 0:
+            bodies.advance(dt)
+            return dt
+        if self.method == "moreau":
+            return self._moreau(bodies, dt)
+        return self._event(bodies, dt)
+
+    def _inverse_masses(self, bodies):
+        return 1.0 / bodies.mass, 1.0 / bodies.inertia
+
+    def _min_step(self, bodies):
+        so = getattr(bodies, "step_options", None)
+        return so.min_step if so is not None else 1e-12
+
+    def _jam(self, bodies, C, why):
+        logs = np.concatenate([C.body1, C.body2[C.body2 >= 0]]) if len(C) else np.empty(0, int)
+        ids, counts = np.unique(bodies.ids[logs], return_counts=True) if logs.size else ([], [])
+        worst = [int(i) for i in np.asarray(ids)[np.argsort(counts)[::-1][:10]]]
+        raise ContactJamError(
+            f"event-driven contact stalls at t = {bodies.t:.6g} s: {why}; logs {worst} are in "
+            f"persistent contact ({len(C)} contacts, restitution {self.restitution}): a jam, "
+            "where impulses and contact times cannot make progress.  Use contact.method = "
+            "\"moreau\" (time-stepping contact, stable in jams), or raise contact.max_events")
+
+    def _count(self, bodies, dt, events, C):
+        """Jam watch: events and sub-steps within one free sub-step of simulated time."""
+        w = self._window
+        if w is None or bodies.t - w[0] >= w[1]:
+            w = self._window = [bodies.t, dt, 0, 0]
+        w[2] += events
+        w[3] += 1
+        if w[2] > self.max_events or w[3] > self.max_events:
+            self._jam(bodies, C, f"{w[2]} impulses and {w[3]} sub-steps within {w[1]:.3g} s "
+                      f"of simulated time (contact.max_events = {self.max_events})")
+
+    def _event(self, bodies, dt):
+        st = self.stats
+        tol = self._tol(bodies)
+        S = bodies.state
+        C = self._touching(bodies, tol)
+        events = 0
+        if len(C):
+            inv_m, inv_i = self._inverse_masses(bodies)
+            imp = np.zeros(len(C))
+            vscale = float(np.abs(S[:, 3:5]).max()) + 1e-3
+            events = resolve_impulses(S, inv_m, inv_i, C.body1, C.body2, C.res,
+                                      self.restitution, 1e-10 * vscale, self.max_events, imp,
+                                      self.rest_speed)
+            if events < 0:
+                self._jam(bodies, C, f"{self.max_events} impulses in one sub-step and contacts "
+                          "still approach (contact.max_events)")
+            st["events"] += events
+            st["max_contacts"] = max(st["max_contacts"], len(C))
+            # a hit is a contact that starts (a log resting on a pier, bounced back by the
+            # flow at every step, is one hit)
+            self._record(bodies, C, np.where(np.isin(C.key, self._active), 0.0, imp),
+                         bodies.t)
+        self._active = C.key
+        self._count(bodies, dt, events, C)
+        h = dt
+        if self.time_of_impact == "conservative":
+            margin = motion_margin(S, bodies.length, bodies.radius, dt, tol)
+            A = self.detect(bodies, margin)
+            if len(A):
+                h = conservative_step(S, bodies.length, bodies.radius, A.body1, A.body2, A.res,
+                                      tol, dt, self.near * float(bodies.radius.min()))
+        min_step = self._min_step(bodies)
+        while True:
+            if h < min_step:
+                self._jam(bodies, C, f"the contact sub-step fell to {h:.3g} s (below "
+                          f"min_step = {min_step:.3g} s)")
+            saved = bodies.save()
+            bodies.advance(h)
+            st["advances"] += 1
+            E = self.detect(bodies, np.full(bodies.state.shape[0], tol))
+            gmin = float(E.gap.min()) if len(E) else np.inf
+            if gmin >= -tol or self._overlaps_kept(C, E, tol):
+                break
+            bodies.restore(saved)
+            h *= 0.5
+            st["rejected"] += 1
+        st["min_gap"] = min(st["min_gap"], gmin)
+        self._remember(bodies, E)
+        return h
+
+    @staticmethod
+    def _overlaps_kept(C, E, tol):
+        """True if every pair overlapping by more than tol at the end did so at the start.
+
+        And deepened by less than tol: logs seeded overlapping are not a contact the step
+        missed.
+        """
+        deep = E.gap < -tol
+        order = np.argsort(C.key)
+        k = np.searchsorted(C.key[order], E.key[deep])
+        k = np.minimum(k, max(len(C) - 1, 0))
+        if len(C) == 0:
+            return False
+        found = C.key[order][k] == E.key[deep]
+        before = C.gap[order][k]
+        return bool(np.all(found & (before < -tol) & (E.gap[deep] >= before - tol)))
+
+    def _moreau(self, bodies, dt):
+        st = self.stats
+        tol = self._tol(bodies)
+        S0 = bodies.state.copy()
+        t0 = bodies.t
+        # near contacts, no log moves more than a share of the smallest radius per step: the
+        # contact geometry is linearised at the start of the step
+        near = self.detect(bodies, motion_margin(S0, bodies.length, bodies.radius, dt, tol))
+        if len(near):
+            idx = np.unique(np.concatenate([near.body1, near.body2[near.body2 >= 0]]))
+            reach = 0.5 * bodies.length[idx] + bodies.radius[idx]
+            speed = float((np.hypot(S0[idx, 3], S0[idx, 4]) + np.abs(S0[idx, 5]) * reach).max())
+            if speed > 0.0:
+                dt = min(dt, self.motion_share * float(bodies.radius.min()) / speed)
+        bodies.advance(dt)
+        st["advances"] += 1
+        S = bodies.state
+        # candidates over the motion of the step: start and free-end velocities
+        fast = S0.copy()
+        fast[:, 3:6] = np.maximum(np.abs(S0[:, 3:6]), np.abs(S[:, 3:6]))
+        margin = motion_margin(fast, bodies.length, bodies.radius, dt, tol)
+        C = self.detect_manifold(bodies, margin, S=S0)
+        if len(C) == 0:
+            self._active = np.empty(0, np.int64)
+            return dt
+        inv_m, inv_i = self._inverse_masses(bodies)
+        P = np.zeros(len(C))
+        vscale = float(np.abs(S[:, 3:5]).max()) + 1e-3
+        it, _ = moreau_solve(S0, S, inv_m, inv_i, C.body1, C.body2, C.res, dt,
+                             self.restitution, tol, tol, 1e-9 * vscale, self.iterations, P)
+        st["pgs_iterations"] += it
+        st["pgs_max_iterations"] = max(st["pgs_max_iterations"], it)
+        st["max_contacts"] = max(st["max_contacts"], len(C))
+        if hasattr(bodies, "invalidate_flow"):
+            bodies.invalidate_flow()
+        if self.check_overlap:
+            E = self.detect(bodies, np.full(S.shape[0], tol))
+            if len(E):
+                st["min_gap"] = min(st["min_gap"], float(E.gap.min()))
+        # a hit is a contact that starts pushing (not one that keeps pushing)
+        on = P > 0.0
+        n_all = int(bodies.ids.max()) + 2 + len(self.obstacles.names)
+        key = (bodies.ids[C.body1] * n_all
+               + np.where(C.body2 >= 0, bodies.ids[np.maximum(C.body2, 0)],
+                          bodies.ids.max() + 1 + C.obstacle))
+        new = on & ~np.isin(key, self._active)
+        # touching or pushing: a contact that flickers within the tolerance is one hit
+        self._active = key[on | (C.gap <= tol)]
+        self._record(bodies, C, np.where(new, P, 0.0), t0)
+        return dt

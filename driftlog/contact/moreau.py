@@ -1,0 +1,148 @@
+"""Time-stepping non-smooth contact (Moreau-Jean), solved by projected Gauss-Seidel.
+
+Where event-driven impulses stall (a jam: many persistent contacts, restitution below one,
+each sub-step cut short by the next contact), Moreau-Jean's scheme takes the step whole and
+solves for the contact impulses P >= 0 of every contact at once, at the velocity level:
+
+    V+ = V_free + M^-1 H^T P,      q+ = q_free + dt M^-1 H^T P      (theta = 1)
+    0 <= P  _|_  u_n+ - target >= 0
+
+with u_n = H V the relative normal velocity of each contact (H from the geometry at the start
+of the step), V_free and q_free the free motion over the step (flow forces, the integrator).
+The target keeps the linearised gap at the end of the step above -slop (speculative for
+contacts still apart, a position correction for those overlapping) and applies Newton's
+restitution to contacts that were touching and approaching at the start:
+
+    target = max(u_n_free - (max(g_start, -slop) + dg_free + slop) / dt,  -eps u_n_start)
+
+``moreau_solve`` sweeps the contacts (Gauss-Seidel, in a fixed order), projecting each P on
+P >= 0, until no velocity changes by more than ``vtol`` or ``max_iterations`` sweeps: bounded
+cost whatever the number of contacts.  Overlaps deeper than the slop (left by an unconverged
+solve or by the linearisation) are removed a share per step by moving positions only (split
+impulse), never by a velocity that would throw the logs apart.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+__all__ = ["moreau_solve"]
+
+
+@nb.njit(cache=True)
+def _pgs(body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, P, vtol, max_iterations):
+    """Projected Gauss-Seidel: P >= 0 _|_ u_n(V) - target >= 0; V changed in place."""
+    it = 0
+    residual = 0.0
+    while it < max_iterations:
+        it += 1
+        residual = 0.0
+        for c in range(body1.size):
+            if w[c] <= 0.0:
+                continue
+            i, j = body1[c], body2[c]
+            nx, ny = res[c, 1], res[c, 2]
+            u = V[i, 0] * nx + V[i, 1] * ny + V[i, 2] * rn1[c]
+            if j >= 0:
+                u -= V[j, 0] * nx + V[j, 1] * ny + V[j, 2] * rn2[c]
+            p_new = max(P[c] + (target[c] - u) / w[c], 0.0)
+            d = p_new - P[c]
+            if d == 0.0:
+                continue
+            P[c] = p_new
+            V[i, 0] += d * nx * inv_m[i]
+            V[i, 1] += d * ny * inv_m[i]
+            V[i, 2] += d * rn1[c] * inv_i[i]
+            if j >= 0:
+                V[j, 0] -= d * nx * inv_m[j]
+                V[j, 1] -= d * ny * inv_m[j]
+                V[j, 2] -= d * rn2[c] * inv_i[j]
+            residual = max(residual, abs(d) * w[c])
+        if residual <= vtol:
+            break
+    return it, residual
+
+
+@nb.njit(cache=True)
+def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vtol,
+                 max_iterations, P, recovery=0.2):
+    """Solve the contact impulses of one step and apply them to S (free state, in place).
+
+    Parameters
+    ----------
+    S0 : (n, 6) state at the start of the step.
+    S : (n, 6) state after the free step; velocities and positions are corrected in place.
+    inv_m, inv_i : (n,) inverse masses and inertias.
+    body1, body2 : (k,) bodies of each contact (body2 < 0: a fixed obstacle).
+    res : (k, >= 5) gap, normal, contact point at the start of the step.
+    dt, eps : step and restitution.
+    tol : a contact with a start gap below this is touching (restitution applies).
+    slop : tolerated overlap.
+    vtol : convergence: largest velocity change of a sweep.
+    max_iterations : sweeps at most (each of the two solves).
+    P : (k,) impulses (output).
+    recovery : share of an overlap deeper than slop removed per step, by moving the positions
+        only (split impulse: pushing overlaps apart through the velocities would add energy).
+
+    Returns
+    -------
+    (iterations, residual): sweeps of the velocity solve and its last largest velocity change.
+    """
+    k = body1.size
+    n = S.shape[0]
+    rn1 = np.empty(k)
+    rn2 = np.zeros(k)
+    w = np.empty(k)
+    target = np.empty(k)
+    g_free = np.empty(k)
+    u_free = np.empty(k)
+    for c in range(k):
+        i, j = body1[c], body2[c]
+        nx, ny = res[c, 1], res[c, 2]
+        rn1[c] = (res[c, 3] - S0[i, 0]) * ny - (res[c, 4] - S0[i, 1]) * nx
+        w[c] = inv_m[i] + rn1[c] * rn1[c] * inv_i[i]
+        uf = S[i, 3] * nx + S[i, 4] * ny + S[i, 5] * rn1[c]
+        u0 = S0[i, 3] * nx + S0[i, 4] * ny + S0[i, 5] * rn1[c]
+        dg = (S[i, 0] - S0[i, 0]) * nx + (S[i, 1] - S0[i, 1]) * ny + (S[i, 2] - S0[i, 2]) * rn1[c]
+        if j >= 0:
+            rn2[c] = (res[c, 3] - S0[j, 0]) * ny - (res[c, 4] - S0[j, 1]) * nx
+            w[c] += inv_m[j] + rn2[c] * rn2[c] * inv_i[j]
+            uf -= S[j, 3] * nx + S[j, 4] * ny + S[j, 5] * rn2[c]
+            u0 -= S0[j, 3] * nx + S0[j, 4] * ny + S0[j, 5] * rn2[c]
+            dg -= ((S[j, 0] - S0[j, 0]) * nx + (S[j, 1] - S0[j, 1]) * ny
+                   + (S[j, 2] - S0[j, 2]) * rn2[c])
+        # the end gap g0 + dg + dt (u+ - u_free) must stay >= -slop; an overlap deeper than
+        # slop at the start must not deepen (it is removed by the position pass below)
+        g0 = max(res[c, 0], -slop)
+        g_free[c] = res[c, 0] + dg
+        u_free[c] = uf
+        target[c] = uf - (g0 + dg + slop) / dt
+        if res[c, 0] <= tol and u0 < 0.0:
+            target[c] = max(target[c], -eps * u0)  # Newton's impact law
+        P[c] = 0.0
+    V = S[:, 3:6].copy()
+    it, residual = _pgs(body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, P, vtol,
+                        max_iterations)
+    # position pass: pseudo-velocities that remove a share of the remaining overlap
+    Vp = np.zeros((n, 3))
+    Pp = np.zeros(k)
+    deep = 0
+    for c in range(k):
+        i, j = body1[c], body2[c]
+        nx, ny = res[c, 1], res[c, 2]
+        u = V[i, 0] * nx + V[i, 1] * ny + V[i, 2] * rn1[c]
+        if j >= 0:
+            u -= V[j, 0] * nx + V[j, 1] * ny + V[j, 2] * rn2[c]
+        g_end = g_free[c] + dt * (u - u_free[c])
+        target[c] = recovery * max(-g_end - slop, 0.0) / dt
+        if target[c] > 0.0:
+            deep += 1
+    if deep:
+        _pgs(body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, Vp, Pp, vtol,
+             max_iterations)
+    for b in range(n):  # q+ = q_free + dt (V+ - V_free) + dt Vp
+        for m in range(3):
+            S[b, m] += dt * (V[b, m] - S[b, 3 + m] + Vp[b, m])
+            S[b, 3 + m] = V[b, m]
+    return it, residual

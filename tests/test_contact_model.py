@@ -1,0 +1,195 @@
+"""The contact model: conservation over thousands of collisions, no interpenetration in a
+10,000-log run, a channel with bridge piers through ``driftlog.api.track``, the jam."""
+
+import numpy as np
+import pytest
+
+from driftlog.contact import BallisticLogs, ContactJamError, ContactModel, Obstacles, run_contacts
+from driftlog.contact.geometry import capsule_gap
+from driftlog.contact.impulses import kinetic_energy, momenta
+
+
+def _grid_logs(rng, g, spacing, L=1.0, r=0.08, speed=1.0, density=720.0):
+    xs = (np.arange(g) - (g - 1) / 2) * spacing
+    X, Y = np.meshgrid(xs, xs)
+    n = g * g
+    S = np.zeros((n, 6))
+    S[:, 0], S[:, 1] = X.ravel(), Y.ravel()
+    S[:, 2] = rng.uniform(0, np.pi, n)
+    S[:, 3:5] = rng.normal(0, speed, (n, 2))
+    S[:, 5] = rng.normal(0, 1, n)
+    return BallisticLogs(S, L, r, density)
+
+
+def test_closed_box_conserves_energy(rng):
+    """eps = 1 in a closed box (walls: infinite mass): thousands of collisions, kinetic energy
+    (translation + rotation) to round-off."""
+    b = _grid_logs(rng, 7, 1.35)
+    b.state[:, :2] += 5.0
+    obs = Obstacles()
+    obs.add_polygon([[0, 0], [10, 0], [10, 10], [0, 10]], name="box")
+    m = ContactModel(obs, restitution=1.0)
+    e0 = kinetic_energy(b.state, b.mass, b.inertia)
+    run_contacts(m, b, 20.0)
+    h = m.drain_hits()
+    assert len(h["time"]) > 1000
+    assert (h["other"] == -1).sum() > 150 and (h["other"] >= 0).sum() > 600
+    assert kinetic_energy(b.state, b.mass, b.inertia) == pytest.approx(e0, rel=1e-12)
+    assert m.stats["min_gap"] >= -m.tolerance * 0.08
+    inside = np.abs(b.state[:, :2] - 5.0).max() < 5.0
+    assert inside
+
+
+def test_free_cloud_conserves_momenta(rng):
+    """eps = 1, no walls, logs of different densities converging: energy, linear and angular
+    momentum to round-off over thousands of collisions."""
+    b = _grid_logs(rng, 9, 1.3, density=rng.uniform(500, 900, 81))
+    b.state[:, 3:5] -= 0.8 * b.state[:, :2]  # converge on the centre
+    m = ContactModel(restitution=1.0)
+    e0, p0 = kinetic_energy(b.state, b.mass, b.inertia), np.array(momenta(b.state, b.mass,
+                                                                           b.inertia))
+    run_contacts(m, b, 10.0)
+    assert m.stats["events"] > 1000
+    assert kinetic_energy(b.state, b.mass, b.inertia) == pytest.approx(e0, rel=1e-12)
+    p1 = np.array(momenta(b.state, b.mass, b.inertia))
+    assert np.abs(p1 - p0).max() < 1e-12 * np.abs(p0).max() * 100
+
+
+def _all_gaps(S, L, r):
+    """Independent check: every pair with centres within L + 2r (scipy KD-tree)."""
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(S[:, :2]).query_pairs(L + 2 * r, output_type="ndarray")
+    out = np.empty(5)
+    h = 0.5 * L
+    c, s = np.cos(S[:, 2]) * h, np.sin(S[:, 2]) * h
+    g = [capsule_gap(S[i, 0] - c[i], S[i, 1] - s[i], S[i, 0] + c[i], S[i, 1] + s[i], r,
+                     S[j, 0] - c[j], S[j, 1] - s[j], S[j, 0] + c[j], S[j, 1] + s[j], r, out)
+         for i, j in pairs]
+    return np.array(g + [np.inf])
+
+
+def test_no_interpenetration_10000_logs(rng):
+    """10,000 logs packed 0.02 m apart: no pair overlaps by more than the tolerance at any
+    accepted step (the model's own check at every step; an independent KD-tree check every
+    50 steps).  With one sub-step for all logs, each collision cuts the step: 300 sub-steps
+    see a few tens of collisions (see BENCHMARKS.md, Contacts)."""
+    b = _grid_logs(rng, 100, 1.12, L=1.0, r=0.05)
+    m = ContactModel(restitution=0.5)
+    tol = m.tolerance * 0.05
+    worst = _all_gaps(b.state, 1.0, 0.05).min()
+    assert worst > 0  # packed, but apart at the start
+    for k in range(300):
+        m.substep(b, min(b.max_step(), 0.2))
+        if k % 50 == 49:
+            worst = min(worst, _all_gaps(b.state, 1.0, 0.05).min())
+    assert m.stats["events"] >= 10
+    assert worst >= -tol
+    assert m.stats["min_gap"] >= -tol
+
+
+def _channel(method, n, piers, t_end, extra=None, eps=0.5, tmp=None, count_x=(-25, 10),
+             rest_speed=0.0, tolerance=1e-4):
+    scen = {
+        "flow": {"source": "analytic", "kind": "uniform", "velocity": [1.0, 0.0], "depth": 1.0},
+        "time": {"start": 0.0, "end": t_end, "output_interval": 1.0},
+        "logs": [{"seeding": "grid", "count": n, "theta": "random", "seed": 3,
+                  "polygon": [[count_x[0], -3], [count_x[1], -3], [count_x[1], 3],
+                              [count_x[0], 3]],
+                  "length": 1.5, "radius": 0.1, "density": 700.0}],
+        "contact": {"enabled": True, "method": method, "restitution": eps,
+                    "max_events": 2000, "rest_speed": rest_speed, "tolerance": tolerance},
+        "obstacles": piers + [
+            {"name": "left_bank", "type": "segments", "points": [[-30, 3.5], [60, 3.5]]},
+            {"name": "right_bank", "type": "segments", "points": [[-30, -3.5], [60, -3.5]]}],
+        "output": {"path": str(tmp / f"{method}.nc")},
+    }
+    if extra:
+        scen.update(extra)
+    return scen
+
+
+def test_channel_with_piers_track(tmp_path):
+    """Logs in a uniform channel flow meet three circular piers (eps = 1, the paper's value):
+    they deflect, collide, and the hits are counted per obstacle in the trajectory file."""
+    from driftlog.api import track
+
+    piers = [{"name": f"pier_{k}", "type": "circle", "center": [15.0, y], "radius": 0.4}
+             for k, y in enumerate((-2.0, 0.0, 2.0))]
+    res = track(_channel("event", 30, piers, 40.0, tmp=tmp_path, count_x=(-12, 10), eps=1.0,
+                         tolerance=0.01))
+    ds = res.dataset()
+    names = __import__("json").loads(ds.attrs["obstacle_names"])
+    assert names[:3] == ["pier_0", "pier_1", "pier_2"]
+    other = ds.hit_other.values
+    on_piers = np.isin(other, [-1, -2, -3])
+    assert on_piers.sum() >= 3 and (other >= 0).sum() >= 1
+    # contact points lie on the pier surfaces (within the log radius of it)
+    for k, y in enumerate((-2.0, 0.0, 2.0)):
+        sel = other == -(k + 1)
+        d = np.hypot(ds.hit_x.values[sel] - 15.0, ds.hit_y.values[sel] - y)
+        assert np.all(np.abs(d - 0.4) < 1e-3)
+    # no log ever overlaps a pier at a record, and every log passed the bridge
+    x, y, th = ds.x.values, ds.y.values, ds.theta.values
+    out = np.empty(5)
+    for yc in (-2.0, 0.0, 2.0):
+        g = [capsule_gap(xi - 0.75 * np.cos(t), yi - 0.75 * np.sin(t), xi + 0.75 * np.cos(t),
+                         yi + 0.75 * np.sin(t), 0.1, 15.0, yc, 15.0, yc, 0.4, out)
+             for xi, yi, t in zip(x, y, th, strict=True)]
+        assert min(g) > -0.01 * 0.1 * 1.01
+    last = ds.time.values == ds.time.values.max()
+    assert np.all(x[last] > 16.0)
+    # logs that hit a pier were deflected: they left the straight line y = y0
+    hit_logs = np.unique(ds.hit_log.values[on_piers])
+    first = ds.time.values == 0.0
+    tid = ds.trajectory_index.values if "trajectory_index" in ds else np.repeat(
+        np.arange(ds.sizes["trajectory"]), ds.rowSize.values)
+    dy = np.array([abs(y[last & (tid == i)][0] - y[first & (tid == i)][0]) for i in hit_logs])
+    assert np.median(dy) > 0.05
+
+
+def _bridge_deck():
+    return [{"name": "deck", "type": "polygon",
+             "points": [[15, -3.5], [16, -3.5], [16, 3.5], [15, 3.5]]}]
+
+
+def test_jam_event_driven_stops_with_message(tmp_path):
+    """Logs piling against a bridge deck with eps < 1: event-driven impulses stall; the
+    method detects it and stops with a message naming logs, time and the remedy."""
+    from driftlog.api import track
+
+    with pytest.raises(ContactJamError) as exc:
+        track(_channel("event", 30, _bridge_deck(), 40.0, eps=0.3, tmp=tmp_path))
+    msg = str(exc.value)
+    assert "stalls at t =" in msg and "logs [" in msg and 'contact.method = "moreau"' in msg
+    t = float(msg.split("t = ")[1].split(" s")[0])
+    assert 5.0 < t < 40.0  # when the first logs reach the deck, not at the start
+
+
+def test_jam_moreau_keeps_the_pile(tmp_path):
+    """The same jam with Moreau-Jean: the pile holds upstream of the deck, overlaps stay
+    bounded, iterations are capped, the logs come to rest."""
+    from driftlog.api import track
+    from driftlog.contact import model as model_mod
+
+    made = []
+    orig = model_mod.ContactModel.from_scenario.__func__
+
+    def spy(cls, scen, mesh=None):
+        m = orig(cls, scen, mesh)
+        made.append(m)
+        return m
+
+    model_mod.ContactModel.from_scenario = classmethod(spy)
+    try:
+        res = track(_channel("moreau", 30, _bridge_deck(), 40.0, eps=0.3, tmp=tmp_path))
+    finally:
+        model_mod.ContactModel.from_scenario = classmethod(orig)
+    m = made[0]
+    ds = res.dataset()
+    last = ds.time.values == ds.time.values.max()
+    x = ds.x.values[last]
+    assert np.all(x < 15.0)  # held by the deck
+    assert np.hypot(ds.u.values[last], ds.v.values[last]).max() < 0.3  # the pile rests
+    assert m.stats["min_gap"] > -0.1 * 0.1  # overlaps below 10 % of the radius
+    assert m.stats["pgs_max_iterations"] <= m.iterations
