@@ -86,7 +86,7 @@ def _background(ax, flow, t, kind, bounds, show_mesh=False):
         ax.add_collection(dry)
         walls = mesh.boundary_segments(["wall"])
         ax.plot(walls[:, [0, 2]].T, walls[:, [1, 3]].T, color="k", lw=0.8, zorder=1)
-        ax.figure.colorbar(pc, ax=ax, label=label, shrink=0.8)
+        _colorbar(ax, pc, label, bounds)
         return pc
     x0, y0, x1, y1 = bounds
     gx, gy = np.meshgrid(np.linspace(x0, x1, 200), np.linspace(y0, y1, 200))
@@ -94,8 +94,16 @@ def _background(ax, flow, t, kind, bounds, show_mesh=False):
     val = (np.hypot(s.u, s.v) if kind == "speed" else s.h).reshape(gx.shape)
     im = ax.imshow(val, origin="lower", extent=(x0, x1, y0, y1), cmap="viridis", zorder=0,
                    aspect="auto")
-    ax.figure.colorbar(im, ax=ax, label=label, shrink=0.8)
+    _colorbar(ax, im, label, bounds)
     return im
+
+
+def _colorbar(ax, mappable, label, bounds):
+    """A colour bar beside a squarish domain, below an elongated one (a channel, a beach)."""
+    wide = (bounds[2] - bounds[0]) > 2.5 * (bounds[3] - bounds[1])
+    ax.figure.colorbar(mappable, ax=ax, label=label, shrink=0.8 if not wide else 0.6,
+                       orientation="horizontal" if wide else "vertical",
+                       pad=0.18 if wide else 0.04, aspect=40 if wide else 20)
 
 
 def _bounds(ds, flow, margin=0.05):
@@ -169,7 +177,10 @@ def plot_trajectories(path, flow=None, background="speed", show_mesh=False, out=
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title(title or f"{ds.attrs.get('title', '')}: t = {t_show:.4g} s ({summary})")
+    import textwrap
+
+    ax.set_title(title or "\n".join(textwrap.wrap(
+        f"{ds.attrs.get('title', '')}: t = {t_show:.4g} s ({summary})", 90)), fontsize=10)
     ax.legend(loc="upper right", fontsize=8)
     if out is not None:
         fig.savefig(out, dpi=130, bbox_inches="tight")
