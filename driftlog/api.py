@@ -174,6 +174,9 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         writer.close(finalize=False)  # keep the partial file: what was computed is not lost
         raise
     writer.set_attrs(**{f"stats_{k}": v for k, v in tracker.stats.items()})
+    if contact is not None:  # events, rejected steps, deepest overlap, Gauss-Seidel sweeps
+        writer.set_attrs(contact_stats=json.dumps({k: float(v) for k, v in
+                                                   contact.stats.items()}))
     path = writer.close()
     extra = []
     if scen["output"]["vtk"]:

@@ -481,8 +481,9 @@ register_section(Section("contact", [
         min=0.0, exclusive_min=True),
     Key("max_events", "int", 10000, "contact events per sub-step above which the event-driven "
         "method stops with a jam message", min=1),
-    Key("rest_speed", "float", 0.0, "event-driven: approach speeds below this do not bounce "
-        "(resting contact: a log held on a pier by the flow; 0 = the paper)", "m/s", min=0.0),
+    Key("rest_speed", "float", 0.01, "event-driven: approach speeds below this do not bounce "
+        "(resting contact: a log held on a wall by the flow would otherwise bounce ever less, "
+        "ever more often, and stall the method; 0 = the paper)", "m/s", min=0.0),
     Key("iterations", "int", 200, "moreau: projected Gauss-Seidel sweeps at most per step",
         min=1),
 ], doc="contacts (MODEL.md section 7)"))

@@ -127,7 +127,7 @@ def test_simultaneous_contacts_newton_cradle():
     S[:, 0] = [-(L + 2 * r) - 0.5, 0.0, L + 2 * r + 1e-7]
     S[0, 3] = 1.0
     b = BallisticLogs(S, L, r)
-    m = ContactModel(restitution=1.0)
+    m = ContactModel(restitution=1.0, rest_speed=0.0)
     run_contacts(m, b, 0.6, max_step=0.1)
     assert b.state[:, 3] == pytest.approx([0.0, 0.0, 1.0], abs=1e-12)
 

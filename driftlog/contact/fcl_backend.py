@@ -146,6 +146,9 @@ class FCLBackend:
             p1, p2 = p2, p1  # python-fcl 0.7 swaps them for shape-mesh pairs
         w = (p1 - p2)[:2]
         nrm = np.hypot(w[0], w[1])
+        if nrm <= 1e-6 * d:
+            fallback(out)  # nearest above or below (a 3D mesh): no direction in the plane
+            return
         out[0] = d
         out[1], out[2] = w / nrm
         out[3], out[4] = 0.5 * (p1[:2] + p2[:2])

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["resolve_impulses", "pair_impulse", "kinetic_energy", "momenta"]
+__all__ = ["resolve_impulses", "pair_impulse", "separate_resting", "kinetic_energy", "momenta"]
 
 
 @nb.njit(cache=True, inline="always")
@@ -106,6 +106,43 @@ def resolve_impulses(S, inv_m, inv_i, body1, body2, normal_point, eps, vtol, max
                     return -1
         if applied == 0:
             return events
+
+
+@nb.njit(cache=True)
+def separate_resting(S, inv_m, body1, body2, normal_point, rest_speed):
+    """Move apart, along their normal, resting contacts that overlap (positions only).
+
+    A contact at rest (relative normal speed below ``rest_speed``) that a steady force keeps
+    pushing (a log held on a wall by the flow) would otherwise creep to the overlap
+    tolerance and stall the step there; translating the bodies out of the overlap (a few
+    tolerances at most, centre of mass kept) leaves velocities untouched.  Returns how many
+    contacts were moved.
+    """
+    moved = 0
+    for c in range(body1.size):
+        gap = normal_point[c, 0]
+        if gap >= 0.0:
+            continue
+        i, j = body1[c], body2[c]
+        nx, ny, cx, cy = normal_point[c, 1], normal_point[c, 2], normal_point[c, 3], \
+            normal_point[c, 4]
+        vx = S[i, 3] - S[i, 5] * (cy - S[i, 1])
+        vy = S[i, 4] + S[i, 5] * (cx - S[i, 0])
+        w = inv_m[i]
+        if j >= 0:
+            vx -= S[j, 3] - S[j, 5] * (cy - S[j, 1])
+            vy -= S[j, 4] + S[j, 5] * (cx - S[j, 0])
+            w += inv_m[j]
+        if abs(vx * nx + vy * ny) > rest_speed or w <= 0.0:
+            continue
+        d = -gap / w
+        S[i, 0] += d * inv_m[i] * nx
+        S[i, 1] += d * inv_m[i] * ny
+        if j >= 0:
+            S[j, 0] -= d * inv_m[j] * nx
+            S[j, 1] -= d * inv_m[j] * ny
+        moved += 1
+    return moved
 
 
 def kinetic_energy(S, mass, inertia):

@@ -6,14 +6,21 @@ Two methods:
   tolerance get impulses (eq. 11-15); the step is then chosen so that no pair overlaps by
   more than the tolerance at its end, either by conservative advancement on the capsule
   distance (``toi.conservative_step``) or by the paper's dichotomy (take the step; while
-  logs overlap at its end, halve it and redo).  A sub-step may end before the one asked: at
-  the next contact.  In a jam (many persistent contacts, eps < 1) the sub-steps collapse;
-  the method counts events and sub-steps within one free sub-step and stops with
+  logs overlap at its end, halve it and redo; the next steps stay within the bracket where
+  the overlap was seen, so that the bisection converges on the contact).  A sub-step may
+  end before the one asked: at the next contact.  In a jam (many persistent contacts,
+  eps < 1) the sub-steps collapse; the method counts events and sub-steps within one free
+  sub-step and stops with
   ``ContactJamError`` (naming the logs, the time and the remedy) instead of looping.
 - ``moreau`` (``moreau.moreau_solve``): the whole step is taken, and all contact impulses of
   the step are solved together by projected Gauss-Seidel; bounded cost, stable piles.
 
 Masses are the logs' m_b and I_b (MODEL.md 2, the paper's choice; see ``impulses``).
+
+Hits (``drain_hits``) are contacts that start: one record per log and other body (a log id,
+or -(obstacle index + 1)) at the instant the contact begins, with its impulse (Moreau-Jean:
+the impulse of the step where it begins; an impact may spread over two steps).
+
 """
 
 from __future__ import annotations
@@ -21,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from driftlog.contact.geometry import NRES
-from driftlog.contact.impulses import resolve_impulses
+from driftlog.contact.impulses import resolve_impulses, separate_resting
 from driftlog.contact.moreau import moreau_solve
 from driftlog.contact.native import NativeBackend, end_contacts
 from driftlog.contact.obstacles import Obstacles
@@ -56,6 +63,13 @@ class Contacts:
                         self.key[mask])
 
 
+def _body_pairs(bodies, C):
+    """One integer per (log, other body) by log id, stable when the floating set changes."""
+    ids = bodies.ids
+    other = np.where(C.body2 >= 0, ids[np.maximum(C.body2, 0)], (1 << 31) + C.obstacle)
+    return ids[C.body1].astype(np.int64) * (1 << 32) + other
+
+
 def _backend(name, obstacles):
     if name == "native":
         return NativeBackend(obstacles)
@@ -87,12 +101,14 @@ class ContactModel:
     iterations : int
         Moreau: Gauss-Seidel sweeps at most per step.
     rest_speed : float
-        Approach speeds below this do not bounce (resting contact; 0: the paper).
+        Approach speeds below this do not bounce (resting contact; 0: the paper).  Without it a
+        log pushed on a wall by the flow bounces ever less, ever more often (Zeno) and the
+        event-driven step collapses.
     """
 
     def __init__(self, obstacles=None, method="event", time_of_impact="conservative",
                  restitution=1.0, backend="native", tolerance=1e-4, max_events=10000,
-                 iterations=200, rest_speed=0.0):
+                 iterations=200, rest_speed=0.01):
         if method not in ("event", "moreau"):
             raise ScenarioError("contact.method", method, "must be one of 'event', 'moreau'")
         if time_of_impact not in ("conservative", "dichotomy"):
@@ -113,12 +129,13 @@ class ContactModel:
         # at their contact point do not bound the step (toi.conservative_step)
         self.motion_share = 0.25  # Moreau: motion per step near contacts, share of the radius
         self.stats = dict(substeps=0, advances=0, rejected=0, events=0, detections=0,
-                          pgs_iterations=0, pgs_max_iterations=0, max_contacts=0,
+                          pgs_iterations=0, separations=0, pgs_max_iterations=0, max_contacts=0,
                           min_gap=np.inf)
         self._hits = []
         self._cache = None
         self._window = None
         self._active = np.empty(0, np.int64)
+        self._bracket = None
 
     @property
     def obstacle_names(self):
@@ -133,7 +150,7 @@ class ContactModel:
         return cls(obs, method=c["method"], time_of_impact=c["time_of_impact"],
                    restitution=c["restitution"], backend=c["backend"],
                    tolerance=c["tolerance"], max_events=c["max_events"],
-                   iterations=c.get("iterations", 200), rest_speed=c.get("rest_speed", 0.0))
+                   iterations=c.get("iterations", 200), rest_speed=c.get("rest_speed", 0.01))
 
     # ----------------------------------------------------------------- detection
     def detect(self, bodies, margin, S=None):
@@ -286,9 +303,15 @@ class ContactModel:
             st["max_contacts"] = max(st["max_contacts"], len(C))
             # a hit is a contact that starts (a log resting on a pier, bounced back by the
             # flow at every step, is one hit)
-            self._record(bodies, C, np.where(np.isin(C.key, self._active), 0.0, imp),
+            pairs = _body_pairs(bodies, C)
+            self._record(bodies, C, np.where(np.isin(pairs, self._active), 0.0, imp),
                          bodies.t)
-        self._active = C.key
+            if self.rest_speed > 0.0 and separate_resting(S, inv_m, C.body1, C.body2, C.res,
+                                                          self.rest_speed):
+                st["separations"] += 1
+                if hasattr(bodies, "invalidate_flow"):
+                    bodies.invalidate_flow()
+        self._active = _body_pairs(bodies, C)
         self._count(bodies, dt, events, C)
         h = dt
         if self.time_of_impact == "conservative":
@@ -297,6 +320,12 @@ class ContactModel:
             if len(A):
                 h = conservative_step(S, bodies.length, bodies.radius, A.body1, A.body2, A.res,
                                       tol, dt, self.near * float(bodies.radius.min()))
+        elif self._bracket is not None:
+            # dichotomy: an overlap was seen by time _bracket; bisect up to it, do not jump it
+            if events or bodies.t >= self._bracket:
+                self._bracket = None
+            else:
+                h = min(h, self._bracket - bodies.t)
         min_step = self._min_step(bodies)
         while True:
             if h < min_step:
@@ -310,11 +339,29 @@ class ContactModel:
             if gmin >= -tol or self._overlaps_kept(C, E, tol):
                 break
             bodies.restore(saved)
-            h *= 0.5
+            if self.time_of_impact == "dichotomy":
+                self._bracket = bodies.t + h
+                h *= 0.5  # the paper
+            else:
+                # the bound held at constant velocities; a force closed the gap faster (a log
+                # pushed on a wall): shorten the step in proportion to the closing measured
+                h = self._shorter(C, E, tol, h)
             st["rejected"] += 1
         st["min_gap"] = min(st["min_gap"], gmin)
         self._remember(bodies, E)
         return h
+
+    @staticmethod
+    def _shorter(C, E, tol, h):
+        """A step after which the deepest pair, closing as it did over h, ends above -tol."""
+        k = int(np.argmin(E.gap))
+        g_end = float(E.gap[k])
+        same = np.flatnonzero(C.key == E.key[k])
+        g0 = float(C.gap[same[0]]) if same.size else tol
+        closing = g0 - g_end
+        if closing <= 0.0:
+            return 0.5 * h
+        return min(0.5 * h, max(h / 16.0, 0.9 * h * max(g0 + tol, 0.0) / closing))
 
     @staticmethod
     def _overlaps_kept(C, E, tol):
@@ -374,10 +421,7 @@ class ContactModel:
                 st["min_gap"] = min(st["min_gap"], float(E.gap.min()))
         # a hit is a contact that starts pushing (not one that keeps pushing)
         on = P > 0.0
-        n_all = int(bodies.ids.max()) + 2 + len(self.obstacles.names)
-        key = (bodies.ids[C.body1] * n_all
-               + np.where(C.body2 >= 0, bodies.ids[np.maximum(C.body2, 0)],
-                          bodies.ids.max() + 1 + C.obstacle))
+        key = _body_pairs(bodies, C)
         new = on & ~np.isin(key, self._active)
         # touching or pushing: a contact that flickers within the tolerance is one hit
         self._active = key[on | (C.gap <= tol)]

@@ -11,7 +11,8 @@ with u_n = H V the relative normal velocity of each contact (H from the geometry
 of the step), V_free and q_free the free motion over the step (flow forces, the integrator).
 The target keeps the linearised gap at the end of the step above -slop (speculative for
 contacts still apart, a position correction for those overlapping) and applies Newton's
-restitution to contacts that were touching and approaching at the start:
+restitution to active contacts (touching at the start, or closing within the step by the free
+motion: Moreau-Jean's index set) that approach:
 
     target = max(u_n_free - (max(g_start, -slop) + dg_free + slop) / dt,  -eps u_n_start)
 
@@ -118,8 +119,9 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
         g_free[c] = res[c, 0] + dg
         u_free[c] = uf
         target[c] = uf - (g0 + dg + slop) / dt
-        if res[c, 0] <= tol and u0 < 0.0:
-            target[c] = max(target[c], -eps * u0)  # Newton's impact law
+        if (res[c, 0] <= tol or res[c, 0] + dg <= 0.0) and u0 < 0.0:
+            # active (touching, or closing within the step): Newton's impact law
+            target[c] = max(target[c], -eps * u0)
         P[c] = 0.0
     V = S[:, 3:6].copy()
     it, residual = _pgs(body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, P, vtol,
