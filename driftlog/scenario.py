@@ -564,11 +564,17 @@ def _check_solver(t, prefix, scen):
 
 
 register_section(Section("solver", [
-    Key("mesh", "str", "channel", "the mesh: a channel built here, or a mesh file",
-        choices=("channel", "file")),
+    Key("mesh", "str", "channel", "the mesh: a channel built here, a polygon (outline with "
+        "tagged sides) built here, or a mesh file", choices=("channel", "polygon", "file")),
+    Key("outline", "points", None, "outer boundary [[x, y], ...] of mesh = 'polygon'; side i "
+        "runs from point i to point i + 1 (the last back to the first)", "m", length=3,
+        when="mesh = polygon"),
+    Key("side_tags", "table", {}, "boundary tags of outline sides: {tag = [side indices]}, "
+        "e.g. {inflow = [0], outflow = [5]}; untagged sides are walls", when="mesh = polygon"),
     Key("channel", "floats", None, "channel [x0, y0, length, width]; x0 side tagged inflow, "
         "the other end outflow, banks wall", "m", length=4),
-    Key("cell_size", "float", None, "target triangle edge length of the channel mesh", "m",
+    Key("cell_size", "float", None, "target triangle edge length of the channel or polygon "
+        "mesh", "m",
         min=0.0, exclusive_min=True),
     Key("structured", "bool", False, "channel of squares instead of triangles (no holes)"),
     Key("piers", "any", [], "circular piers [[x, y, radius], ...] cut out of the channel "

@@ -67,6 +67,8 @@ def check_solver_section(t, prefix, scen):
             raise ScenarioError(f"{prefix}.channel", t["channel"], "length and width must be > 0")
         if t["cell_size"] is None:
             raise ScenarioError(f"{prefix}.cell_size", None, "is required when mesh = 'channel'")
+    if t["mesh"] == "polygon":
+        _check_outline(t, prefix)
     if t["bed"] == "mesh" and t["mesh"] != "file":
         raise ScenarioError(f"{prefix}.bed", "mesh", "bed = 'mesh' needs mesh = 'file' (node "
                             "elevations of the mesh file)")
@@ -98,6 +100,20 @@ def check_solver_section(t, prefix, scen):
         from driftlog.floodsetup import check_sea
 
         check_sea(t["sea"], f"{prefix}.sea")
+
+
+def _check_outline(t, prefix):
+    if t["outline"] is None:
+        raise ScenarioError(f"{prefix}.outline", None, "is required when mesh = 'polygon': "
+                            "[[x, y], ...] (at least 3 points)")
+    if t["cell_size"] is None:
+        raise ScenarioError(f"{prefix}.cell_size", None, "is required when mesh = 'polygon'")
+    n = len(t["outline"])
+    for tag, sides in (t["side_tags"] or {}).items():
+        if not isinstance(sides, list) or not sides or not all(
+                isinstance(i, int) and not isinstance(i, bool) and 0 <= i < n for i in sides):
+            raise ScenarioError(f"{prefix}.side_tags.{tag}", sides, f"must be a list of side "
+                                f"indices 0 to {n - 1} (side i runs from outline point i to i + 1)")
 
 
 def _check_initial(ini, key):
@@ -143,6 +159,15 @@ def build_mesh(sec):
     if sec["mesh"] == "file":
         mesh = read_mesh(sec["mesh_file"])
         x0 = float(mesh.node_x.min())
+    elif sec["mesh"] == "polygon":
+        from driftlog.mesher import polygon_mesh
+
+        outline = np.asarray(sec["outline"], dtype=float)
+        holes = [circle((p[0], p[1]), p[2], sec["cell_size"]) for p in sec["piers"] or []]
+        holes += [np.asarray(h, dtype=float) for h in sec["holes"] or []]
+        tags = {i: tag for tag, sides in (sec["side_tags"] or {}).items() for i in sides}
+        mesh = polygon_mesh(outline, sec["cell_size"], holes=holes, side_tags=tags)
+        x0 = float(outline[:, 0].min())
     else:
         x0, y0, length, width = sec["channel"]
         holes = [circle((p[0], p[1]), p[2], sec["cell_size"]) for p in sec["piers"] or []]
