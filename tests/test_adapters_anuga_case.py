@@ -60,9 +60,10 @@ def test_ritter_dam_break_anuga_and_driftlog_against_swashes(tmp_path):
     def l1(h):
         return np.sum(a * np.abs(h - ref)) / a.sum()
 
-    # measured: ANUGA 1.5e-5 m, driftlog 9.3e-6 m, against 5 mm of water
+    # measured: ANUGA 1.48e-5 m, driftlog 1.06e-5 m (9.3e-6 before a change of its second
+    # order), against 5 mm of water
     assert l1(h_anuga) < 2e-5
-    assert l1(s.h) < 1.2e-5
+    assert l1(s.h) < 1.5e-5
     assert l1(h_anuga - s.h + ref) < 2e-5  # the two agree to the same size
     # both conserve the water between walls
     v0 = np.dot(h0, a)
