@@ -98,12 +98,23 @@ def _background(ax, flow, t, kind, bounds, show_mesh=False):
     return im
 
 
+def _figsize(width, w, h):
+    """Figure size for a domain w x h drawn to scale, with room for labels and colour bar.
+
+    The colour bar goes below the map when the domain is elongated (see ``_colorbar``).
+    """
+    ratio = h / max(w, 1e-9)
+    if w > 2.5 * h:
+        return width, min(10.0, max(2.6, 0.8 * width * ratio + 2.2))
+    return width, min(width, max(3.0, 0.8 * width * ratio)) + 1.0
+
+
 def _colorbar(ax, mappable, label, bounds):
     """A colour bar beside a squarish domain, below an elongated one (a channel, a beach)."""
     wide = (bounds[2] - bounds[0]) > 2.5 * (bounds[3] - bounds[1])
     ax.figure.colorbar(mappable, ax=ax, label=label, shrink=0.8 if not wide else 0.6,
                        orientation="horizontal" if wide else "vertical",
-                       pad=0.18 if wide else 0.04, aspect=40 if wide else 20)
+                       pad=0.28 if wide else 0.04, aspect=40 if wide else 20)
 
 
 def _bounds(ds, flow, margin=0.05):
@@ -130,7 +141,7 @@ def plot_trajectories(path, flow=None, background="speed", show_mesh=False, out=
     bounds = _bounds(ds, flow)
     if ax is None:
         w, h = bounds[2] - bounds[0], bounds[3] - bounds[1]
-        fig, ax = plt.subplots(figsize=(10, max(3.0, min(10.0, 10 * h / max(w, 1e-9))) + 1))
+        fig, ax = plt.subplots(figsize=_figsize(10, w, h))
     fig = ax.figure
     _background(ax, flow, t_show, background, bounds, show_mesh)
     ti = ds["trajectory_index"].values
@@ -211,7 +222,7 @@ def animate(path, out, flow=None, background="speed", fps=20, max_frames=300, dp
         times = times[np.linspace(0, times.size - 1, max_frames).round().astype(int)]
     bounds = _bounds(ds, flow)
     w, h = bounds[2] - bounds[0], bounds[3] - bounds[1]
-    fig, ax = plt.subplots(figsize=(9, max(3.0, min(9.0, 9 * h / max(w, 1e-9))) + 1), dpi=dpi)
+    fig, ax = plt.subplots(figsize=_figsize(9, w, h), dpi=dpi)
     bg = _background(ax, flow, float(times[0]), background, bounds)
     unsteady = flow is not None and getattr(flow, "mesh", None) is not None and \
         len(getattr(flow, "times", ())) > 1 and bg is not None
