@@ -370,7 +370,7 @@ def dry_front(plt, quick):
                                   finite=bool(np.all(np.isfinite(s.h))))
     a1.set_xlabel("x (m)  (dam at 5 m, 5 mm of water upstream, dry bed downstream)")
     a1.set_ylabel("depth h at t = 6 s (mm)")
-    a1.legend(fontsize=8)
+    a1.legend(fontsize=8, loc="lower left")
     a1.grid(alpha=0.3)
     a2.set_yscale("symlog", linthresh=1e-6)
     a2.set_xlabel("time t (s)")
@@ -418,9 +418,10 @@ def write_md(res):
              "| run | steps | stopped | max abs u_b (m/s) | max u_b error (m/s) |",
              "|---|---|---|---|---|"]
     for r in d["runs"]:
-        lines.append(f"| {r['run']} | {r['steps']} | {r['stopped'] or 'no'} | "
+        lines.append(f"| {r['run'].replace('|', '')} | {r['steps']} | {r['stopped'] or 'no'} | "
                      f"{r['max_abs_u']:.3g} | {r['max_u_error']:.2g} |")
-    lines += ["", "Largest fixed step with position error < 1 cm at t = 5 s: " + ", ".join(
+    lines += ["", "Largest max_step (fixed, or capped by drag_fraction) with position error "
+              "< 1 cm at t = 5 s: " + ", ".join(
         f"{k} {v:.3g} s" for k, v in d["largest_accurate_step"].items()) + ".", "",
         f"**Jam** (cases/bridge_jam): event-driven takes {j['event']['substeps']} sub-steps down "
         f"to {j['event']['min_dt']:.2g} s and stops with ContactJamError at t = "
