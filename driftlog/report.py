@@ -35,6 +35,8 @@ ITEMS = [
     ("ensemble", "ensemble_benchmark.py", ["--quick"], "ensembles on Dask: members per minute"),
     ("import", "import_benchmark.py", ["--snapshots", "10", "--skip-openfoam"],
      "importing flows from other models"),
+    ("stability", "stability_figures.py", ["--quick"],
+     "stability where methods fail (stiff drag, jams, dry fronts) and the remedies"),
 ]
 
 
