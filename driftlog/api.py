@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from driftlog.errors import DriftlogError, ScenarioError
+from driftlog.flow import WET
 from driftlog.logs import Logs, logs_from_scenario
 from driftlog.physics import NLIN, PhysicsOptions, log_parameters, rhs_kernel
 from driftlog.scenario import Scenario, load_scenario
@@ -51,7 +52,7 @@ def as_scenario(scenario, overrides=None) -> Scenario:
     return load_scenario(scenario, overrides)
 
 
-def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool):
+def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool, t_end=None):
     """Resolve ``auto`` physics level and rotation from dimensionless numbers.
 
     Stokes number St = tau_D / T_flow, with tau_D the drag relaxation time of a log picking up
@@ -60,26 +61,48 @@ def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool):
     the logs follow the flow, tracer is enough; otherwise the full model.  Rotation is needed
     when contacts are on, or when a log is long against the flow's length scale |U| / |J|
     (L |J| / |U| > 0.1).  Returns (level, rotation, reason).
+
+    The flow is judged where the logs are wet: at their release, and (on flows with snapshots)
+    at up to 16 snapshot times until ``t_end``, at the release points: logs released on a dry
+    floor before a flood are judged by the flood that lifts them, not by the dry ground.
+    With no wet sample at all the full model is chosen.
     """
     level, rotation = section["level"], section["rotation"]
     if level != "auto" and rotation != "auto":
         return level, rotation == "on", ""
-    s = flow.sample(logs.x, logs.y, logs.release_time.min())
-    ok = s.flag > 0
+    t0 = float(logs.release_time.min())
+    times = np.asarray(getattr(flow, "times", ()), float)
+    later = times[(times > t0) & (times <= (np.inf if t_end is None else t_end))]
+    if later.size > 16:
+        later = later[np.linspace(0, later.size - 1, 16).round().astype(int)]
     n = len(logs)
     S = np.zeros((n, 6))
     S[:, 0], S[:, 1], S[:, 2] = logs.x, logs.y, logs.theta
     P = log_parameters(logs.length, logs.radius, logs.density, logs.float_depth)
     opt = PhysicsOptions.from_scenario(section, level="full", rotation=True).vector()
     D, lin = np.zeros((n, 6)), np.zeros((n, NLIN))
-    rhs_kernel(S, s.values, P, opt, D, lin)
-    tau = np.where(lin[:, 1] > 0, 1.0 / np.maximum(lin[:, 1], 1e-300), np.inf)
-    J = np.sqrt((s.jacobian ** 2).sum(axis=(1, 2)))
-    speed = np.hypot(s.u, s.v)
-    st = np.where(J > 0, tau * J, 0.0)[ok]
+    st_all, ratio_all = [], []
+    for t in np.concatenate([[t0], later]):
+        s = flow.sample(logs.x, logs.y, t)
+        wet = s.flag == WET
+        if not wet.any():
+            continue
+        rhs_kernel(S, s.values, P, opt, D, lin)
+        tau = np.where(lin[:, 1] > 0, 1.0 / np.maximum(lin[:, 1], 1e-300), np.inf)
+        J = np.sqrt((s.jacobian ** 2).sum(axis=(1, 2)))
+        speed = np.hypot(s.u, s.v)
+        st_all.append(np.where(J > 0, tau * J, 0.0)[wet])
+        ratio_all.append(np.where(speed > 0, logs.length * J / np.maximum(speed, 1e-300),
+                                  0.0)[wet])
+    none_wet = not st_all
+    st = np.concatenate(st_all) if st_all else np.empty(0)
     st_max = float(st.max()) if st.size else 0.0
     reasons = []
-    if level == "auto":
+    if level == "auto" and none_wet:
+        level = "full"
+        reasons.append("level full: no log is in water at its release nor at the flow's "
+                       "snapshots before the end, nothing to judge by")
+    elif level == "auto":
         if st_max < 0.01 and not contact_enabled:
             level = "tracer"
             reasons.append(f"level tracer: Stokes number tau_D |J| <= {st_max:.3g} < 0.01, "
@@ -90,7 +113,7 @@ def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool):
                 f"Stokes number tau_D |J| up to {st_max:.3g} >= 0.01"
             reasons.append(f"level full: {why}")
     if rotation == "auto":
-        ratio = np.where(speed > 0, logs.length * J / np.maximum(speed, 1e-300), 0.0)[ok]
+        ratio = np.concatenate(ratio_all) if ratio_all else np.empty(0)
         rmax = float(ratio.max()) if ratio.size else 0.0
         rotation = bool(contact_enabled or rmax > 0.1)
         reasons.append(f"rotation {'on' if rotation else 'off'}: "
@@ -137,7 +160,8 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         flow = flow_from_scenario(scen, progress=progress)
     logs = logs_from_scenario(scen)
     contact = _contact_model(scen, flow)
-    level, rotation, reason = choose_physics(flow, logs, scen["physics"], contact is not None)
+    level, rotation, reason = choose_physics(flow, logs, scen["physics"], contact is not None,
+                                             t_end=scen["time"]["end"])
     physics = PhysicsOptions.from_scenario(scen["physics"], level=level, rotation=rotation)
     out = Path(output or scen["output"]["path"])
     tm = scen["time"]

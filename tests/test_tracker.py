@@ -268,3 +268,30 @@ flush_interval = 1
     np.testing.assert_array_equal(again["time"].values, full["time"].values)
     np.testing.assert_array_equal(again["x"].values, full["x"].values)
     np.testing.assert_array_equal(again["theta"].values, full["theta"].values)
+
+
+def test_auto_physics_judges_logs_by_the_water_that_lifts_them():
+    """Logs on a dry floor before a flood: auto judges the flood, not the dry ground."""
+    from driftlog.flow import MeshFlowField
+    from driftlog.logs import Logs
+    from driftlog.mesh import Mesh
+
+    mesh = Mesh.regular_grid(20, 20, 1.0)
+    n = mesh.n_faces
+    # dry at t = 0, then a fast shear flow 2 m deep (strong gradient: not a tracer flow)
+    h = np.stack([np.zeros(n), np.full(n, 2.0), np.full(n, 2.0)])
+    u = 0.5 * (mesh.face_y - 10.0)
+    hu = np.stack([np.zeros(n), 2.0 * u, 2.0 * u])
+    flow = MeshFlowField.from_arrays(mesh, np.zeros(n), [0.0, 10.0, 20.0], h, hu, np.zeros_like(hu))
+    logs = Logs(x=[10.0], y=[12.0], theta=0.0, length=2.0, radius=0.2, density=700.0)
+    section = {"level": "auto", "rotation": "auto", "fluid_volume": "body",
+               "surface_slope": False, "drag_law": "ganser", "drag_area": "paper",
+               "drag_coefficient": 1.0, "linear_drag": 1.0, "torque_force": "total",
+               "water_density": 1000.0, "gravity": 9.81, "viscosity": 1e-3}
+    level, rot, why = choose_physics(flow, logs, section, False, t_end=20.0)
+    assert level == "full" and rot is True, why
+    # judged at the release only (the old behaviour), the dry floor said "tracer"
+    dry_only = MeshFlowField.from_arrays(mesh, np.zeros(n), [0.0, 1.0], h[:1].repeat(2, 0),
+                                         hu[:1].repeat(2, 0), np.zeros((2, n)))
+    level, _, why = choose_physics(dry_only, logs, section, False, t_end=1.0)
+    assert level == "full" and "no log is in water" in why
