@@ -171,7 +171,9 @@ class Tracker:
     # ----------------------------------------------------------------- compact arrays
     def _set_active(self, idx):
         """Gather the floating logs ``idx`` into the compact arrays the kernels use."""
-        self.act = np.asarray(idx, dtype=np.int64)
+        idx = np.asarray(idx, dtype=np.int64)
+        kept = self._kept_stage(idx)
+        self.act = idx
         L = self.logs
         self.state = np.ascontiguousarray(L.state[self.act])
         self.face = L.face[self.act].copy()
@@ -191,8 +193,24 @@ class Tracker:
         self._sx, self._sy = np.empty(n), np.empty(n)
         self._next = np.empty((n, 6))
         self.D0, self.lin0 = self.integrator.prepare(n)
-        self._d0_valid = False
         self._nolin = np.empty((n, 5))
+        self._d0_valid = False
+        if kept is not None:
+            # logs that stay floating keep their flow sample and first stage: the same numbers
+            # as sampling them again from their faces, without the pass
+            self.F[:], self.flag[:], self.D0[:], self.lin0[:] = kept
+            self._F_valid = self._d0_valid = True
+
+    def _kept_stage(self, idx):
+        """Rows of F, flag, D0, lin0 for the logs ``idx`` when all were already floating."""
+        old = getattr(self, "act", None)
+        if not (self.fused and self._d0_valid and self._F_valid and old is not None
+                and old.size and idx.size):
+            return None
+        pos = np.minimum(np.searchsorted(old, idx), old.size - 1)
+        if not np.array_equal(old[pos], idx):
+            return None
+        return self.F[pos], self.flag[pos], self.D0[pos], self.lin0[pos]
 
     def _scatter(self):
         """Write the compact state back into the full arrays."""
