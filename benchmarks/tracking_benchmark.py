@@ -5,7 +5,10 @@ and the tracker's bookkeeping (statuses, step control).  Flow: a free vortex sam
 Malpasset mesh (46,691 triangles, two snapshots: a real unstructured mesh, interpolated in
 space and time).  Logs: n = 1e3 ... 1e6, L = 2 m, r = 0.2 m, rho_b = 700 kg/m3, spread over the
 valley.  Each physics level (tracer, drag, full) and integrator (euler, rk4, exponential), on 1
-and 2 threads.
+and 2 threads; Euler and RK4 on the fused per-log kernels (``driftlog.fused``, the default on
+mesh flows) and, for full physics, on the general stage-by-stage path too.  Rates are per
+CPU second of the process (``time.process_time``: the machine is shared, wall time counts
+other people's jobs), i.e. per core.
 
     python benchmarks/tracking_benchmark.py [--quick]
 
@@ -22,75 +25,107 @@ from _common import malpasset_mesh, write_table
 from sampling_benchmark import points
 
 from driftlog.analytic import FreeVortex, on_mesh
+from driftlog.fused import rk4_mesh_step
 from driftlog.logs import Logs
 from driftlog.physics import PhysicsOptions, rhs_kernel
 from driftlog.tracker import StepOptions, Tracker
 
 
-def one(flow, x, y, level, method, steps, dt=0.5):
+def one(flow, x, y, level, method, steps, dt=0.5, fused=True):
     logs = Logs(x, y, 0.3, 2.0, 0.2, 700.0)
     tr = Tracker(flow, logs, PhysicsOptions(level=level), method,
                  StepOptions(max_step=dt, length_fraction=1e9, angle_step=1e9),
-                 t_end=steps * dt, output_interval=steps * dt, hydro_step=steps * dt)
+                 t_end=steps * dt, output_interval=steps * dt, hydro_step=steps * dt,
+                 fused=fused)
     tr._first_check = True
     tr._release()  # set-up (release, first sampling) is not timed
     tr._update_status()
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     tr.run()
-    wall = time.perf_counter() - t0
-    return tr.stats["substeps"], wall, int((logs.status == 1).sum())
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return tr.stats["substeps"], wall, cpu, tr.fused
 
 
 def per_log(n, fn, *args, repeat=5):
-    """Best time of fn(*args) per log (ns)."""
+    """Best CPU time of fn(*args) per log (ns)."""
     fn(*args)
     best = np.inf
     for _ in range(repeat):
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         fn(*args)
-        best = min(best, time.perf_counter() - t0)
+        best = min(best, time.process_time() - t0)
     return best / n * 1e9
 
 
+def fused_ns(S, D, lin, face, F, flag, P, opt, dt, tail):
+    """CPU ns per log of the fused RK4 kernel, with and without the next step's first stage."""
+    n = S.shape[0]
+    Fk, nxt = np.empty_like(F), np.empty_like(S)
+
+    def step(want_next):
+        # the same start state each time (D0, lin0, faces restored)
+        Dk, link, fk = D.copy(), lin.copy(), face.copy()
+        rk4_mesh_step(S, Dk, link, nxt, fk, Fk, flag, P, opt, dt, want_next, *tail)
+
+    copies = per_log(n, lambda: (D.copy(), lin.copy(), face.copy()))
+    return per_log(n, step, True) - copies, per_log(n, step, False) - copies
+
+
 def breakdown(flow, x, y, steps=20, dt=0.5):
-    """Where an RK4 log-step goes, per log on one thread: flow sampling, forces, the rest.
+    """Where an RK4 log-step goes, per log on one thread (CPU ns), general and fused paths.
 
     An RK4 step samples the flow 4 times (the step's end, which is the next step's first
     stage, and 3 inner stages) and evaluates the forces 4 times (the first with the drag
-    linearisation the step bound needs); the rest is the stage arithmetic, copies and the
-    tracker's status bookkeeping.
+    linearisation the step bound needs).  General path: those kernels timed alone, the rest
+    is stage arithmetic, copies and the tracker's bookkeeping.  Fused path: the whole step's
+    kernel timed alone (``fused_step_ns``), and the same kernel without the next step's
+    sample and first stage (``fused_inner_ns``: the 3 inner stages and the update).
     """
     numba.set_num_threads(1)
     n = x.size
     rows = []
     for level in ("tracer", "drag", "full"):
-        logs = Logs(x, y, 0.3, 2.0, 0.2, 700.0)
-        tr = Tracker(flow, logs, PhysicsOptions(level=level), "rk4",
-                     StepOptions(max_step=dt, length_fraction=1e9, angle_step=1e9),
-                     t_end=steps * dt, output_interval=steps * dt, hydro_step=steps * dt)
-        t0 = time.perf_counter()
-        tr.run()
-        total = (time.perf_counter() - t0) / (n * tr.stats["substeps"]) * 1e9
-        S, F, D = tr.state.copy(), tr.F.copy(), np.empty_like(tr.state)
-        lin = np.empty((S.shape[0], tr.lin0.shape[1]))
-        face, out, flag = tr.face.copy(), np.empty_like(F), np.empty(S.shape[0], np.int8)
-        sx, sy = S[:, 0].copy(), S[:, 1].copy()
-        t_s = steps * dt * 0.5
-        sample = per_log(n, flow.sample_into, sx, sy, t_s, face, out, flag)
-        rhs_lin = per_log(n, rhs_kernel, S, F, tr.P, tr.opt, D, lin, True)
-        rhs = per_log(n, rhs_kernel, S, F, tr.P, tr.opt, D, lin, False)
-        rest = total - 4 * sample - rhs_lin - 3 * rhs
-        rows.append(dict(level=level, logs=n, sample_ns=sample, forces_lin_ns=rhs_lin,
-                         forces_ns=rhs, rest_ns=rest, log_step_ns=total,
-                         log_steps_per_s=1e9 / total))
-        print(rows[-1])
+        for fused in (False, True):
+            logs = Logs(x, y, 0.3, 2.0, 0.2, 700.0)
+            tr = Tracker(flow, logs, PhysicsOptions(level=level), "rk4",
+                         StepOptions(max_step=dt, length_fraction=1e9, angle_step=1e9),
+                         t_end=steps * dt, output_interval=steps * dt, hydro_step=steps * dt,
+                         fused=fused)
+            t0 = time.process_time()
+            tr.run()
+            total = (time.process_time() - t0) / (n * tr.stats["substeps"]) * 1e9
+            S, F, D = tr.state.copy(), tr.F.copy(), np.empty_like(tr.state)
+            lin = np.empty((S.shape[0], tr.lin0.shape[1]))
+            face, out, flag = tr.face.copy(), np.empty_like(F), np.empty(S.shape[0], np.int8)
+            sx, sy = S[:, 0].copy(), S[:, 1].copy()
+            t_s = steps * dt * 0.5
+            row = dict(level=level, path="fused" if fused else "general", logs=n)
+            if not fused:
+                row["sample_ns"] = per_log(n, flow.sample_into, sx, sy, t_s, face, out, flag)
+                row["forces_lin_ns"] = per_log(n, rhs_kernel, S, F, tr.P, tr.opt, D, lin, True)
+                row["forces_ns"] = per_log(n, rhs_kernel, S, F, tr.P, tr.opt, D, lin, False)
+                kern = 4 * row["sample_ns"] + row["forces_lin_ns"] + 3 * row["forces_ns"]
+            else:
+                rhs_kernel(S, F, tr.P, tr.opt, D, lin, True)
+                vals, a, inv_dt = flow.node_values(t_s)
+                tail = (a, inv_dt, vals, a, inv_dt, vals, flow.dry_depth, True,
+                        *flow.mesh.locator_args())
+                row["fused_step_ns"], row["fused_inner_ns"] = fused_ns(
+                    S, D, lin, face, F, flag, tr.P, tr.opt, dt, tail)
+                kern = row["fused_step_ns"]
+            row.update(rest_ns=total - kern, log_step_ns=total, log_steps_per_s=1e9 / total)
+            rows.append(row)
+            print(row)
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
-    write_table("tracking_breakdown", rows, ["level", "logs", "sample_ns", "forces_lin_ns",
-                                             "forces_ns", "rest_ns", "log_step_ns",
+    write_table("tracking_breakdown", rows, ["level", "path", "logs", "sample_ns",
+                                             "forces_lin_ns", "forces_ns", "fused_step_ns",
+                                             "fused_inner_ns", "rest_ns", "log_step_ns",
                                              "log_steps_per_s"],
-                "Where an RK4 log-step goes (1 thread, ns per log)",
-                "log_step = 4 sample + forces_lin + 3 forces + rest (stage arithmetic, copies, "
-                "status bookkeeping); the same flow and logs as the throughput table.")
+                "Where an RK4 log-step goes (1 thread, CPU ns per log)",
+                "general: log_step = 4 sample + forces_lin + 3 forces + rest (stage "
+                "arithmetic, copies, status bookkeeping); fused: log_step = fused_step + rest "
+                "(fused_inner: the same kernel without the next step's sample and first "
+                "stage); the same flow and logs as the throughput table.")
 
 
 def run(quick=False):
@@ -102,30 +137,45 @@ def run(quick=False):
     sizes = [1_000, 10_000, 100_000] if quick else [1_000, 10_000, 100_000, 1_000_000]
     combos = [(level, method) for level in ("tracer", "drag", "full")
               for method in ("euler", "rk4", "exponential")]
+    # the general path beside the fused one, for full physics
+    combos += [("full", "euler", False), ("full", "rk4", False)]
     rows = []
     for n in sizes:
         x, y = points(mesh, n, rng)
         steps = max(5, min(200, int(2e6 / n)))
         for threads in (1, 2):
             numba.set_num_threads(threads)
-            for level, method in combos:
-                one(flow, x[:2048 + 1], y[:2048 + 1], level, method, 2)  # compile both variants
-                sub, wall, floating = one(flow, x, y, level, method, steps)
-                rate = n * sub / wall
+            for level, method, *general in combos:
+                fused = not general
+                one(flow, x[:2048 + 1], y[:2048 + 1], level, method, 2, fused=fused)  # compile
+                sub, wall, cpu, used = one(flow, x, y, level, method, steps, fused=fused)
                 rows.append(dict(logs=n, threads=threads, level=level, integrator=method,
-                                 substeps=sub, seconds=wall, log_steps_per_s=rate,
-                                 per_core=rate / threads))
+                                 path="fused" if used else "general", substeps=sub,
+                                 seconds=wall, cpu_seconds=cpu,
+                                 log_steps_per_s=n * sub / wall,
+                                 per_core=n * sub / cpu))
                 print(rows[-1])
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
-    breakdown(flow, *points(mesh, 100_000, np.random.default_rng(3)))
-    write_table("tracking", rows, ["logs", "threads", "level", "integrator", "substeps",
-                                   "seconds", "log_steps_per_s", "per_core"],
+    write_table("tracking", rows, ["logs", "threads", "level", "integrator", "path",
+                                   "substeps", "seconds", "cpu_seconds", "log_steps_per_s",
+                                   "per_core"],
                 "Tracking throughput (log-steps/s, all stages and flow sampling included)",
                 "Flow: free vortex on the Malpasset mesh (46,691 triangles), P1 in space, linear "
-                "in time. Re-create: `python benchmarks/tracking_benchmark.py`.")
+                "in time. per_core: log-steps per CPU second of the process (all threads). "
+                "Re-create: `python benchmarks/tracking_benchmark.py`.")
+    breakdown(flow, *points(mesh, 100_000, np.random.default_rng(3)))
 
 
 if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="up to 1e5 logs")
-    run(p.parse_args().quick)
+    p.add_argument("--breakdown", action="store_true", help="only where an RK4 step goes")
+    a = p.parse_args()
+    if a.breakdown:
+        m = malpasset_mesh()
+        bx0, by0, bx1, by1 = m.bounds
+        f = on_mesh(FreeVortex(5e3, center=((bx0 + bx1) / 2, (by0 + by1) / 2),
+                               core_radius=300.0, depth=5.0), m, times=[0.0, 1000.0])
+        breakdown(f, *points(m, 100_000, np.random.default_rng(3)))
+    else:
+        run(a.quick)

@@ -37,6 +37,7 @@ from driftlog.locate import locate_one
 
 __all__ = [
     "FlowField", "FlowSample", "MeshFlowField", "InMemorySnapshots", "SAMPLE_COLUMNS",
+    "sample_point",
     "H", "U", "V", "DUDT", "DVDT", "DUDX", "DUDY", "DVDX", "DVDY", "DETADX", "DETADY", "ETA",
     "NVAR", "OUTSIDE", "DRY", "WET",
 ]
@@ -166,6 +167,52 @@ def _p1(nodevals, q, n0, n1, n2, a, b, inv_dt, w):
             gay * va + gby * vb + gcy * vc, td)
 
 
+@nb.njit(cache=True, inline="always")
+def sample_point(x, y, hint, a, inv_dt, nodevals, dry_depth, recovered,
+                 face_nodes, face_n, face_nbr, node_x, node_y,
+                 x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces):
+    """Locate and sample one point: (face, flag, values) with values the NVAR columns as a tuple.
+
+    The per-point body of ``sample_mesh_kernel``, shared with the fused tracking kernels
+    (``driftlog.fused``) so that both compute the same numbers.
+    """
+    f = locate_one(x, y, hint, face_nodes, face_n, face_nbr, node_x, node_y,
+                   x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
+    if f < 0:
+        return f, OUTSIDE, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    b = 1.0 - a
+    # fan triangle (n0, nk, nk+1) that holds the point
+    n0 = face_nodes[f, 0]
+    k = 1
+    while k < face_n[f] - 2:
+        nk1 = face_nodes[f, k + 1]
+        c = ((node_x[nk1] - node_x[n0]) * (y - node_y[n0])
+             - (node_y[nk1] - node_y[n0]) * (x - node_x[n0]))
+        if c <= 0.0:
+            break
+        k += 1
+    n1 = face_nodes[f, k]
+    n2 = face_nodes[f, k + 1]
+    la, lb, lc, gax, gay, gbx, gby, gcx, gcy = _triangle_weights(
+        x, y, node_x[n0], node_y[n0], node_x[n1], node_y[n1], node_x[n2], node_y[n2])
+    w = (la, lb, lc, gax, gay, gbx, gby, gcx, gcy)
+    hval, _, _, _ = _p1(nodevals, 0, n0, n1, n2, a, b, inv_dt, w)
+    uval, ux, uy, ut = _p1(nodevals, 1, n0, n1, n2, a, b, inv_dt, w)
+    vval, vx, vy, vt = _p1(nodevals, 2, n0, n1, n2, a, b, inv_dt, w)
+    eval_, ex, ey, _ = _p1(nodevals, 3, n0, n1, n2, a, b, inv_dt, w)
+    h = max(hval, 0.0)
+    if recovered:
+        ux = _p1(nodevals, Q_UX, n0, n1, n2, a, b, inv_dt, w)[0]
+        uy = _p1(nodevals, Q_UY, n0, n1, n2, a, b, inv_dt, w)[0]
+        vx = _p1(nodevals, Q_VX, n0, n1, n2, a, b, inv_dt, w)[0]
+        vy = _p1(nodevals, Q_VY, n0, n1, n2, a, b, inv_dt, w)[0]
+        ex = _p1(nodevals, Q_EX, n0, n1, n2, a, b, inv_dt, w)[0]
+        ey = _p1(nodevals, Q_EY, n0, n1, n2, a, b, inv_dt, w)[0]
+    # in the column order H, U, V, DUDT, DVDT, DUDX, DUDY, DVDX, DVDY, DETADX, DETADY, ETA
+    return f, (WET if h > dry_depth else DRY), (h, uval, vval, ut, vt, ux, uy, vx, vy, ex, ey,
+                                                eval_)
+
+
 @kernel
 def sample_mesh_kernel(px, py, face, out, flag, a, inv_dt, nodevals, dry_depth, recovered,
                        face_nodes, face_n, face_nbr, node_x, node_y,
@@ -175,57 +222,14 @@ def sample_mesh_kernel(px, py, face, out, flag, a, inv_dt, nodevals, dry_depth, 
     ``recovered``: gradients are the P1 interpolation of the nodes' least-squares gradients
     (continuous); otherwise the gradient of the P1 interpolant (constant per triangle).
     """
-    b = 1.0 - a
     for i in nb.prange(px.shape[0]):
-        x, y = px[i], py[i]
-        f = locate_one(x, y, face[i], face_nodes, face_n, face_nbr, node_x, node_y,
-                       x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
+        f, fl, vals = sample_point(px[i], py[i], face[i], a, inv_dt, nodevals, dry_depth,
+                                   recovered, face_nodes, face_n, face_nbr, node_x, node_y,
+                                   x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
         face[i] = f
-        if f < 0:
-            for k in range(NVAR):
-                out[i, k] = 0.0
-            flag[i] = OUTSIDE
-            continue
-        # fan triangle (n0, nk, nk+1) that holds the point
-        n0 = face_nodes[f, 0]
-        k = 1
-        while k < face_n[f] - 2:
-            nk1 = face_nodes[f, k + 1]
-            c = ((node_x[nk1] - node_x[n0]) * (y - node_y[n0])
-                 - (node_y[nk1] - node_y[n0]) * (x - node_x[n0]))
-            if c <= 0.0:
-                break
-            k += 1
-        n1 = face_nodes[f, k]
-        n2 = face_nodes[f, k + 1]
-        la, lb, lc, gax, gay, gbx, gby, gcx, gcy = _triangle_weights(
-            x, y, node_x[n0], node_y[n0], node_x[n1], node_y[n1], node_x[n2], node_y[n2])
-        w = (la, lb, lc, gax, gay, gbx, gby, gcx, gcy)
-        hval, _, _, _ = _p1(nodevals, 0, n0, n1, n2, a, b, inv_dt, w)
-        uval, ux, uy, ut = _p1(nodevals, 1, n0, n1, n2, a, b, inv_dt, w)
-        vval, vx, vy, vt = _p1(nodevals, 2, n0, n1, n2, a, b, inv_dt, w)
-        eval_, ex, ey, _ = _p1(nodevals, 3, n0, n1, n2, a, b, inv_dt, w)
-        h = max(hval, 0.0)
-        out[i, H] = h
-        out[i, U] = uval
-        out[i, V] = vval
-        out[i, DUDT] = ut
-        out[i, DVDT] = vt
-        if recovered:
-            ux = _p1(nodevals, Q_UX, n0, n1, n2, a, b, inv_dt, w)[0]
-            uy = _p1(nodevals, Q_UY, n0, n1, n2, a, b, inv_dt, w)[0]
-            vx = _p1(nodevals, Q_VX, n0, n1, n2, a, b, inv_dt, w)[0]
-            vy = _p1(nodevals, Q_VY, n0, n1, n2, a, b, inv_dt, w)[0]
-            ex = _p1(nodevals, Q_EX, n0, n1, n2, a, b, inv_dt, w)[0]
-            ey = _p1(nodevals, Q_EY, n0, n1, n2, a, b, inv_dt, w)[0]
-        out[i, DUDX] = ux
-        out[i, DUDY] = uy
-        out[i, DVDX] = vx
-        out[i, DVDY] = vy
-        out[i, DETADX] = ex
-        out[i, DETADY] = ey
-        out[i, ETA] = eval_
-        flag[i] = WET if h > dry_depth else DRY
+        flag[i] = fl
+        for k in range(NVAR):
+            out[i, k] = vals[k]
 
 
 # --------------------------------------------------------------------- snapshot sources

@@ -17,10 +17,10 @@ import numpy as np
 
 from driftlog._numba import kernel
 from driftlog.flow import DETADX, DETADY, DUDT, DUDX, DUDY, DVDT, DVDX, DVDY, H, U, V
-from driftlog.logs import OMEGA, THETA, UB, VB, X, Y, submerged_volume
+from driftlog.logs import OMEGA, THETA, UB, VB, submerged_volume
 
-__all__ = ["PhysicsOptions", "log_parameters", "rhs_kernel", "ganser_cd", "drag_speed_product",
-           "effective_area", "TRACER", "DRAG", "FULL", "NPARAM", "NLIN"]
+__all__ = ["PhysicsOptions", "log_parameters", "rhs_kernel", "log_rhs", "ganser_cd",
+           "drag_speed_product", "effective_area", "TRACER", "DRAG", "FULL", "NPARAM", "NLIN"]
 
 TRACER, DRAG, FULL = 0, 1, 2
 LEVELS = {"tracer": TRACER, "drag": DRAG, "full": FULL}
@@ -187,104 +187,86 @@ def _torque(dw, s, p, opt):
     return kr * cds * (abs(dw) / vr) * dw
 
 
-@kernel
-def rhs_kernel(S, F, P, opt, D, lin, want_lin=True):
-    """Time derivative D of the states S (n, 6) given flow samples F (n, NVAR).
+@nb.njit(cache=True, inline="always")
+def log_rhs(s_, fl, p, opt, want_lin):
+    """Time derivative of one log's state and its drag linearisation (MODEL.md 4-6).
 
-    With ``want_lin``, also fills ``lin`` (n, NLIN): the drag relaxation rates (1/s) along and
-    across the relative velocity, its direction, and the rotational relaxation rate; the
-    exponential integrator treats these exactly and the explicit ones bound their step by them
-    (only the first stage of a step needs them: they cost as much as the forces).
+    ``s_``: the state (x, y, theta, u, v, omega) as a tuple; ``fl``: the flow sampled at the
+    log, the NVAR columns of ``driftlog.flow`` as a tuple; ``p``: the log's parameter row.
+    Returns (D, lin): D the 6 derivatives, lin the NLIN linearisation columns (zeros unless
+    ``want_lin``).  The per-log body of ``rhs_kernel``, shared with the fused tracking
+    kernels (``driftlog.fused``) so that both compute the same numbers.
     """
     level = opt[O_LEVEL]
     rot = opt[O_ROT] > 0.0
     rho = opt[O_RHO]
-    for i in nb.prange(S.shape[0]):
-        p = P[i]
-        h = F[i, H]
-        uw, vw = F[i, U], F[i, V]
-        dudx, dudy, dvdx, dvdy = F[i, DUDX], F[i, DUDY], F[i, DVDX], F[i, DVDY]
-        omega_w = 0.5 * (dvdx - dudy)
-        D[i, X] = S[i, UB]
-        D[i, Y] = S[i, VB]
-        if level == TRACER:  # U_b = U_w: positions follow the flow; velocities are synced
-            D[i, X] = uw
-            D[i, Y] = vw
-            D[i, THETA] = omega_w if rot else 0.0
-            D[i, UB] = 0.0
-            D[i, VB] = 0.0
-            D[i, OMEGA] = 0.0
-            if want_lin:
-                for k in range(NLIN):
-                    lin[i, k] = 0.0
-            continue
-        ub, vb = S[i, UB], S[i, VB]
-        th = S[i, THETA]
-        ex, ey = np.cos(th), np.sin(th)
-        wx, wy = uw - ub, vw - vb
-        s = np.sqrt(wx * wx + wy * wy)
-        if s > 0.0:
-            ew = ex * wx + ey * wy
-            cos_a = abs(ew) / s
-            sin_a = abs(ex * wy - ey * wx) / s
-            sgn = 1.0 if ew >= 0.0 else -1.0
-            nwx, nwy = wx / s, wy / s
-        else:
-            cos_a, sin_a, sgn = 1.0, 0.0, 1.0
-            nwx, nwy = 1.0, 0.0
-        vol = p[P_VOL]
-        vf = vol if opt[O_SUBMERGED] == 0.0 else submerged_volume(h, p[P_R], p[P_L])
-        m_eff = p[P_RHOB] * vol + 0.5 * rho * vf  # added mass, C_m = 1/2 (eq. 7)
-        kd = _drag_coef(s, cos_a, sin_a, h, p, opt)
-        fx, fy = kd * wx, kd * wy  # drag (eq. 6)
-        if want_lin:
-            # drag linearisation: F = g(s) w/s, dF/dw = g'(s) w w^T/s^2 + g(s)/s (I - w w^T/s^2)
-            ds = 1e-6 * s + 1e-9
-            kd2 = _drag_coef(s + ds, cos_a, sin_a, h, p, opt)
-            gprime = ((s + ds) * kd2 - s * kd) / ds
-            lin[i, L_PAR] = gprime / m_eff
-            lin[i, L_PERP] = kd / m_eff
-            lin[i, L_WX] = nwx
-            lin[i, L_WY] = nwy
-        if level == FULL:
-            # pressure gradient + added mass (eq. 7): 3/2 rho V dU_w/dt + rho V J (U_b/2 + U_w)
-            ax_, ay_ = 0.5 * ub + uw, 0.5 * vb + vw
-            jx = dudx * ax_ + dudy * ay_
-            jy = dvdx * ax_ + dvdy * ay_
-            if opt[O_SLOPE] > 0.0:
-                # [choice] -g grad(eta) in place of the steady part J U_w of DU_w/Dt
-                jx = dudx * 0.5 * ub + dudy * 0.5 * vb - opt[O_G] * F[i, DETADX]
-                jy = dvdx * 0.5 * ub + dvdy * 0.5 * vb - opt[O_G] * F[i, DETADY]
-            fx += rho * vf * (1.5 * F[i, DUDT] + jx)
-            fy += rho * vf * (1.5 * F[i, DVDT] + jy)
-        axb, ayb = fx / m_eff, fy / m_eff
-        D[i, UB] = axb
-        D[i, VB] = ayb
-        if not rot:
-            D[i, THETA] = 0.0
-            D[i, OMEGA] = 0.0
-            if want_lin:
-                lin[i, L_ROT] = 0.0
-            continue
-        D[i, THETA] = S[i, OMEGA]
-        # force at the centre of pressure: the total hydrodynamic force m_b dU_b/dt (MODEL.md 6),
-        # or the drag alone (drag level, or torque_force = "drag": volume forces act at G)
-        if level == FULL and opt[O_TORQUE_DRAG] == 0.0:
-            ftx, fty = p[P_MASS] * axb, p[P_MASS] * ayb
-        else:
-            ftx, fty = kd * wx, kd * wy
-        # centre of pressure on the axis, on the side facing the relative flow (eq. 9)
-        arm = -0.25 * p[P_L] * cos_a * cos_a * cos_a * sgn
-        gpx, gpy = arm * ex, arm * ey
-        dw = omega_w - S[i, OMEGA]
-        tr = _torque(dw, s, p, opt)
-        tau_d = gpx * fty - gpy * ftx
-        D[i, OMEGA] = (tau_d + tr) / p[P_INERTIA]
-        if not want_lin:
-            continue
+    h = fl[H]
+    uw, vw = fl[U], fl[V]
+    dudx, dudy, dvdx, dvdy = fl[DUDX], fl[DUDY], fl[DVDX], fl[DVDY]
+    omega_w = 0.5 * (dvdx - dudy)
+    lp = lq = lwx = lwy = lr = 0.0
+    if level == TRACER:  # U_b = U_w: positions follow the flow; velocities are synced
+        return (uw, vw, omega_w if rot else 0.0, 0.0, 0.0, 0.0), (lp, lq, lwx, lwy, lr)
+    ub, vb = s_[UB], s_[VB]
+    th = s_[THETA]
+    ex, ey = np.cos(th), np.sin(th)
+    wx, wy = uw - ub, vw - vb
+    s = np.sqrt(wx * wx + wy * wy)
+    if s > 0.0:
+        ew = ex * wx + ey * wy
+        cos_a = abs(ew) / s
+        sin_a = abs(ex * wy - ey * wx) / s
+        sgn = 1.0 if ew >= 0.0 else -1.0
+        nwx, nwy = wx / s, wy / s
+    else:
+        cos_a, sin_a, sgn = 1.0, 0.0, 1.0
+        nwx, nwy = 1.0, 0.0
+    vol = p[P_VOL]
+    vf = vol if opt[O_SUBMERGED] == 0.0 else submerged_volume(h, p[P_R], p[P_L])
+    m_eff = p[P_RHOB] * vol + 0.5 * rho * vf  # added mass, C_m = 1/2 (eq. 7)
+    kd = _drag_coef(s, cos_a, sin_a, h, p, opt)
+    fx, fy = kd * wx, kd * wy  # drag (eq. 6)
+    if want_lin:
+        # drag linearisation: F = g(s) w/s, dF/dw = g'(s) w w^T/s^2 + g(s)/s (I - w w^T/s^2)
+        ds = 1e-6 * s + 1e-9
+        kd2 = _drag_coef(s + ds, cos_a, sin_a, h, p, opt)
+        gprime = ((s + ds) * kd2 - s * kd) / ds
+        lp = gprime / m_eff
+        lq = kd / m_eff
+        lwx = nwx
+        lwy = nwy
+    if level == FULL:
+        # pressure gradient + added mass (eq. 7): 3/2 rho V dU_w/dt + rho V J (U_b/2 + U_w)
+        ax_, ay_ = 0.5 * ub + uw, 0.5 * vb + vw
+        jx = dudx * ax_ + dudy * ay_
+        jy = dvdx * ax_ + dvdy * ay_
+        if opt[O_SLOPE] > 0.0:
+            # [choice] -g grad(eta) in place of the steady part J U_w of DU_w/Dt
+            jx = dudx * 0.5 * ub + dudy * 0.5 * vb - opt[O_G] * fl[DETADX]
+            jy = dvdx * 0.5 * ub + dvdy * 0.5 * vb - opt[O_G] * fl[DETADY]
+        fx += rho * vf * (1.5 * fl[DUDT] + jx)
+        fy += rho * vf * (1.5 * fl[DVDT] + jy)
+    axb, ayb = fx / m_eff, fy / m_eff
+    if not rot:
+        return (ub, vb, 0.0, axb, ayb, 0.0), (lp, lq, lwx, lwy, lr)
+    # force at the centre of pressure: the total hydrodynamic force m_b dU_b/dt (MODEL.md 6),
+    # or the drag alone (drag level, or torque_force = "drag": volume forces act at G)
+    if level == FULL and opt[O_TORQUE_DRAG] == 0.0:
+        ftx, fty = p[P_MASS] * axb, p[P_MASS] * ayb
+    else:
+        ftx, fty = kd * wx, kd * wy
+    # centre of pressure on the axis, on the side facing the relative flow (eq. 9)
+    arm = -0.25 * p[P_L] * cos_a * cos_a * cos_a * sgn
+    gpx, gpy = arm * ex, arm * ey
+    om = s_[OMEGA]
+    dw = omega_w - om
+    tr = _torque(dw, s, p, opt)
+    tau_d = gpx * fty - gpy * ftx
+    dom = (tau_d + tr) / p[P_INERTIA]
+    if want_lin:
         # rotational relaxation rate d T_R / d omega_b / I.  T_R is quadratic in dw, so its
-        # slope vanishes at dw = 0 although the driving torque tau_d is about to spin the log up
-        # to where T_R balances it: take the slope at that balance |dw*| when it is larger
+        # slope vanishes at dw = 0 although the driving torque tau_d is about to spin the log
+        # up to where T_R balances it: take the slope at that balance |dw*| when it is larger
         # (a few fixed-point steps on the local quadratic model T_R(x) ~ T_R(g) (x / g)^2).
         g = max(abs(dw), 1e-6)
         tg = abs(_torque(g, s, p, opt))
@@ -298,4 +280,26 @@ def rhs_kernel(S, F, P, opt, D, lin, want_lin=True):
             tg = abs(_torque(g, s, p, opt))
         # slope of T_R at g: T_R / g for the linear law, 2 T_R / g for a quadratic one (exact
         # for a constant C_D; Ganser's C_D falls with speed, so this bounds the slope above)
-        lin[i, L_ROT] = (1.0 if opt[O_LAW] == LINEAR else 2.0) * tg / g / p[P_INERTIA]
+        lr = (1.0 if opt[O_LAW] == LINEAR else 2.0) * tg / g / p[P_INERTIA]
+    return (ub, vb, om, axb, ayb, dom), (lp, lq, lwx, lwy, lr)
+
+
+@kernel
+def rhs_kernel(S, F, P, opt, D, lin, want_lin=True):
+    """Time derivative D of the states S (n, 6) given flow samples F (n, NVAR).
+
+    With ``want_lin``, also fills ``lin`` (n, NLIN): the drag relaxation rates (1/s) along and
+    across the relative velocity, its direction, and the rotational relaxation rate; the
+    exponential integrator treats these exactly and the explicit ones bound their step by them
+    (only the first stage of a step needs them: they cost as much as the forces).
+    """
+    for i in nb.prange(S.shape[0]):
+        s_ = (S[i, 0], S[i, 1], S[i, 2], S[i, 3], S[i, 4], S[i, 5])
+        fl = (F[i, 0], F[i, 1], F[i, 2], F[i, 3], F[i, 4], F[i, 5], F[i, 6], F[i, 7], F[i, 8],
+              F[i, 9], F[i, 10], F[i, 11])
+        d, ln = log_rhs(s_, fl, P[i], opt, want_lin)
+        for k in range(6):
+            D[i, k] = d[k]
+        if want_lin:
+            for k in range(NLIN):
+                lin[i, k] = ln[k]

@@ -22,7 +22,8 @@ import numba as nb
 import numpy as np
 
 from driftlog.errors import DriftlogError, ScenarioError
-from driftlog.flow import DRY, NVAR, OUTSIDE, H, U, V
+from driftlog.flow import DRY, NVAR, OUTSIDE, H, MeshFlowField, U, V
+from driftlog.fused import FUSED_METHODS, euler_mesh_step, rk4_mesh_step
 from driftlog.integrators import make_integrator
 from driftlog.logs import FLOATING, LEFT, OMEGA, RESTING, STRANDED, UB, VB, WAITING, X, Y
 from driftlog.physics import (
@@ -121,16 +122,25 @@ class Tracker:
     initial_velocity : str or array of str
         Velocity of a log when released floating: "flow" (the flow's velocity and rotation),
         "rest", or "given" (the velocity in ``logs``).
+    fused : bool
+        On a ``MeshFlowField`` with the euler or rk4 integrator, advance each log through a
+        whole step in one kernel (``driftlog.fused``: same results, fewer memory passes);
+        False forces the general path (stage by stage over whole arrays).
     """
 
     def __init__(self, flow, logs, physics=None, method="rk4", step=None, contact=None,
                  t_start=0.0, t_end=None, output_interval=1.0, hydro_step=1.0, writer=None,
-                 progress=False, initial_velocity="flow"):
+                 progress=False, initial_velocity="flow", fused=True):
         self.flow = flow
         self.logs = logs
         self.physics = physics or PhysicsOptions()
         self.opt = self.physics.vector()
         self.integrator = make_integrator(method)
+        # the fused kernels inline the mesh sampling: only for MeshFlowField's own sampling
+        self.fused = bool(fused and isinstance(flow, MeshFlowField)
+                          and type(flow).sample_into is MeshFlowField.sample_into
+                          and method in FUSED_METHODS)
+        self._d0_valid = False
         self.step_options = step or StepOptions()
         self.contact = contact
         self.t = float(t_start)
@@ -161,7 +171,9 @@ class Tracker:
     # ----------------------------------------------------------------- compact arrays
     def _set_active(self, idx):
         """Gather the floating logs ``idx`` into the compact arrays the kernels use."""
-        self.act = np.asarray(idx, dtype=np.int64)
+        idx = np.asarray(idx, dtype=np.int64)
+        kept = self._kept_stage(idx)
+        self.act = idx
         L = self.logs
         self.state = np.ascontiguousarray(L.state[self.act])
         self.face = L.face[self.act].copy()
@@ -182,6 +194,23 @@ class Tracker:
         self._next = np.empty((n, 6))
         self.D0, self.lin0 = self.integrator.prepare(n)
         self._nolin = np.empty((n, 5))
+        self._d0_valid = False
+        if kept is not None:
+            # logs that stay floating keep their flow sample and first stage: the same numbers
+            # as sampling them again from their faces, without the pass
+            self.F[:], self.flag[:], self.D0[:], self.lin0[:] = kept
+            self._F_valid = self._d0_valid = True
+
+    def _kept_stage(self, idx):
+        """Rows of F, flag, D0, lin0 for the logs ``idx`` when all were already floating."""
+        old = getattr(self, "act", None)
+        if not (self.fused and self._d0_valid and self._F_valid and old is not None
+                and old.size and idx.size):
+            return None
+        pos = np.minimum(np.searchsorted(old, idx), old.size - 1)
+        if not np.array_equal(old[pos], idx):
+            return None
+        return self.F[pos], self.flag[pos], self.D0[pos], self.lin0[pos]
 
     def _scatter(self):
         """Write the compact state back into the full arrays."""
@@ -225,6 +254,7 @@ class Tracker:
         np.copyto(self.F, F)
         np.copyto(self.flag, flag)
         self._F_valid = valid
+        self._d0_valid = False
 
     def invalidate_flow(self):
         """The positions were moved from outside (a contact model): sample the flow again."""
@@ -236,17 +266,38 @@ class Tracker:
         ``have_d0``: the first stage (``D0``, ``lin0``) was just computed for this very state
         by ``max_step`` (the tracker's own loop; a contact model may change velocities between).
         """
+        fused = self.fused and self.state.shape[0] > 0
         if self.state.shape[0]:
             if not have_d0:
                 self._rhs(self.state, self.t, self.D0, self.lin0)
-            self.integrator.step(self.state, self.t, dt, self._rhs, self._next, have_d0=True)
+            if fused:
+                self._fused_step(dt)
+            else:
+                self.integrator.step(self.state, self.t, dt, self._rhs, self._next, have_d0=True)
             self.state, self._next = self._next, self.state
         self.t += dt
-        self._F_valid = False
+        # the fused step sampled the flow at the new state and computed its first stage
+        self._F_valid = self._d0_valid = fused
         if self.state.shape[0]:
             self._sample_current()
             if self.physics.level == "tracer":
                 self._sync_tracer()
+
+    def _fused_step(self, dt):
+        """One integrator step of every floating log in one kernel (``driftlog.fused``)."""
+        flow, t0 = self.flow, self.t
+        tail = (flow.dry_depth, flow.gradient == "recovered", *flow.mesh.locator_args())
+        head = (self.state, self.D0, self.lin0, self._next, self.face, self.F, self.flag,
+                self.P, self.opt, dt, True)
+        # node values in the order the general path asks for them (the flow caches one pair)
+        if self.integrator.name == "rk4":
+            vals_m, a_m, inv_m = flow.node_values(t0 + 0.5 * dt)
+            vals_e, a_e, inv_e = flow.node_values(t0 + dt)
+            rk4_mesh_step(*head, a_m, inv_m, vals_m, a_e, inv_e, vals_e, *tail)
+            self.stats["rhs_evaluations"] += 3
+        else:
+            vals_e, a_e, inv_e = flow.node_values(t0 + dt)
+            euler_mesh_step(*head, a_e, inv_e, vals_e, *tail)
 
     def _sync_tracer(self):
         self.state[:, UB] = self.F[:, U]
@@ -258,7 +309,10 @@ class Tracker:
         so = self.step_options
         dt = so.max_step if so.max_step else np.inf
         if self.state.shape[0]:
-            self._rhs(self.state, self.t, self.D0, self.lin0)
+            if self._d0_valid and self.contact is None:
+                self.stats["rhs_evaluations"] += 1  # computed by the fused step, same state
+            else:
+                self._rhs(self.state, self.t, self.D0, self.lin0)
             explicit = not self.integrator.stiff_stable and self.physics.level != "tracer"
             dt = min(dt, _step_bound(self.state, self.length, self.lin0, so.length_fraction,
                                      so.angle_step, so.drag_fraction, explicit))
