@@ -611,3 +611,47 @@ output = "{out}"
     # cell k (x from 0.5 k) is entered at 0.5 k - 1.2 s by the log released at 0 s
     np.testing.assert_allclose(agg.first_arrival[row[2:13]],
                                np.r_[0.0, 0.5 * np.arange(3, 13) - 1.2], atol=1e-12)
+
+
+def test_run_member_on_a_solved_flow(tmp_path):
+    """run_member (one member in this process) prepares a solved flow as run_ensemble does."""
+    scen = tmp_path / "s.toml"
+    scen.write_text(f"""
+[flow]
+source = "solver"
+path = "{tmp_path / 'flow.nc'}"
+steady_at = 20.0
+[solver]
+channel = [0.0, 0.0, 40.0, 8.0]
+cell_size = 2.0
+manning = 0.03
+end = 20.0
+[solver.initial]
+type = "level"
+value = 1.0
+velocity = [0.5, 0.0]
+[solver.boundaries.inflow]
+type = "discharge"
+value = 4.0
+[solver.boundaries.outflow]
+type = "level"
+value = 1.0
+[time]
+end = 20.0
+[[logs]]
+x = [5.0, 5.0]
+y = [3.0, 5.0]
+length = 1.0
+radius = 0.1
+[ensemble]
+members = 2
+[ensemble.vary]
+"logs.density" = {{ uniform = [500.0, 900.0] }}
+""")
+    summary = run_member(scen, 1)
+    mesh = open_flow(tmp_path / "flow.nc").mesh
+    assert summary.n_logs == 2 and summary.n_faces == mesh.n_faces  # counted on the flow mesh
+    # both logs drift downstream over 20 s: faces passed lie east of the release, up to ~20 m
+    x = mesh.face_x[summary.faces]
+    assert summary.faces.size >= 4 and x.max() > 8.0
+    assert 500.0 <= summary.parameters["logs.density"] <= 900.0
