@@ -21,7 +21,8 @@
 
     python benchmarks/stability_figures.py [--quick]
 
-writes benchmarks/results/stability_{drag,jam,dry}.png, stability.json and stability.md.
+writes benchmarks/results/stability_{drag,jam,dry}.png, stability.json and stability.md
+(``--quick``: the same names with ``_quick``, so the full-size results are kept).
 """
 
 import argparse
@@ -39,6 +40,7 @@ from driftlog.logs import Logs
 from driftlog.physics import PhysicsOptions
 from driftlog.tracker import IntegrationError, StepOptions, StepTooSmallError, Tracker
 
+SUFFIX = ""  # "_quick" for --quick: the committed full-size results are kept
 ROOT = Path(__file__).resolve().parents[1]
 
 # ----------------------------------------------------------------------------- 1. stiff drag
@@ -150,7 +152,7 @@ def stiff_drag(plt, quick):
                  " explicit Euler/RK4 blow up; drag_fraction step bound or the exponential "
                  "integrator fix it", fontsize=10)
     fig.tight_layout()
-    fig.savefig(RESULTS / "stability_drag.png", dpi=110)
+    fig.savefig(RESULTS / f"stability_drag{SUFFIX}.png", dpi=110)
     plt.close(fig)
     limit = {}
     for name, r in sweep.items():
@@ -242,7 +244,7 @@ def jam(plt):
                  "collapses (ContactJamError); Moreau-Jean holds the pile with steady steps",
                  fontsize=10)
     fig.tight_layout()
-    fig.savefig(RESULTS / "stability_jam.png", dpi=110)
+    fig.savefig(RESULTS / f"stability_jam{SUFFIX}.png", dpi=110)
     plt.close(fig)
     late = mj["t"] > mj["t"][-1] - 1.0
     return dict(event=dict(substeps=int(ev["t"].size), stopped_at=float(t_stop),
@@ -395,7 +397,7 @@ def dry_front(plt, quick):
                  "clipped, so water is created;\nhydrostatic reconstruction keeps a lake at rest "
                  "on an emerged bump where a naive bed source does not", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    fig.savefig(RESULTS / "stability_dry.png", dpi=110)
+    fig.savefig(RESULTS / f"stability_dry{SUFFIX}.png", dpi=110)
     plt.close(fig)
     out["lake_at_rest"] = dict(cells=n_lake, solver_max_u=float(np.abs(u_ok).max()),
                                naive_max_u=float(np.abs(u_bad).max()))
@@ -451,7 +453,7 @@ def write_md(res):
               f"velocity {la['solver_max_u']:.2g} m/s with the solver's hydrostatic "
               f"reconstruction, {la['naive_max_u']:.2g} m/s with a naive centred bed source.", ""]
     text = "\n".join(lines)
-    (RESULTS / "stability.md").write_text(text)
+    (RESULTS / f"stability{SUFFIX}.md").write_text(text)
     print(text)
 
 
@@ -464,6 +466,8 @@ def main(argv=None):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    global SUFFIX
+    SUFFIX = "_quick" if args.quick else ""
     RESULTS.mkdir(parents=True, exist_ok=True)
     res = dict(quick=args.quick)
     for name, fn in (("drag", lambda: stiff_drag(plt, args.quick)), ("jam", lambda: jam(plt)),
@@ -471,7 +475,7 @@ def main(argv=None):
         t0 = time.perf_counter()
         res[name] = fn()
         print(f"{name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-    (RESULTS / "stability.json").write_text(json.dumps(res, indent=1, default=float))
+    (RESULTS / f"stability{SUFFIX}.json").write_text(json.dumps(res, indent=1, default=float))
     write_md(res)
 
 
