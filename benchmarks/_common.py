@@ -69,3 +69,29 @@ def malpasset_mesh():
         if (d / "malpasset_mesh.nc").is_file():
             return read_mesh(d / "malpasset_mesh.nc")
     raise FileNotFoundError("Malpasset mesh not found")
+
+
+def run_recording_first_log(tracker, t0=None, u0=None):
+    """Run ``tracker``, recording the first floating log's u after every sub-step.
+
+    Returns (times, velocities, error name or None); a run that diverges or whose step
+    collapses (IntegrationError, StepTooSmallError) stops with what was recorded so far.
+    """
+    from driftlog.tracker import IntegrationError, StepTooSmallError
+
+    ts = [] if t0 is None else [t0]
+    us = [] if u0 is None else [u0]
+    advance = tracker.advance
+
+    def recording(dt, have_d0=False):
+        advance(dt, have_d0)
+        if tracker.state.shape[0]:
+            ts.append(tracker.t)
+            us.append(tracker.state[0, 3])
+
+    tracker.advance = recording
+    try:
+        tracker.run()
+    except (IntegrationError, StepTooSmallError) as exc:
+        return np.array(ts), np.array(us), type(exc).__name__
+    return np.array(ts), np.array(us), None

@@ -24,7 +24,7 @@ integrators_work_precision.png and stiff_drag.png.
 import time
 
 import numpy as np
-from _common import RESULTS, write_table
+from _common import RESULTS, run_recording_first_log, write_table
 
 from driftlog.analytic import FreeVortex, SolidBodyRotation, UniformFlow, on_mesh
 from driftlog.logs import Logs
@@ -106,28 +106,11 @@ def stiff_figure(plt):
     kw = dict(t_end=5.0, hydro_step=5.0, output_interval=5.0, initial_velocity="rest")
     curves = {}
 
-    class Rec:
-        def __init__(self):
-            self.t, self.u = [], []
-
     def trace(method, step, label):
         logs = Logs([0.0], [0.0], 0.3, 0.2, 0.004, 720.0)
         tr = Tracker(flow, logs, PhysicsOptions(), method, step, **kw)
-        rec = Rec()
-        adv = tr.advance
-
-        def advance(dt, have_d0=False):
-            adv(dt, have_d0)
-            if tr.state.shape[0]:
-                rec.t.append(tr.t)
-                rec.u.append(tr.state[0, 3])
-        tr.advance = advance
-        err = None
-        try:
-            tr.run()
-        except (IntegrationError, StepTooSmallError) as exc:
-            err = type(exc).__name__
-        curves[label] = (np.array(rec.t), np.array(rec.u), err, tr.stats["substeps"])
+        t, u, err = run_recording_first_log(tr)
+        curves[label] = (t, u, err, tr.stats["substeps"])
 
     paper = StepOptions(length_fraction=1.0, drag_fraction=0.0, max_step=0.5)
     trace("rk4", paper, "RK4, paper's step L/|U_b|")

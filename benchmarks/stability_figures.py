@@ -33,12 +33,12 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _common import RESULTS, machine
+from _common import RESULTS, machine, run_recording_first_log
 
 from driftlog.analytic import UniformFlow
 from driftlog.logs import Logs
 from driftlog.physics import PhysicsOptions
-from driftlog.tracker import IntegrationError, StepOptions, StepTooSmallError, Tracker
+from driftlog.tracker import StepOptions, Tracker
 
 SUFFIX = ""  # "_quick" for --quick: the committed full-size results are kept
 ROOT = Path(__file__).resolve().parents[1]
@@ -67,23 +67,9 @@ def drag_run(method, step):
     tr = Tracker(UniformFlow(U0, 0.0, depth=0.1), logs, DRAG_PHYSICS, method, step,
                  t_end=T_DRAG, output_interval=T_DRAG, hydro_step=T_DRAG,
                  initial_velocity="rest")
-    ts, us = [0.0], [0.0]
-    adv = tr.advance
-
-    def advance(dt, have_d0=False):  # record every sub-step
-        adv(dt, have_d0)
-        if tr.state.shape[0]:
-            ts.append(tr.t)
-            us.append(tr.state[0, 3])
-
-    tr.advance = advance
-    err = None
-    try:
-        tr.run()
-    except (IntegrationError, StepTooSmallError) as exc:
-        err = type(exc).__name__
+    ts, us, err = run_recording_first_log(tr, 0.0, 0.0)
     x_end = logs.state[0, 0] if err is None else np.nan
-    return np.array(ts), np.array(us), x_end, err, tr.stats["substeps"]
+    return ts, us, x_end, err, tr.stats["substeps"]
 
 
 def fixed(dt):

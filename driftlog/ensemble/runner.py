@@ -469,19 +469,12 @@ def _stderr(msg):
 
 def run_member(ensemble, member: int, grid="auto") -> MemberSummary:
     """Run one member in this process and return its summary (for checks and debugging)."""
-    import tempfile
-
     ens = load_ensemble(ensemble)
     base = ens.base()
-    # as run_ensemble does: a solved or imported flow is written once to a flow file
-    sec, mesh = _prepare_flow(ens, base, Path(tempfile.mkdtemp(prefix="driftlog-member-"))) \
-        if base["flow"]["source"] not in ("analytic", "file") else (base["flow"], None)
-    base = dict(base, flow=sec)
+    # the flow as run_ensemble prepares it (a solved or imported flow written once to
+    # <output>/flow.nc and reused; a flow file or an analytic field as they are)
+    base["flow"], mesh = _prepare_flow(ens, base, ens.output.resolve())
     if grid == "auto":
-        if mesh is None and sec["source"] == "file":
-            from driftlog.flowfile import open_flow
-
-            mesh = open_flow(sec["path"]).mesh
         grid = aggregation_grid(ens, mesh)
     values = ens.parameters_of(member)
     return run_member_task(base, member, ens.member_overrides(member, base, values), values,
