@@ -46,7 +46,9 @@ import numba as nb
 import numpy as np
 from _common import RESULTS, machine
 
-from driftlog.flow import NVAR, WET, FlowField, H, U, V
+from driftlog.analytic import DriftingEddy
+from driftlog.columns import X, Y
+from driftlog.flow import FlowField
 from driftlog.logs import Logs
 from driftlog.physics import PhysicsOptions
 from driftlog.tracker import StepOptions, Tracker
@@ -67,19 +69,14 @@ TOOLS = ("driftlog", "OpenDrift", "Parcels")
 
 
 # --------------------------------------------------------------------- flow and exact answer
-def velocity(x, y, t):
-    """The drifting eddy's velocity (m/s) at points x, y (m) and time t (s)."""
-    dx, dy = x - (CENTER[0] + DRIFT * t), y - CENTER[1]
-    om = OMEGA0 * np.exp(-(dx * dx + dy * dy) / (2 * SIGMA ** 2))
-    return DRIFT - om * dy, om * dx
+def eddy(snapshot=0.0):
+    """The scene's eddy (``driftlog.analytic.DriftingEddy``); ``snapshot`` > 0: linear in time
+    between the formula at multiples of it, as every tool does between the grid's snapshots."""
+    return DriftingEddy(CENTER, DRIFT, SIGMA, OMEGA0, DEPTH, snapshot)
 
 
-def exact(x0, y0, t):
-    """Exact positions at time t of particles released at (x0, y0) at time 0."""
-    dx, dy = x0 - CENTER[0], y0 - CENTER[1]
-    r = np.hypot(dx, dy)
-    a = np.arctan2(dy, dx) + OMEGA0 * np.exp(-r * r / (2 * SIGMA ** 2)) * t
-    return CENTER[0] + DRIFT * t + r * np.cos(a), CENTER[1] + r * np.sin(a)
+velocity = eddy().velocity  # (u, v) at points x, y and time t
+exact = eddy().exact  # positions at time t of particles released at (x0, y0) at time 0
 
 
 def seed(n, rng):
@@ -141,55 +138,6 @@ def write_grid(path):
     return path
 
 
-# --------------------------------------------------------------------- driftlog on the formula
-@nb.njit(cache=True, inline="always")
-def _eddy(x, y, t):
-    dx, dy = x - (CENTER[0] + DRIFT * t), y - CENTER[1]
-    om = OMEGA0 * np.exp(-(dx * dx + dy * dy) / (2 * SIGMA ** 2))
-    return DRIFT - om * dy, om * dx
-
-
-@nb.njit(cache=True)
-def _sample_eddy(px, py, t, snapshot, out, flag):
-    # snapshot > 0: linear in time between the formula at the snapshot times (as on the grid)
-    if snapshot > 0.0:
-        t0 = np.floor(t / snapshot) * snapshot
-        a = (t - t0) / snapshot
-    for i in range(px.shape[0]):
-        for k in range(NVAR):
-            out[i, k] = 0.0
-        if snapshot > 0.0:
-            u0, v0 = _eddy(px[i], py[i], t0)
-            u1, v1 = _eddy(px[i], py[i], t0 + snapshot)
-            u, v = (1.0 - a) * u0 + a * u1, (1.0 - a) * v0 + a * v1
-        else:
-            u, v = _eddy(px[i], py[i], t)
-        out[i, H] = DEPTH
-        out[i, U] = u
-        out[i, V] = v
-        flag[i] = WET
-
-
-class ExactEddy(FlowField):
-    """The drifting eddy sampled from its formula (velocity only: tracers).
-
-    ``snapshot``: interpolate linearly in time between the formula at multiples of it, as
-    every tool does between the grid's snapshots (0: exact in time too).
-    """
-
-    def __init__(self, snapshot=0.0):
-        self.snapshot = float(snapshot)
-        self.name = "drifting Gaussian eddy (formula)"
-
-    @property
-    def time_span(self):
-        return (0.0, DURATION)
-
-    def sample_into(self, x, y, t, face, out, flag):
-        face[:] = -1
-        _sample_eddy(x, y, float(t), self.snapshot, out, flag)
-
-
 # --------------------------------------------------------------------- the three tools
 def run_driftlog(path_or_flow, x, y, dt, duration, threads=1):
     """Tracer-mode RK4 at a fixed step; returns (x, y, set-up s, run s)."""
@@ -209,7 +157,7 @@ def run_driftlog(path_or_flow, x, y, dt, duration, threads=1):
     nb.set_num_threads(nb.config.NUMBA_NUM_THREADS)
     if not np.all(logs.status == 1):
         raise RuntimeError(f"driftlog: {np.sum(logs.status != 1)} particles stopped floating")
-    return logs.state[:, 0].copy(), logs.state[:, 1].copy(), setup, (wall, cpu)
+    return logs.state[:, X].copy(), logs.state[:, Y].copy(), setup, (wall, cpu)
 
 
 def _projection():
@@ -356,9 +304,9 @@ def accuracy(path, n, dts, duration, available, rng):
     for tool in tools:
         for dt in dts:
             if tool == FORMULA:
-                xe, ye, _, _ = run_driftlog(ExactEddy(), x, y, dt, duration)
+                xe, ye, _, _ = run_driftlog(eddy(), x, y, dt, duration)
             elif tool == FORMULA_T:
-                xe, ye, _, _ = run_driftlog(ExactEddy(SNAPSHOT), x, y, dt, duration)
+                xe, ye, _, _ = run_driftlog(eddy(SNAPSHOT), x, y, dt, duration)
             else:
                 xe, ye, _, _ = RUNNERS[tool](path, x, y, dt, duration)
             pos[tool, dt] = (xe, ye)
@@ -506,7 +454,7 @@ def main(quick=False):
         # warm-up: numba compilation, imports, caches
         xs, ys = seed(64, rng)
         run_driftlog(path, xs, ys, SNAPSHOT, 4 * SNAPSHOT)
-        run_driftlog(ExactEddy(SNAPSHOT), xs, ys, SNAPSHOT, 4 * SNAPSHOT)
+        run_driftlog(eddy(SNAPSHOT), xs, ys, SNAPSHOT, 4 * SNAPSHOT)
         for tool in available:
             RUNNERS[tool](path, xs, ys, SNAPSHOT, 4 * SNAPSHOT)
         sizes = [1_000, 10_000] if quick else [1_000, 10_000, 100_000]

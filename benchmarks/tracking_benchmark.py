@@ -109,7 +109,7 @@ def breakdown(flow, x, y, steps=20, dt=0.5):
                 rhs_kernel(S, F, tr.P, tr.opt, D, lin, True)
                 vals, a, inv_dt = flow.node_values(t_s)
                 tail = (a, inv_dt, vals, a, inv_dt, vals, flow.dry_depth, True,
-                        *flow.mesh.locator_args())
+                        flow.mesh.locator())
                 row["fused_step_ns"], row["fused_inner_ns"] = fused_ns(
                     S, D, lin, face, F, flag, tr.P, tr.opt, dt, tail)
                 kern = row["fused_step_ns"]

@@ -13,10 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
+from driftlog.columns import L_PERP, NLIN, NSTATE, THETA, WET, X, Y
 from driftlog.errors import DriftlogError, ScenarioError
-from driftlog.flow import WET
 from driftlog.logs import Logs, logs_from_scenario
-from driftlog.physics import NLIN, PhysicsOptions, log_parameters, rhs_kernel
+from driftlog.physics import PhysicsOptions, log_parameters, rhs_kernel
 from driftlog.scenario import Scenario, load_scenario
 from driftlog.sources import flow_from_scenario
 from driftlog.tracker import StepOptions, Tracker
@@ -76,11 +76,11 @@ def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool, t_end
     if later.size > 16:
         later = later[np.linspace(0, later.size - 1, 16).round().astype(int)]
     n = len(logs)
-    S = np.zeros((n, 6))
-    S[:, 0], S[:, 1], S[:, 2] = logs.x, logs.y, logs.theta
+    S = np.zeros((n, NSTATE))
+    S[:, X], S[:, Y], S[:, THETA] = logs.x, logs.y, logs.theta
     P = log_parameters(logs.length, logs.radius, logs.density, logs.float_depth)
     opt = PhysicsOptions.from_scenario(section, level="full", rotation=True).vector()
-    D, lin = np.zeros((n, 6)), np.zeros((n, NLIN))
+    D, lin = np.zeros((n, NSTATE)), np.zeros((n, NLIN))
     st_all, ratio_all = [], []
     for t in np.concatenate([[t0], later]):
         s = flow.sample(logs.x, logs.y, t)
@@ -88,7 +88,7 @@ def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool, t_end
         if not wet.any():
             continue
         rhs_kernel(S, s.values, P, opt, D, lin)
-        tau = np.where(lin[:, 1] > 0, 1.0 / np.maximum(lin[:, 1], 1e-300), np.inf)
+        tau = np.where(lin[:, L_PERP] > 0, 1.0 / np.maximum(lin[:, L_PERP], 1e-300), np.inf)
         J = np.sqrt((s.jacobian ** 2).sum(axis=(1, 2)))
         speed = np.hypot(s.u, s.v)
         st_all.append(np.where(J > 0, tau * J, 0.0)[wet])

@@ -23,7 +23,7 @@ from scipy.sparse.csgraph import connected_components
 
 from driftlog.errors import ScenarioError
 
-__all__ = ["low_boundary_edges", "tag_sea", "sea_faces", "faces_in_polygon", "check_sea",
+__all__ = ["low_boundary_edges", "tag_sea", "sea_faces", "check_sea",
            "apply_sea", "fill_sea", "SEA_KEYS",
            "malpasset_depth", "malpasset_solver", "read_observations",
            "MALPASSET_RESERVOIR", "MALPASSET_DAM", "MALPASSET_LEVEL", "MALPASSET_MANNING"]
@@ -71,14 +71,6 @@ def sea_faces(mesh, bed, level, sea_edges):
     return low & np.isin(label, np.unique(label[seeds]))
 
 
-def faces_in_polygon(mesh, polygon):
-    """Faces whose centroid lies in ``polygon`` [(x, y), ...]."""
-    from matplotlib.path import Path as MplPath
-
-    return MplPath(np.asarray(polygon, float)).contains_points(
-        np.column_stack([mesh.face_x, mesh.face_y]))
-
-
 SEA_KEYS = ("level", "boundary", "tag")
 
 
@@ -123,7 +115,7 @@ def fill_sea(mesh, bed, h, level, edges):
 def malpasset_depth(mesh, bed, sea_edges, sea_level=0.0):
     """Initial depth: reservoir at 100 m in its polygon, sea at ``sea_level``, dry elsewhere."""
     h = np.zeros(mesh.n_faces)
-    res = faces_in_polygon(mesh, MALPASSET_RESERVOIR)
+    res = mesh.faces_in_polygon(MALPASSET_RESERVOIR)
     h[res] = np.maximum(MALPASSET_LEVEL - bed[res], 0.0)
     sea = sea_faces(mesh, bed, sea_level, sea_edges) & ~res
     h[sea] = sea_level - bed[sea]

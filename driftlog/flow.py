@@ -32,8 +32,38 @@ import numba as nb
 import numpy as np
 
 from driftlog._numba import kernel
+from driftlog.columns import (
+    DETADX,
+    DETADY,
+    DRY,
+    DUDT,
+    DUDX,
+    DUDY,
+    DVDT,
+    DVDX,
+    DVDY,
+    ETA,
+    NQ,
+    NVAR,
+    OUTSIDE,
+    Q_ETA,
+    Q_EX,
+    Q_EY,
+    Q_H,
+    Q_U,
+    Q_UX,
+    Q_UY,
+    Q_V,
+    Q_VX,
+    Q_VY,
+    WET,
+    H,
+    U,
+    V,
+)
 from driftlog.errors import FlowDomainError, FlowFileError
 from driftlog.locate import locate_one
+from driftlog.protocols import MeshKernel
 
 __all__ = [
     "FlowField", "FlowSample", "MeshFlowField", "InMemorySnapshots", "SAMPLE_COLUMNS",
@@ -42,16 +72,9 @@ __all__ = [
     "NVAR", "OUTSIDE", "DRY", "WET",
 ]
 
-# columns of a sample
-H, U, V, DUDT, DVDT, DUDX, DUDY, DVDX, DVDY, DETADX, DETADY, ETA = range(12)
-NVAR = 12
+# names of the columns of a sample (driftlog.columns H ... ETA), as written to files
 SAMPLE_COLUMNS = ("water_depth", "velocity_x", "velocity_y", "dudt", "dvdt", "dudx", "dudy",
                   "dvdx", "dvdy", "detadx", "detady", "water_level")
-# flag values
-OUTSIDE, DRY, WET = 0, 1, 2
-# node columns of one snapshot: values, then least-squares gradients of u, v and eta
-Q_H, Q_U, Q_V, Q_ETA, Q_UX, Q_UY, Q_VX, Q_VY, Q_EX, Q_EY = range(10)
-NQ = 10
 FLAG_MEANINGS = "outside dry wet"
 
 
@@ -90,7 +113,12 @@ class FlowSample:
 
 
 class FlowField:
-    """What every flow field offers: sampling at points and its time span."""
+    """Base of the flow fields: sampling at points and the time span.
+
+    Implements the ``driftlog.protocols.FlowFieldLike`` contract: a subclass provides
+    ``sample_into`` (and ``times``/``time_span`` when it has snapshots); ``sample`` is built on
+    it; ``mesh_kernel`` is None (no fused mesh kernel) unless the subclass says otherwise.
+    """
 
     mesh = None
     dry_depth = 1e-3
@@ -130,6 +158,15 @@ class FlowField:
         """Kernel entry: fill ``out`` (n, NVAR) and ``flag`` (n,), update hints ``face``."""
         raise NotImplementedError
 
+    def mesh_kernel(self) -> MeshKernel | None:
+        """The arrays of the fused mesh kernels (``driftlog.fused``) if they apply, else None.
+
+        Only a field whose ``sample_into`` is ``sample_mesh_kernel`` over a mesh's P1 node
+        values answers with a ``MeshKernel``: the tracker then advances each log through a
+        whole step in one kernel, with the same numbers as sampling stage by stage.
+        """
+        return None
+
     def check_time(self, t):
         t0, t1 = self.time_span
         span = max(t1 - t0, 1.0) if np.isfinite(t1 - t0) else 1.0
@@ -168,19 +205,18 @@ def _p1(nodevals, q, n0, n1, n2, a, b, inv_dt, w):
 
 
 @nb.njit(cache=True, inline="always")
-def sample_point(x, y, hint, a, inv_dt, nodevals, dry_depth, recovered,
-                 face_nodes, face_n, face_nbr, node_x, node_y,
-                 x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces):
+def sample_point(x, y, hint, a, inv_dt, nodevals, dry_depth, recovered, loc):
     """Locate and sample one point: (face, flag, values) with values the NVAR columns as a tuple.
 
     The per-point body of ``sample_mesh_kernel``, shared with the fused tracking kernels
-    (``driftlog.fused``) so that both compute the same numbers.
+    (``driftlog.fused``) so that both compute the same numbers.  ``loc``: the mesh's
+    ``Locator``.
     """
-    f = locate_one(x, y, hint, face_nodes, face_n, face_nbr, node_x, node_y,
-                   x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
+    f = locate_one(x, y, hint, loc)
     if f < 0:
         return f, OUTSIDE, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     b = 1.0 - a
+    face_nodes, face_n, node_x, node_y = loc.face_nodes, loc.face_n, loc.node_x, loc.node_y
     # fan triangle (n0, nk, nk+1) that holds the point
     n0 = face_nodes[f, 0]
     k = 1
@@ -196,10 +232,10 @@ def sample_point(x, y, hint, a, inv_dt, nodevals, dry_depth, recovered,
     la, lb, lc, gax, gay, gbx, gby, gcx, gcy = _triangle_weights(
         x, y, node_x[n0], node_y[n0], node_x[n1], node_y[n1], node_x[n2], node_y[n2])
     w = (la, lb, lc, gax, gay, gbx, gby, gcx, gcy)
-    hval, _, _, _ = _p1(nodevals, 0, n0, n1, n2, a, b, inv_dt, w)
-    uval, ux, uy, ut = _p1(nodevals, 1, n0, n1, n2, a, b, inv_dt, w)
-    vval, vx, vy, vt = _p1(nodevals, 2, n0, n1, n2, a, b, inv_dt, w)
-    eval_, ex, ey, _ = _p1(nodevals, 3, n0, n1, n2, a, b, inv_dt, w)
+    hval, _, _, _ = _p1(nodevals, Q_H, n0, n1, n2, a, b, inv_dt, w)
+    uval, ux, uy, ut = _p1(nodevals, Q_U, n0, n1, n2, a, b, inv_dt, w)
+    vval, vx, vy, vt = _p1(nodevals, Q_V, n0, n1, n2, a, b, inv_dt, w)
+    eval_, ex, ey, _ = _p1(nodevals, Q_ETA, n0, n1, n2, a, b, inv_dt, w)
     h = max(hval, 0.0)
     if recovered:
         ux = _p1(nodevals, Q_UX, n0, n1, n2, a, b, inv_dt, w)[0]
@@ -214,9 +250,7 @@ def sample_point(x, y, hint, a, inv_dt, nodevals, dry_depth, recovered,
 
 
 @kernel
-def sample_mesh_kernel(px, py, face, out, flag, a, inv_dt, nodevals, dry_depth, recovered,
-                       face_nodes, face_n, face_nbr, node_x, node_y,
-                       x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces):
+def sample_mesh_kernel(px, py, face, out, flag, a, inv_dt, nodevals, dry_depth, recovered, loc):
     """Locate and sample n points; nodevals (n_nodes, 2 NQ): the NQ node columns at t0 then t1.
 
     ``recovered``: gradients are the P1 interpolation of the nodes' least-squares gradients
@@ -224,8 +258,7 @@ def sample_mesh_kernel(px, py, face, out, flag, a, inv_dt, nodevals, dry_depth, 
     """
     for i in nb.prange(px.shape[0]):
         f, fl, vals = sample_point(px[i], py[i], face[i], a, inv_dt, nodevals, dry_depth,
-                                   recovered, face_nodes, face_n, face_nbr, node_x, node_y,
-                                   x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
+                                   recovered, loc)
         face[i] = f
         flag[i] = fl
         for k in range(NVAR):
@@ -257,7 +290,8 @@ def check_times(times, name):
     if times.size == 0:
         raise FlowFileError(f"{name}: no snapshots (empty time axis)")
     if not np.all(np.isfinite(times)):
-        raise FlowFileError(f"{name}: non-finite snapshot times at {np.flatnonzero(~np.isfinite(times))[:5].tolist()}")
+        bad = np.flatnonzero(~np.isfinite(times))
+        raise FlowFileError(f"{name}: non-finite snapshot times at {bad[:5].tolist()}")
     bad = np.flatnonzero(np.diff(times) <= 0)
     if bad.size:
         i = int(bad[0])
@@ -362,8 +396,9 @@ class MeshFlowField(FlowField):
         P, Px, Py = self.mesh.node_operators()
         u, v = self._velocity(h, hu, hv)
         nodes = np.empty((self.mesh.n_nodes, NQ))
-        nodes[:, :4] = P @ np.column_stack([h, u, v, h + self.bed])
-        np.maximum(nodes[:, 0], 0.0, out=nodes[:, 0])
+        # Q_H, Q_U, Q_V, Q_ETA: the first four columns
+        nodes[:, Q_H:Q_ETA + 1] = P @ np.column_stack([h, u, v, h + self.bed])
+        np.maximum(nodes[:, Q_H], 0.0, out=nodes[:, Q_H])
         if self.gradient == "recovered":
             uve = np.column_stack([u, v, h + self.bed])
             gx, gy = Px @ uve, Py @ uve
@@ -371,7 +406,7 @@ class MeshFlowField(FlowField):
             nodes[:, Q_VX], nodes[:, Q_VY] = gx[:, 1], gy[:, 1]
             nodes[:, Q_EX], nodes[:, Q_EY] = gx[:, 2], gy[:, 2]
         else:
-            nodes[:, 4:] = 0.0
+            nodes[:, Q_UX:] = 0.0
         self._snap[i] = (h, hu, hv, nodes)
         while len(self._snap) > 2:
             self._snap.popitem(last=False)
@@ -399,10 +434,19 @@ class MeshFlowField(FlowField):
             self._pair = (i, j)
         return self._pair_vals, a, inv_dt
 
+    def mesh_kernel(self) -> MeshKernel | None:
+        """Node values, dry depth, gradient choice and locator for the fused kernels.
+
+        A subclass that samples otherwise (its own ``sample_into``) must return None.
+        """
+        return MeshKernel(self.node_values, self.dry_depth, self.gradient == "recovered",
+                          self.mesh.locator())
+
     def sample_into(self, x, y, t, face, out, flag):
+        """Locate and sample P1 on the node values of the snapshots around t (in numba)."""
         vals, a, inv_dt = self.node_values(t)
         sample_mesh_kernel(x, y, face, out, flag, a, inv_dt, vals, self.dry_depth,
-                           self.gradient == "recovered", *self.mesh.locator_args())
+                           self.gradient == "recovered", self.mesh.locator())
 
     # ----------------------------------------------------------------- derived fields
     def face_values(self, t):

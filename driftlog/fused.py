@@ -15,12 +15,17 @@ linearisation (``D0``, ``lin0``), which the tracker's step bound then reuses.
 Within a sub-step the node values do not change except when the step ends on a snapshot
 time: there the end-of-step stage uses the next snapshot pair (as the general path does, the
 flow's ``node_values`` chooses), so the stage times get their own (node values, weight).
+
+The integrator arithmetic is ``driftlog.integrators``' own (``euler_row``, ``rk4_stage_row``,
+``rk4_final_row``): one RK4 for both paths.
 """
 
 import numba as nb
 
 from driftlog._numba import kernel
-from driftlog.flow import NVAR, sample_point
+from driftlog.columns import NVAR, X, Y
+from driftlog.flow import sample_point
+from driftlog.integrators import euler_row, put_row, rk4_final_row, rk4_stage_row, row
 from driftlog.physics import NLIN, log_rhs
 
 __all__ = ["euler_mesh_step", "rk4_mesh_step", "FUSED_METHODS"]
@@ -29,44 +34,34 @@ FUSED_METHODS = ("euler", "rk4")
 
 
 @nb.njit(cache=True, inline="always")
-def _axpy6(s, c, d):
-    """The 6-tuple s + c d (``integrators._axpy`` for one log)."""
-    return (s[0] + c * d[0], s[1] + c * d[1], s[2] + c * d[2], s[3] + c * d[3],
-            s[4] + c * d[4], s[5] + c * d[5])
-
-
-@nb.njit(cache=True, inline="always")
-def _row6(A, i):
-    return (A[i, 0], A[i, 1], A[i, 2], A[i, 3], A[i, 4], A[i, 5])
-
-
-@nb.njit(cache=True, inline="always")
 def _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a, inv_dt, vals,
-            dry_depth, recovered, face_nodes, face_n, face_nbr, node_x, node_y,
-            x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces):
+            dry_depth, recovered, loc):
     """Store the new state s, sample the flow there, and the next step's first stage."""
-    for k in range(6):
-        out[i, k] = s[k]
-    f, fg, fl = sample_point(s[0], s[1], hint, a, inv_dt, vals, dry_depth, recovered,
-                             face_nodes, face_n, face_nbr, node_x, node_y,
-                             x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
+    put_row(out, i, s)
+    f, fg, fl = sample_point(s[X], s[Y], hint, a, inv_dt, vals, dry_depth, recovered, loc)
     face[i] = f
     flag[i] = fg
     for k in range(NVAR):
         F[i, k] = fl[k]
     if want_next:
         d, ln = log_rhs(s, fl, P[i], opt, True)
-        for k in range(6):
-            D0[i, k] = d[k]
+        put_row(D0, i, d)
         for k in range(NLIN):
             lin0[i, k] = ln[k]
 
 
+@nb.njit(cache=True, inline="always")
+def _rk4_stage(s0, k, dt, d, hint, a, inv_dt, vals, dry_depth, recovered, loc, p, opt):
+    """The derivative at RK4 stage k: its state from s0 and d, the flow there, the forces."""
+    s = rk4_stage_row(s0, k, dt, d)
+    _, _, fl = sample_point(s[X], s[Y], hint, a, inv_dt, vals, dry_depth, recovered, loc)
+    dk, _ = log_rhs(s, fl, p, opt, False)
+    return dk
+
+
 @kernel
 def euler_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
-                    a_e, inv_e, vals_e, dry_depth, recovered,
-                    face_nodes, face_n, face_nbr, node_x, node_y,
-                    x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces):
+                    a_e, inv_e, vals_e, dry_depth, recovered, loc):
     """Explicit Euler step of every log from states S0 with first stage D0 (eq. 16).
 
     Writes the new states into ``out``; the flow at the new positions (time t0 + dt, node
@@ -74,52 +69,32 @@ def euler_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
     ``want_next``, the derivative and drag linearisation there into ``D0``, ``lin0``.
     """
     for i in nb.prange(S0.shape[0]):
-        s = _axpy6(_row6(S0, i), dt, _row6(D0, i))
+        s = euler_row(row(S0, i), dt, row(D0, i))
         _finish(i, s, face[i], out, face, F, flag, D0, lin0, P, opt, want_next, a_e, inv_e,
-                vals_e, dry_depth, recovered, face_nodes, face_n, face_nbr, node_x, node_y,
-                x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
+                vals_e, dry_depth, recovered, loc)
 
 
 @kernel
 def rk4_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
-                  a_m, inv_m, vals_m, a_e, inv_e, vals_e, dry_depth, recovered,
-                  face_nodes, face_n, face_nbr, node_x, node_y,
-                  x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces):
+                  a_m, inv_m, vals_m, a_e, inv_e, vals_e, dry_depth, recovered, loc):
     """Classical RK4 step of every log from states S0 with first stage D0.
 
     Stages at t0 + dt/2 (node values ``vals_m``, weight ``a_m``) and t0 + dt (``vals_e``,
     ``a_e``); every stage's point location starts from the log's face at t0, as in the
     general path.  Outputs as ``euler_mesh_step``.
     """
-    c = 0.5 * dt
-    c6 = dt / 6.0
     for i in nb.prange(S0.shape[0]):
         hint = face[i]
         p = P[i]
-        s0 = _row6(S0, i)
-        d0 = _row6(D0, i)
-        s1 = _axpy6(s0, c, d0)
-        _, _, fl = sample_point(s1[0], s1[1], hint, a_m, inv_m, vals_m, dry_depth, recovered,
-                                face_nodes, face_n, face_nbr, node_x, node_y,
-                                x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
-        d1, _ = log_rhs(s1, fl, p, opt, False)
-        s2 = _axpy6(s0, c, d1)
-        _, _, fl = sample_point(s2[0], s2[1], hint, a_m, inv_m, vals_m, dry_depth, recovered,
-                                face_nodes, face_n, face_nbr, node_x, node_y,
-                                x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
-        d2, _ = log_rhs(s2, fl, p, opt, False)
-        s3 = _axpy6(s0, dt, d2)
-        _, _, fl = sample_point(s3[0], s3[1], hint, a_e, inv_e, vals_e, dry_depth, recovered,
-                                face_nodes, face_n, face_nbr, node_x, node_y,
-                                x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
-        d3, _ = log_rhs(s3, fl, p, opt, False)
-        # integrators._rk4_final, same order of operations
-        s = (s0[0] + c6 * (d0[0] + 2.0 * (d1[0] + d2[0]) + d3[0]),
-             s0[1] + c6 * (d0[1] + 2.0 * (d1[1] + d2[1]) + d3[1]),
-             s0[2] + c6 * (d0[2] + 2.0 * (d1[2] + d2[2]) + d3[2]),
-             s0[3] + c6 * (d0[3] + 2.0 * (d1[3] + d2[3]) + d3[3]),
-             s0[4] + c6 * (d0[4] + 2.0 * (d1[4] + d2[4]) + d3[4]),
-             s0[5] + c6 * (d0[5] + 2.0 * (d1[5] + d2[5]) + d3[5]))
+        s0 = row(S0, i)
+        d0 = row(D0, i)
+        # stages 1 and 2 at t0 + dt/2, stage 3 at t0 + dt (RK4_C)
+        d1 = _rk4_stage(s0, 1, dt, d0, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p,
+                        opt)
+        d2 = _rk4_stage(s0, 2, dt, d1, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p,
+                        opt)
+        d3 = _rk4_stage(s0, 3, dt, d2, hint, a_e, inv_e, vals_e, dry_depth, recovered, loc, p,
+                        opt)
+        s = rk4_final_row(s0, dt, d0, d1, d2, d3)
         _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a_e, inv_e,
-                vals_e, dry_depth, recovered, face_nodes, face_n, face_nbr, node_x, node_y,
-                x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
+                vals_e, dry_depth, recovered, loc)

@@ -11,6 +11,12 @@
 
 The flow is sampled at the stage times and positions: ``rhs(S, t, D, lin)`` (given by the
 tracker) samples it and evaluates the physics.
+
+One RK4.  The per-log arithmetic of a stage (``euler_row``, ``rk4_stage_row``) and of the final
+combination (``rk4_final_row``) lives here once, as inline numba functions on one log's state
+(a 6-tuple); the whole-array kernels below and the fused per-log steps (``driftlog.fused``)
+both call them, so the two paths compute the same numbers in the same order (bit for bit).
+Stage k (1 to 3) starts from S0 + RK4_C[k] dt D_{k-1} at time t0 + RK4_C[k] dt.
 """
 
 from __future__ import annotations
@@ -19,28 +25,99 @@ import numba as nb
 import numpy as np
 
 from driftlog._numba import kernel
-from driftlog.logs import OMEGA, UB, VB
-from driftlog.physics import L_PAR, L_PERP, L_ROT, L_WX, L_WY, NLIN
+from driftlog.columns import (
+    L_PAR,
+    L_PERP,
+    L_ROT,
+    L_WX,
+    L_WY,
+    NLIN,
+    NSTATE,
+    OMEGA,
+    THETA,
+    UB,
+    VB,
+    X,
+    Y,
+)
 
-__all__ = ["Integrator", "make_integrator", "phi_functions", "METHODS"]
+__all__ = ["Integrator", "make_integrator", "phi_functions", "METHODS", "RK4_C", "row",
+           "put_row", "euler_row", "rk4_stage_row", "rk4_final_row"]
 
 METHODS = ("euler", "rk4", "exponential")
+# classical RK4 nodes: stage k (0 to 3) at t0 + RK4_C[k] dt
+RK4_C = (0.0, 0.5, 0.5, 1.0)
+
+
+# --------------------------------------------------------------------- one log (6-tuples)
+@nb.njit(cache=True, inline="always")
+def row(A, i):
+    """Row i of a state-like array (n, NSTATE) as a 6-tuple."""
+    return (A[i, X], A[i, Y], A[i, THETA], A[i, UB], A[i, VB], A[i, OMEGA])
+
+
+@nb.njit(cache=True, inline="always")
+def put_row(A, i, s):
+    """Write the 6-tuple s into row i of A."""
+    for k in range(NSTATE):
+        A[i, k] = s[k]
+
+
+@nb.njit(cache=True, inline="always")
+def _axpy_row(s, c, d):
+    """The 6-tuple s + c d."""
+    return (s[X] + c * d[X], s[Y] + c * d[Y], s[THETA] + c * d[THETA], s[UB] + c * d[UB],
+            s[VB] + c * d[VB], s[OMEGA] + c * d[OMEGA])
+
+
+@nb.njit(cache=True, inline="always")
+def euler_row(s0, dt, d0):
+    """Explicit Euler (eq. 16): s0 + dt d0."""
+    return _axpy_row(s0, dt, d0)
+
+
+@nb.njit(cache=True, inline="always")
+def rk4_stage_row(s0, k, dt, d):
+    """State of RK4 stage k (1 to 3) from s0 and the previous stage's derivative d."""
+    return _axpy_row(s0, RK4_C[k] * dt, d)
+
+
+@nb.njit(cache=True, inline="always")
+def _rk4_mix(s, c6, d0, d1, d2, d3):
+    """One component of the RK4 combination: s + dt/6 (d0 + 2 (d1 + d2) + d3), c6 = dt/6."""
+    return s + c6 * (d0 + 2.0 * (d1 + d2) + d3)
+
+
+@nb.njit(cache=True, inline="always")
+def rk4_final_row(s0, dt, d0, d1, d2, d3):
+    """The RK4 step's end state from s0 and the four stage derivatives."""
+    c6 = dt / 6.0
+    return (_rk4_mix(s0[X], c6, d0[X], d1[X], d2[X], d3[X]),
+            _rk4_mix(s0[Y], c6, d0[Y], d1[Y], d2[Y], d3[Y]),
+            _rk4_mix(s0[THETA], c6, d0[THETA], d1[THETA], d2[THETA], d3[THETA]),
+            _rk4_mix(s0[UB], c6, d0[UB], d1[UB], d2[UB], d3[UB]),
+            _rk4_mix(s0[VB], c6, d0[VB], d1[VB], d2[VB], d3[VB]),
+            _rk4_mix(s0[OMEGA], c6, d0[OMEGA], d1[OMEGA], d2[OMEGA], d3[OMEGA]))
+
+
+# --------------------------------------------------------------------- whole arrays
+@kernel
+def _euler(S0, dt, D0, out):
+    for i in nb.prange(S0.shape[0]):
+        put_row(out, i, euler_row(row(S0, i), dt, row(D0, i)))
 
 
 @kernel
-def _axpy(S0, c, D, out):
-    """out = S0 + c D."""
+def _rk4_stage(S0, k, dt, D, out):
     for i in nb.prange(S0.shape[0]):
-        for k in range(S0.shape[1]):
-            out[i, k] = S0[i, k] + c * D[i, k]
+        put_row(out, i, rk4_stage_row(row(S0, i), k, dt, row(D, i)))
 
 
 @kernel
 def _rk4_final(S0, dt, D0, D1, D2, D3, out):
-    c = dt / 6.0
     for i in nb.prange(S0.shape[0]):
-        for k in range(S0.shape[1]):
-            out[i, k] = S0[i, k] + c * (D0[i, k] + 2.0 * (D1[i, k] + D2[i, k]) + D3[i, k])
+        put_row(out, i, rk4_final_row(row(S0, i), dt, row(D0, i), row(D1, i), row(D2, i),
+                                      row(D3, i)))
 
 
 @nb.njit(cache=True)
@@ -83,7 +160,7 @@ def _etd_stage(stage, h, S0, Sa, lin, N0, Na, Nb, Nc, out):
     for i in nb.prange(S0.shape[0]):
         lp, lq, wx, wy, lr = lin[i, L_PAR], lin[i, L_PERP], lin[i, L_WX], lin[i, L_WY], lin[i, L_ROT]
         # positions and angle: no linear part (classical RK4 coefficients)
-        for k in range(3):
+        for k in range(X, THETA + 1):
             if stage == 1:
                 out[i, k] = S0[i, k] + 0.5 * h * N0[i, k]
             elif stage == 2:
@@ -91,7 +168,7 @@ def _etd_stage(stage, h, S0, Sa, lin, N0, Na, Nb, Nc, out):
             elif stage == 3:
                 out[i, k] = Sa[i, k] + 0.5 * h * (2.0 * Nb[i, k] - N0[i, k])
             else:
-                out[i, k] = S0[i, k] + h / 6.0 * (N0[i, k] + 2.0 * (Na[i, k] + Nb[i, k]) + Nc[i, k])
+                out[i, k] = _rk4_mix(S0[i, k], h / 6.0, N0[i, k], Na[i, k], Nb[i, k], Nc[i, k])
         # velocity: operators act as c_perp x + (c_par - c_perp)(w.x) w
         ep, e2p, qp, f1p, f2p, f3p = _etd_coeffs(lp, h)
         eq, e2q, qq, f1q, f2q, f3q = _etd_coeffs(lq, h)
@@ -148,7 +225,7 @@ def _etd_stage(stage, h, S0, Sa, lin, N0, Na, Nb, Nc, out):
 def _add_linear(S, D, lin, N):
     """N = D + M S_vel: the nonlinear part, M the drag linearisation frozen at the step start."""
     for i in nb.prange(S.shape[0]):
-        for k in range(3):
+        for k in range(X, THETA + 1):
             N[i, k] = D[i, k]
         lp, lq, wx, wy = lin[i, L_PAR], lin[i, L_PERP], lin[i, L_WX], lin[i, L_WY]
         u, v = S[i, UB], S[i, VB]
@@ -175,9 +252,9 @@ class Integrator:
     def _buffers(self, n, k):
         if self._n != n:
             self._n = n
-            self.D = [np.empty((n, 6)) for _ in range(k)]
+            self.D = [np.empty((n, NSTATE)) for _ in range(k)]
             self.lin = [np.empty((n, NLIN)) for _ in range(k)]
-            self.stage = [np.empty((n, 6)) for _ in range(3)]
+            self.stage = [np.empty((n, NSTATE)) for _ in range(3)]
         return self.D, self.lin, self.stage
 
     def step(self, S0, t0, dt, rhs, out, have_d0=False):
@@ -195,7 +272,7 @@ class Euler(Integrator):
         D, lin, _ = self._buffers(S0.shape[0], 4)
         if not have_d0:
             rhs(S0, t0, D[0], lin[0])
-        _axpy(S0, dt, D[0], out)
+        _euler(S0, dt, D[0], out)
 
 
 class RK4(Integrator):
@@ -203,12 +280,9 @@ class RK4(Integrator):
         D, lin, st = self._buffers(S0.shape[0], 4)
         if not have_d0:
             rhs(S0, t0, D[0], lin[0])
-        _axpy(S0, 0.5 * dt, D[0], st[0])
-        rhs(st[0], t0 + 0.5 * dt, D[1], None)
-        _axpy(S0, 0.5 * dt, D[1], st[1])
-        rhs(st[1], t0 + 0.5 * dt, D[2], None)
-        _axpy(S0, dt, D[2], st[2])
-        rhs(st[2], t0 + dt, D[3], None)
+        for k in (1, 2, 3):
+            _rk4_stage(S0, k, dt, D[k - 1], st[k - 1])
+            rhs(st[k - 1], t0 + RK4_C[k] * dt, D[k], None)
         _rk4_final(S0, dt, D[0], D[1], D[2], D[3], out)
 
 
@@ -224,7 +298,7 @@ class ExponentialRK4(Integrator):
         D, lin, st = self._buffers(n, 4)
         if self._nn != n:
             self._nn = n
-            self.N = [np.empty((n, 6)) for _ in range(4)]
+            self.N = [np.empty((n, NSTATE)) for _ in range(4)]
         N = self.N
         if not have_d0:
             rhs(S0, t0, D[0], lin[0])

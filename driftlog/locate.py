@@ -6,17 +6,48 @@ so a log that moved a little costs O(1).  Without a hint, or when the walk leave
 
 Faces are convex polygons given counter-clockwise (``Mesh`` checks and repairs this).
 A point on an edge or a vertex belongs to every face that touches it; either is returned.
+
+What the locator reads (the mesh's faces, neighbours and nodes, and the bin grid) travels as
+one ``Locator`` (a named tuple numba passes by value, packed once per mesh by
+``Mesh.locator()``): kernels that locate points take it as one argument.
 """
+
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
 
 from driftlog._numba import kernel
 
-__all__ = ["BinGrid", "build_bin_grid", "locate_points", "point_in_face", "brute_force_locate"]
+__all__ = ["BinGrid", "Locator", "build_bin_grid", "locate_one", "locate_points",
+           "point_in_face", "brute_force_locate"]
 
 OUTSIDE = -1
 MAX_WALK = 64
+
+
+class Locator(NamedTuple):
+    """The mesh and bin-grid arrays of point location, as one kernel argument.
+
+    ``face_nodes`` (n_faces, max nodes) counter-clockwise, ``face_n`` nodes per face,
+    ``face_nbr`` (n_faces, max nodes) the face across each edge (-1: boundary), ``node_x``,
+    ``node_y``; the bin grid: origin ``x0``, ``y0``, inverse bin sizes, ``nbx`` x ``nby`` bins,
+    the faces of bin b in ``bin_faces[bin_start[b]:bin_start[b + 1]]``.
+    """
+
+    face_nodes: np.ndarray
+    face_n: np.ndarray
+    face_nbr: np.ndarray
+    node_x: np.ndarray
+    node_y: np.ndarray
+    x0: float
+    y0: float
+    inv_dx: float
+    inv_dy: float
+    nbx: int
+    nby: int
+    bin_start: np.ndarray
+    bin_faces: np.ndarray
 
 
 @nb.njit(cache=True, inline="always")
@@ -41,8 +72,10 @@ def point_in_face(px, py, f, face_nodes, face_n, node_x, node_y):
 
 
 @nb.njit(cache=True)
-def _walk(px, py, f, face_nodes, face_n, face_nbr, node_x, node_y):
+def _walk(px, py, f, loc):
     """Walk from face f towards the point; the face that holds it, or -1 if the walk gives up."""
+    face_nodes, face_n, face_nbr = loc.face_nodes, loc.face_n, loc.face_nbr
+    node_x, node_y = loc.node_x, loc.node_y
     for _ in range(MAX_WALK):
         n = face_n[f]
         worst = 0.0
@@ -67,43 +100,39 @@ def _walk(px, py, f, face_nodes, face_n, face_nbr, node_x, node_y):
 
 
 @nb.njit(cache=True)
-def _bin_search(px, py, x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces,
-                face_nodes, face_n, node_x, node_y):
-    fx = (px - x0) * inv_dx
-    fy = (py - y0) * inv_dy
+def _bin_search(px, py, loc):
+    nbx, nby = loc.nbx, loc.nby
+    fx = (px - loc.x0) * loc.inv_dx
+    fy = (py - loc.y0) * loc.inv_dy
     if not (fx >= 0.0 and fy >= 0.0 and fx <= nbx and fy <= nby):  # also rejects NaN
         return OUTSIDE
     i = min(int(fx), nbx - 1)
     j = min(int(fy), nby - 1)
     b = j * nbx + i
-    for k in range(bin_start[b], bin_start[b + 1]):
-        f = bin_faces[k]
-        if point_in_face(px, py, f, face_nodes, face_n, node_x, node_y):
+    for k in range(loc.bin_start[b], loc.bin_start[b + 1]):
+        f = loc.bin_faces[k]
+        if point_in_face(px, py, f, loc.face_nodes, loc.face_n, loc.node_x, loc.node_y):
             return f
     return OUTSIDE
 
 
 @nb.njit(cache=True)
-def locate_one(px, py, hint, face_nodes, face_n, face_nbr, node_x, node_y,
-               x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces):
+def locate_one(px, py, hint, loc):
     """The face holding (px, py), -1 outside; walks from ``hint`` when it is a face index."""
     if not (np.isfinite(px) and np.isfinite(py)):
         return OUTSIDE
     if hint >= 0:
-        f = _walk(px, py, hint, face_nodes, face_n, face_nbr, node_x, node_y)
+        f = _walk(px, py, hint, loc)
         if f >= 0:
             return f
-    return _bin_search(px, py, x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces,
-                       face_nodes, face_n, node_x, node_y)
+    return _bin_search(px, py, loc)
 
 
 @kernel
-def locate_points(px, py, face, face_nodes, face_n, face_nbr, node_x, node_y,
-                  x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces):
+def locate_points(px, py, face, loc):
     """Locate every point in place: ``face`` holds the hints on entry and the faces on return."""
     for i in nb.prange(px.shape[0]):
-        face[i] = locate_one(px[i], py[i], face[i], face_nodes, face_n, face_nbr, node_x, node_y,
-                             x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
+        face[i] = locate_one(px[i], py[i], face[i], loc)
 
 
 @nb.njit(cache=True)

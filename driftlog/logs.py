@@ -13,6 +13,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from driftlog.columns import NSTATE, OMEGA, THETA, UB, VB, X, Y
 from driftlog.errors import ScenarioError
 
 __all__ = ["Logs", "STATUS_MEANINGS", "WAITING", "FLOATING", "RESTING", "STRANDED", "LEFT",
@@ -21,8 +22,7 @@ __all__ = ["Logs", "STATUS_MEANINGS", "WAITING", "FLOATING", "RESTING", "STRANDE
 # status codes, written to trajectory files with flag_meanings
 WAITING, FLOATING, RESTING, STRANDED, LEFT = 0, 1, 2, 3, 4
 STATUS_MEANINGS = "waiting floating resting stranded left_domain"
-# columns of the state array
-X, Y, THETA, UB, VB, OMEGA = range(6)
+# columns of the state array: driftlog.columns X, Y, THETA, UB, VB, OMEGA
 
 
 @nb.njit(cache=True)
@@ -66,7 +66,7 @@ class Logs:
         n = x.size
         b = lambda a, dt=np.float64: np.ascontiguousarray(np.broadcast_to(np.asarray(a, dt), n))  # noqa: E731
         self.id = np.arange(n, dtype=np.int64)
-        self.state = np.zeros((n, 6))
+        self.state = np.zeros((n, NSTATE))
         self.state[:, X] = x
         self.state[:, Y] = b(y)
         self.state[:, THETA] = b(theta)

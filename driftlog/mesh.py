@@ -16,7 +16,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from driftlog.errors import MeshError
-from driftlog.locate import build_bin_grid, locate_points
+from driftlog.locate import Locator, build_bin_grid, locate_points
 
 __all__ = ["Mesh", "read_mesh", "read_ugrid_mesh"]
 
@@ -88,6 +88,7 @@ class Mesh:
         self.tag_names = [DEFAULT_TAG]
         self.edge_tag = np.where(self.edge_faces[:, 1] < 0, 0, -1).astype(np.int16)
         self._bins = None
+        self._locator = None
         self._node_interp = None
 
     # ----------------------------------------------------------------- construction
@@ -341,6 +342,13 @@ class Mesh:
         return np.column_stack([self.node_x[e[:, 0]], self.node_y[e[:, 0]],
                                 self.node_x[e[:, 1]], self.node_y[e[:, 1]]])
 
+    def faces_in_polygon(self, polygon) -> np.ndarray:
+        """Boolean mask of the faces whose centroid lies in ``polygon`` [(x, y), ...]."""
+        from matplotlib.path import Path as MplPath
+
+        return MplPath(np.asarray(polygon, float)).contains_points(
+            np.column_stack([self.face_x, self.face_y]))
+
     # ----------------------------------------------------------------- point location
     @property
     def bins(self):
@@ -349,10 +357,12 @@ class Mesh:
                                         self.face_xmax, self.face_ymax)
         return self._bins
 
-    def locator_args(self):
-        """Arrays of the locator kernel, in its argument order after the points and hints."""
-        return (self.face_nodes, self.face_n, self.face_neighbours, self.node_x, self.node_y,
-                *self.bins.args())
+    def locator(self) -> Locator:
+        """What point location reads (faces, neighbours, nodes, bin grid), packed once."""
+        if self._locator is None:
+            self._locator = Locator(self.face_nodes, self.face_n, self.face_neighbours,
+                                    self.node_x, self.node_y, *self.bins.args())
+        return self._locator
 
     def locate(self, x, y, hint=None) -> np.ndarray:
         """Face holding each point (-1 outside); ``hint`` (faces from before) makes it O(1)."""
@@ -363,7 +373,7 @@ class Mesh:
         else:
             face = np.array(hint, dtype=np.int64).ravel().copy()
             face[(face < 0) | (face >= self.n_faces)] = FILL
-        locate_points(x, y, face, *self.locator_args())
+        locate_points(x, y, face, self.locator())
         return face
 
     # ----------------------------------------------------------------- interpolation

@@ -16,8 +16,40 @@ import numba as nb
 import numpy as np
 
 from driftlog._numba import kernel
-from driftlog.flow import DETADX, DETADY, DUDT, DUDX, DUDY, DVDT, DVDX, DVDY, H, U, V
-from driftlog.logs import OMEGA, THETA, UB, VB, submerged_volume
+from driftlog.columns import (
+    DETADX,
+    DETADY,
+    DUDT,
+    DUDX,
+    DUDY,
+    DVDT,
+    DVDX,
+    DVDY,
+    ETA,
+    NLIN,
+    NPARAM,
+    NSTATE,
+    OMEGA,
+    P_DV,
+    P_HSTAR,
+    P_INERTIA,
+    P_K2,
+    P_L,
+    P_MASS,
+    P_PSI,
+    P_R,
+    P_RHOB,
+    P_VOL,
+    THETA,
+    UB,
+    VB,
+    H,
+    U,
+    V,
+    X,
+    Y,
+)
+from driftlog.logs import submerged_volume
 
 __all__ = ["PhysicsOptions", "log_parameters", "rhs_kernel", "log_rhs", "ganser_cd",
            "drag_speed_product", "effective_area", "TRACER", "DRAG", "FULL", "NPARAM", "NLIN"]
@@ -29,17 +61,12 @@ DRAG_LAWS = {"ganser": GANSER, "constant": CONSTANT, "linear": LINEAR}
 AREA_PAPER, AREA_GANSER, AREA_WETTED = 0, 1, 2
 DRAG_AREAS = {"paper": AREA_PAPER, "ganser": AREA_GANSER, "wetted": AREA_WETTED}
 
-# per-log parameter columns
-P_L, P_R, P_RHOB, P_VOL, P_MASS, P_INERTIA, P_DV, P_PSI, P_K2, P_HSTAR = range(10)
-NPARAM = 10
+# per-log parameter columns: driftlog.columns P_L ... P_HSTAR, NPARAM
 # option vector
 (O_LEVEL, O_ROT, O_SUBMERGED, O_SLOPE, O_LAW, O_AREA, O_CD, O_KLIN, O_RHO, O_G, O_MU,
  O_TORQUE_DRAG) = range(12)
 NOPT = 12
-# linearisation columns: drag rates along and across the relative velocity, its direction,
-# and the rotational rate
-L_PAR, L_PERP, L_WX, L_WY, L_ROT = range(5)
-NLIN = 5
+# linearisation columns: driftlog.columns L_PAR ... L_ROT, NLIN
 
 
 @dataclass
@@ -294,11 +321,11 @@ def rhs_kernel(S, F, P, opt, D, lin, want_lin=True):
     (only the first stage of a step needs them: they cost as much as the forces).
     """
     for i in nb.prange(S.shape[0]):
-        s_ = (S[i, 0], S[i, 1], S[i, 2], S[i, 3], S[i, 4], S[i, 5])
-        fl = (F[i, 0], F[i, 1], F[i, 2], F[i, 3], F[i, 4], F[i, 5], F[i, 6], F[i, 7], F[i, 8],
-              F[i, 9], F[i, 10], F[i, 11])
+        s_ = (S[i, X], S[i, Y], S[i, THETA], S[i, UB], S[i, VB], S[i, OMEGA])
+        fl = (F[i, H], F[i, U], F[i, V], F[i, DUDT], F[i, DVDT], F[i, DUDX], F[i, DUDY],
+              F[i, DVDX], F[i, DVDY], F[i, DETADX], F[i, DETADY], F[i, ETA])
         d, ln = log_rhs(s_, fl, P[i], opt, want_lin)
-        for k in range(6):
+        for k in range(NSTATE):
             D[i, k] = d[k]
         if want_lin:
             for k in range(NLIN):

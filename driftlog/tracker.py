@@ -21,19 +21,33 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from driftlog.errors import DriftlogError, ScenarioError
-from driftlog.flow import DRY, NVAR, OUTSIDE, H, MeshFlowField, U, V
-from driftlog.fused import FUSED_METHODS, euler_mesh_step, rk4_mesh_step
-from driftlog.integrators import make_integrator
-from driftlog.logs import FLOATING, LEFT, OMEGA, RESTING, STRANDED, UB, VB, WAITING, X, Y
-from driftlog.physics import (
+from driftlog.columns import (
+    DRY,
+    DUDY,
+    DVDX,
     L_PAR,
     L_PERP,
     L_ROT,
-    PhysicsOptions,
-    log_parameters,
-    rhs_kernel,
+    NLIN,
+    NSTATE,
+    NVAR,
+    OMEGA,
+    OUTSIDE,
+    STATE_NAMES,
+    UB,
+    VB,
+    VELOCITY,
+    H,
+    U,
+    V,
+    X,
+    Y,
 )
+from driftlog.errors import DriftlogError, ScenarioError
+from driftlog.fused import FUSED_METHODS, euler_mesh_step, rk4_mesh_step
+from driftlog.integrators import RK4_C, make_integrator
+from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, WAITING
+from driftlog.physics import PhysicsOptions, log_parameters, rhs_kernel
 
 __all__ = ["Tracker", "StepOptions", "StepTooSmallError", "IntegrationError"]
 
@@ -123,9 +137,14 @@ class Tracker:
         Velocity of a log when released floating: "flow" (the flow's velocity and rotation),
         "rest", or "given" (the velocity in ``logs``).
     fused : bool
-        On a ``MeshFlowField`` with the euler or rk4 integrator, advance each log through a
-        whole step in one kernel (``driftlog.fused``: same results, fewer memory passes);
-        False forces the general path (stage by stage over whole arrays).
+        Where the flow offers a fused mesh kernel (``flow.mesh_kernel()``, a mesh flow sampled
+        P1) and the integrator is euler or rk4, advance each log through a whole step in one
+        kernel (``driftlog.fused``: same results, fewer memory passes); False forces the
+        general path (stage by stage over whole arrays).
+
+    The tracker is the ``driftlog.protocols.ContactBodies`` a contact model moves: ``state``,
+    ``t``, ``ids``, ``length``, ``radius``, ``mass``, ``inertia``, ``min_step``, ``advance``,
+    ``save``/``restore``, ``invalidate_flow``.
     """
 
     def __init__(self, flow, logs, physics=None, method="rk4", step=None, contact=None,
@@ -136,10 +155,9 @@ class Tracker:
         self.physics = physics or PhysicsOptions()
         self.opt = self.physics.vector()
         self.integrator = make_integrator(method)
-        # the fused kernels inline the mesh sampling: only for MeshFlowField's own sampling
-        self.fused = bool(fused and isinstance(flow, MeshFlowField)
-                          and type(flow).sample_into is MeshFlowField.sample_into
-                          and method in FUSED_METHODS)
+        # the fused kernels inline the mesh sampling: only where the flow offers them
+        self._kernel = flow.mesh_kernel() if fused and method in FUSED_METHODS else None
+        self.fused = self._kernel is not None
         self._d0_valid = False
         self.step_options = step or StepOptions()
         self.contact = contact
@@ -191,9 +209,9 @@ class Tracker:
         self._stage_flag = np.zeros(n, np.int8)
         self._stage_face = np.empty(n, np.int64)
         self._sx, self._sy = np.empty(n), np.empty(n)
-        self._next = np.empty((n, 6))
+        self._next = np.empty((n, NSTATE))
         self.D0, self.lin0 = self.integrator.prepare(n)
-        self._nolin = np.empty((n, 5))
+        self._nolin = np.empty((n, NLIN))
         self._d0_valid = False
         if kept is not None:
             # logs that stay floating keep their flow sample and first stage: the same numbers
@@ -260,6 +278,11 @@ class Tracker:
         """The positions were moved from outside (a contact model): sample the flow again."""
         self._F_valid = False
 
+    @property
+    def min_step(self):
+        """Shortest sub-step accepted (integrator.min_step, s)."""
+        return self.step_options.min_step
+
     def advance(self, dt, have_d0=False):
         """Integrate the free motion of the floating logs over dt (no contacts).
 
@@ -285,24 +308,25 @@ class Tracker:
 
     def _fused_step(self, dt):
         """One integrator step of every floating log in one kernel (``driftlog.fused``)."""
-        flow, t0 = self.flow, self.t
-        tail = (flow.dry_depth, flow.gradient == "recovered", *flow.mesh.locator_args())
+        kern, t0 = self._kernel, self.t
+        tail = (kern.dry_depth, kern.recovered, kern.locator)
         head = (self.state, self.D0, self.lin0, self._next, self.face, self.F, self.flag,
                 self.P, self.opt, dt, True)
         # node values in the order the general path asks for them (the flow caches one pair)
         if self.integrator.name == "rk4":
-            vals_m, a_m, inv_m = flow.node_values(t0 + 0.5 * dt)
-            vals_e, a_e, inv_e = flow.node_values(t0 + dt)
+            vals_m, a_m, inv_m = kern.node_values(t0 + RK4_C[1] * dt)  # stages 1 and 2
+            vals_e, a_e, inv_e = kern.node_values(t0 + RK4_C[3] * dt)
             rk4_mesh_step(*head, a_m, inv_m, vals_m, a_e, inv_e, vals_e, *tail)
             self.stats["rhs_evaluations"] += 3
         else:
-            vals_e, a_e, inv_e = flow.node_values(t0 + dt)
+            vals_e, a_e, inv_e = kern.node_values(t0 + dt)
             euler_mesh_step(*head, a_e, inv_e, vals_e, *tail)
 
     def _sync_tracer(self):
         self.state[:, UB] = self.F[:, U]
         self.state[:, VB] = self.F[:, V]
-        self.state[:, OMEGA] = 0.5 * (self.F[:, 7] - self.F[:, 6]) if self.physics.rotation else 0.0
+        self.state[:, OMEGA] = (0.5 * (self.F[:, DVDX] - self.F[:, DUDY])
+                                if self.physics.rotation else 0.0)
 
     def max_step(self):
         """The sub-step bound at the current state."""
@@ -330,7 +354,8 @@ class Tracker:
                 self._scatter()
                 scattered = changed = True
                 L.status[self.act] = st
-                L.state[self.act[st != FLOATING], UB:] = 0.0  # resting logs do not move (MODEL.md 3)
+                # resting logs do not move (MODEL.md 3)
+                L.state[self.act[st != FLOATING], VELOCITY] = 0.0
         idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
         # on a steady flow an idle log can only change when it has just stopped
         if idle.size and (not self._steady or changed or self._first_check):
@@ -349,7 +374,7 @@ class Tracker:
         n = _classify(s.values, s.flag, L.float_depth[idx], st)
         if n:
             lifted = idx[(st == FLOATING)]
-            L.state[lifted, UB:] = 0.0  # a lifted log starts from rest
+            L.state[lifted, VELOCITY] = 0.0  # a lifted log starts from rest
             L.status[idx] = st
         return n > 0
 
@@ -370,7 +395,8 @@ class Tracker:
         out = due[s.flag == OUTSIDE]
         if out.size:
             i = int(out[0])
-            raise ScenarioError(f"logs[{L.group[i]}].x", [float(L.state[i, X]), float(L.state[i, Y])],
+            raise ScenarioError(f"logs[{L.group[i]}].x",
+                                [float(L.state[i, X]), float(L.state[i, Y])],
                                 f"log {i} is seeded outside the flow domain "
                                 f"({out.size} logs in all); logs must start inside the mesh")
         L.face[due] = s.face
@@ -378,7 +404,7 @@ class Tracker:
         _classify(s.values, s.flag, L.float_depth[due], st)
         L.status[due] = st
         fl = st == FLOATING
-        L.state[due[fl & (self.initial_velocity[due] == "rest")], UB:] = 0.0
+        L.state[due[fl & (self.initial_velocity[due] == "rest")], VELOCITY] = 0.0
         with_flow = fl & (self.initial_velocity[due] == "flow")
         L.state[due[with_flow], UB] = s.u[with_flow]
         L.state[due[with_flow], VB] = s.v[with_flow]
@@ -395,7 +421,7 @@ class Tracker:
         run continues exactly as the uninterrupted one would have.
         """
         L = self.logs
-        for k, name in enumerate(("x", "y", "theta", "u", "v", "omega")):
+        for k, name in enumerate(STATE_NAMES):
             L.state[index, k] = columns[name]
         L.status[index] = columns["status"]
         self._recorded_left[index[columns["status"] == LEFT]] = True
@@ -438,9 +464,8 @@ class Tracker:
         if idx.size == 0:
             return
         s = self.flow.sample(L.state[idx, X], L.state[idx, Y], self.t, face=L.face[idx])
-        cols = {"x": L.state[idx, 0], "y": L.state[idx, 1], "theta": L.state[idx, 2],
-                "u": L.state[idx, 3], "v": L.state[idx, 4], "omega": L.state[idx, 5],
-                "status": L.status[idx], "water_depth": s.h, "flow_u": s.u, "flow_v": s.v}
+        cols = {name: L.state[idx, k] for k, name in enumerate(STATE_NAMES)}
+        cols.update(status=L.status[idx], water_depth=s.h, flow_u=s.u, flow_v=s.v)
         self.writer.record(self.t, idx, cols)
         self._recorded_left[idx[L.status[idx] == LEFT]] = True
         if self.contact is not None:
@@ -483,7 +508,8 @@ class Tracker:
                     if not np.all(np.isfinite(self.state)):
                         bad = self.ids[~np.isfinite(self.state).all(axis=1)]
                         raise IntegrationError(
-                            f"the {self.integrator.name} integration diverged at t = {self.t:.6g} s "
+                            f"the {self.integrator.name} integration diverged at "
+                            f"t = {self.t:.6g} s "
                             f"(logs {bad[:5].tolist()}): the step is too long for the drag "
                             "relaxation time; use integrator.method = 'exponential' or set "
                             "integrator.drag_fraction > 0")

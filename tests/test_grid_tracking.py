@@ -11,26 +11,16 @@ import numpy as np
 import pytest
 from driftlog.adapters.cfgrid import open_cf_grid
 
-from driftlog.flow import WET, FlowField, H, U, V
+from driftlog.analytic import DriftingEddy
+from driftlog.columns import X, Y
 from driftlog.logs import Logs
 from driftlog.physics import PhysicsOptions
 from driftlog.tracker import StepOptions, Tracker
 
-CENTER, DRIFT, SIGMA, OMEGA0 = (400.0, 600.0), 0.5, 150.0, 0.01
+CENTER = (400.0, 600.0)
 SIZE, DURATION, SNAPSHOT = 1200.0, 300.0, 5.0
-
-
-def velocity(x, y, t):
-    dx, dy = x - (CENTER[0] + DRIFT * t), y - CENTER[1]
-    om = OMEGA0 * np.exp(-(dx * dx + dy * dy) / (2 * SIGMA ** 2))
-    return DRIFT - om * dy, om * dx
-
-
-def exact(x0, y0, t):
-    dx, dy = x0 - CENTER[0], y0 - CENTER[1]
-    r = np.hypot(dx, dy)
-    a = np.arctan2(dy, dx) + OMEGA0 * np.exp(-r * r / (2 * SIGMA ** 2)) * t
-    return CENTER[0] + DRIFT * t + r * np.cos(a), CENTER[1] + r * np.sin(a)
+EDDY = DriftingEddy(CENTER, drift=0.5, sigma=150.0, omega0=0.01, depth=2.0)
+velocity, exact = EDDY.velocity, EDDY.exact
 
 
 def write_grid(path, dx):
@@ -62,19 +52,6 @@ def write_grid(path, dx):
     return path
 
 
-class Formula(FlowField):
-    """The eddy from its formula (tracers need h, u, v only)."""
-
-    time_span = (0.0, DURATION)
-
-    def sample_into(self, x, y, t, face, out, flag):
-        face[:] = -1
-        out[:] = 0.0
-        out[:, H] = 2.0
-        out[:, U], out[:, V] = velocity(x, y, t)
-        flag[:] = WET
-
-
 def track(flow, x, y, dt):
     logs = Logs(x, y, 0.0, 0.5, 0.05, 500.0)
     Tracker(flow, logs, PhysicsOptions(level="tracer", rotation=False), "rk4",
@@ -82,7 +59,7 @@ def track(flow, x, y, dt):
             t_end=DURATION, output_interval=DURATION, hydro_step=DURATION).run()
     assert np.all(logs.status == 1)
     ex, ey = exact(x, y, DURATION)
-    return np.max(np.hypot(logs.state[:, 0] - ex, logs.state[:, 1] - ey))
+    return np.max(np.hypot(logs.state[:, X] - ex, logs.state[:, Y] - ey))
 
 
 @pytest.fixture(scope="module")
@@ -103,8 +80,28 @@ def test_exact_trajectories_solve_the_flow(seeds):
     np.testing.assert_allclose((y1 - y0) / (2 * h), v, atol=1e-7)
 
 
+def test_eddy_gradient_and_time_derivative_are_exact(seeds):
+    """The field's J and dU/dt against central differences of its velocity formula."""
+    x, y = seeds
+    t, h = 77.0, 1e-4
+    s = EDDY.sample(x, y, t)
+    np.testing.assert_array_equal(np.column_stack(velocity(x, y, t)),
+                                  np.column_stack([s.u, s.v]))
+    cols = {"x": (h, 0.0, 0.0), "y": (0.0, h, 0.0), "t": (0.0, 0.0, h)}
+    d = {k: (np.array(velocity(x + a, y + b, t + c)) - np.array(velocity(x - a, y - b, t - c)))
+         / (2 * h) for k, (a, b, c) in cols.items()}
+    np.testing.assert_allclose(s.jacobian[:, :, 0], d["x"].T, atol=1e-9)
+    np.testing.assert_allclose(s.jacobian[:, :, 1], d["y"].T, atol=1e-9)
+    np.testing.assert_allclose(s.dudt, d["t"].T, atol=1e-9)
+    # between snapshots: linear in time, as a reader of the grid would interpolate
+    snap = DriftingEddy(CENTER, 0.5, 150.0, 0.01, 2.0, snapshot=SNAPSHOT).sample(x, y, 12.5)
+    u0, u1 = velocity(x, y, 10.0)[0], velocity(x, y, 15.0)[0]
+    np.testing.assert_allclose(snap.u, 0.5 * (u0 + u1), rtol=1e-15, atol=1e-15)
+    np.testing.assert_allclose(snap.dudt[:, 0], (u1 - u0) / SNAPSHOT, rtol=1e-12, atol=1e-15)
+
+
 def test_rk4_order_four_on_the_formula(seeds):
-    errors = [track(Formula(), *seeds, dt) for dt in (20.0, 10.0)]
+    errors = [track(EDDY, *seeds, dt) for dt in (20.0, 10.0)]
     assert errors[1] < 1e-3
     assert 3.7 < np.log2(errors[0] / errors[1]) < 4.3
 

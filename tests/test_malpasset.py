@@ -17,7 +17,6 @@ import pytest
 from driftlog.errors import ScenarioError
 from driftlog.floodsetup import (
     MALPASSET_RESERVOIR,
-    faces_in_polygon,
     low_boundary_edges,
     malpasset_solver,
     read_observations,
@@ -70,7 +69,7 @@ def test_setup_follows_the_data_readme(malpasset_mesh):
     sea = sea_faces(mesh, bed, 0.0, edges)
     assert sea.sum() == 3911 and mesh.face_x[sea].min() > 14000.0
     assert np.sum(bed < 0.0) > sea.sum()  # low ground cut off from the sea stays dry
-    res = faces_in_polygon(mesh, MALPASSET_RESERVOIR)
+    res = mesh.faces_in_polygon(MALPASSET_RESERVOIR)
     volume = np.sum(np.maximum(100.0 - bed[res], 0.0) * mesh.face_area[res])
     assert 45e6 < volume < 55e6  # m3 (the 1959 reservoir held about 50 Mm3)
 

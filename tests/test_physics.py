@@ -3,11 +3,9 @@ import numpy as np
 import pytest
 
 from driftlog.analytic import SolidBodyRotation, UniformFlow
+from driftlog.columns import L_PAR, L_PERP, NLIN
 from driftlog.logs import Logs, flotation_depth, submerged_volume
 from driftlog.physics import (
-    L_PAR,
-    L_PERP,
-    NLIN,
     PhysicsOptions,
     drag_speed_product,
     effective_area,

@@ -3,13 +3,17 @@
 On still water with no forces a log moves in a straight line at constant velocity and spins
 at a constant rate; the exact solution of the motion lets tests and benchmarks check contacts
 alone (conservation of energy and momenta to round-off, collision counts) without the flow.
-``BallisticLogs`` offers what ``Tracker`` offers a contact model: ``state``, ``length``,
-``radius``, ``mass``, ``inertia``, ``ids``, ``t``, ``save``/``restore``, ``advance``.
+``BallisticLogs`` offers what ``Tracker`` offers a contact model (the
+``driftlog.protocols.ContactBodies`` contract): ``state``, ``length``, ``radius``, ``mass``,
+``inertia``, ``ids``, ``t``, ``min_step``, ``save``/``restore``, ``advance``,
+``invalidate_flow``.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from driftlog.columns import OMEGA, THETA, UB, VB, X, Y
 
 __all__ = ["BallisticLogs", "run_contacts"]
 
@@ -34,6 +38,7 @@ class BallisticLogs:
         self.inertia = self.mass * (self.length ** 2 / 12.0 + self.radius ** 2 / 4.0)
         self.ids = np.arange(n, dtype=np.int64)
         self.t = float(t)
+        self.min_step = 1e-12  # s: contact steps below this are a jam
         self.advances = 0
 
     def save(self):
@@ -48,9 +53,9 @@ class BallisticLogs:
     def advance(self, dt):
         """Free motion over dt."""
         s = self.state
-        s[:, 0] += dt * s[:, 3]
-        s[:, 1] += dt * s[:, 4]
-        s[:, 2] += dt * s[:, 5]
+        s[:, X] += dt * s[:, UB]
+        s[:, Y] += dt * s[:, VB]
+        s[:, THETA] += dt * s[:, OMEGA]
         self.t += dt
         self.advances += 1
 
@@ -60,10 +65,10 @@ class BallisticLogs:
     def max_step(self, length_fraction=1.0, angle_step=np.pi / 4):
         """The paper's sub-step bound (MODEL.md 8): min(L / |U_b|, (pi/4) / |omega_b|)."""
         s = self.state
-        sp = np.hypot(s[:, 3], s[:, 4])
+        sp = np.hypot(s[:, UB], s[:, VB])
         with np.errstate(divide="ignore"):
             a = np.where(sp > 0, length_fraction * self.length / sp, np.inf).min()
-            b = np.where(s[:, 5] != 0, angle_step / np.abs(s[:, 5]), np.inf).min()
+            b = np.where(s[:, OMEGA] != 0, angle_step / np.abs(s[:, OMEGA]), np.inf).min()
         return float(min(a, b))
 
 

@@ -16,6 +16,7 @@ import numba as nb
 import numpy as np
 
 from driftlog._numba import kernel
+from driftlog.columns import CAP_AX, CAP_AY, CAP_BX, CAP_BY, CAP_R, THETA
 
 __all__ = ["grid_pairs", "brute_pairs", "StaticGrid", "log_boxes"]
 
@@ -114,8 +115,8 @@ def log_boxes(S, length, radius, margin, ex, ey):
     """Half extents of the logs' boxes: capsule plus ``margin`` (per log)."""
     for i in range(S.shape[0]):
         h = 0.5 * length[i]
-        ex[i] = h * abs(np.cos(S[i, 2])) + radius[i] + margin[i]
-        ey[i] = h * abs(np.sin(S[i, 2])) + radius[i] + margin[i]
+        ex[i] = h * abs(np.cos(S[i, THETA])) + radius[i] + margin[i]
+        ey[i] = h * abs(np.sin(S[i, THETA])) + radius[i] + margin[i]
 
 
 # --------------------------------------------------------------------- static obstacles
@@ -189,11 +190,11 @@ class StaticGrid:
     def __init__(self, capsules, cell):
         c = np.asarray(capsules, float).reshape(-1, 5)
         self.capsules = c
-        r = c[:, 4]
-        self.lo_x = np.minimum(c[:, 0], c[:, 2]) - r
-        self.hi_x = np.maximum(c[:, 0], c[:, 2]) + r
-        self.lo_y = np.minimum(c[:, 1], c[:, 3]) - r
-        self.hi_y = np.maximum(c[:, 1], c[:, 3]) + r
+        r = c[:, CAP_R]
+        self.lo_x = np.minimum(c[:, CAP_AX], c[:, CAP_BX]) - r
+        self.hi_x = np.maximum(c[:, CAP_AX], c[:, CAP_BX]) + r
+        self.lo_y = np.minimum(c[:, CAP_AY], c[:, CAP_BY]) - r
+        self.hi_y = np.maximum(c[:, CAP_AY], c[:, CAP_BY]) + r
         m = max(c.shape[0], 1)
         if c.shape[0]:
             cover = ((self.hi_x - self.lo_x) / cell + 1) * ((self.hi_y - self.lo_y) / cell + 1)

@@ -24,6 +24,7 @@ from __future__ import annotations
 import fcl
 import numpy as np
 
+from driftlog.columns import CAP_AX, CAP_BY, CAP_R, THETA, X, Y
 from driftlog.contact.geometry import NRES, capsule_gap, log_endpoints
 from driftlog.contact.native import NativeBackend
 
@@ -159,9 +160,9 @@ class FCLBackend:
         r_ll = np.empty((ll.shape[0], NRES))
         r_lo = np.empty((lo.shape[0], NRES))
         used = np.unique(np.concatenate([ll.ravel(), lo[:, 0]])) if len(ll) + len(lo) else []
-        logs = {int(i): log_object(S[i, 0], S[i, 1], S[i, 2], length[i], radius[i])
+        logs = {int(i): log_object(S[i, X], S[i, Y], S[i, THETA], length[i], radius[i])
                 for i in used}
-        ends = {int(i): log_endpoints(S[i, 0], S[i, 1], S[i, 2], length[i]) for i in used}
+        ends = {int(i): log_endpoints(S[i, X], S[i, Y], S[i, THETA], length[i]) for i in used}
         for k, (i, j) in enumerate(ll):
             self._measure(logs[int(i)], logs[int(j)], r_ll[k], lambda o, i=i, j=j: capsule_gap(
                 *ends[int(i)], radius[i], *ends[int(j)], radius[j], o), ends[int(i)],
@@ -173,8 +174,8 @@ class FCLBackend:
             zi = self.z[owner[c]]
             o1 = logs[int(i)]
             if zi != 0.0:  # a 3D mesh: the log lies at the cut height
-                o1 = log_object(S[i, 0], S[i, 1], S[i, 2], length[i], radius[i], zi)
-            self._measure(o1, obj, r_lo[k], lambda o, i=i, c=c: capsule_gap(
-                *ends[int(i)], radius[i], *caps[c, :4], caps[c, 4], o), ends[int(i)],
-                caps[c, :4])
+                o1 = log_object(S[i, X], S[i, Y], S[i, THETA], length[i], radius[i], zi)
+            seg = caps[c, CAP_AX:CAP_BY + 1]  # a, b
+            self._measure(o1, obj, r_lo[k], lambda o, i=i, c=c, seg=seg: capsule_gap(
+                *ends[int(i)], radius[i], *seg, caps[c, CAP_R], o), ends[int(i)], seg)
         return r_ll, r_lo

@@ -17,13 +17,19 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from driftlog.columns import CAP_AX, CAP_AY, CAP_BX, CAP_BY, CAP_R, CX, CY, GAP, NRES, NX, NY
+
 __all__ = ["segment_closest_points", "capsule_gap", "log_endpoints", "capsule_pair_gaps",
            "GAP", "NX", "NY", "CX", "CY", "NRES"]
 
-# columns of a contact result
-GAP, NX, NY, CX, CY = range(5)
-NRES = 5
+# columns of a contact result: driftlog.columns GAP, NX, NY, CX, CY (NRES); of a capsule: CAP_*
 _PARALLEL = 1e-12  # |sin| between the axes below which they are treated as parallel
+
+
+@nb.njit(cache=True, inline="always")
+def capsule_row(caps, k):
+    """Capsule k of an array (n, NCAP) as (ax, ay, bx, by, r)."""
+    return caps[k, CAP_AX], caps[k, CAP_AY], caps[k, CAP_BX], caps[k, CAP_BY], caps[k, CAP_R]
 
 
 @nb.njit(cache=True, inline="always")
@@ -140,5 +146,6 @@ def log_endpoints(x, y, theta, length):
 def capsule_pair_gaps(caps1, caps2, out):
     """Gaps of capsule pairs row by row: caps (n, 5) = ax, ay, bx, by, r; out (n, NRES)."""
     for k in range(caps1.shape[0]):
-        capsule_gap(caps1[k, 0], caps1[k, 1], caps1[k, 2], caps1[k, 3], caps1[k, 4],
-                    caps2[k, 0], caps2[k, 1], caps2[k, 2], caps2[k, 3], caps2[k, 4], out[k])
+        ax, ay, bx, by, r1 = capsule_row(caps1, k)
+        cx, cy, dx, dy, r2 = capsule_row(caps2, k)
+        capsule_gap(ax, ay, bx, by, r1, cx, cy, dx, dy, r2, out[k])

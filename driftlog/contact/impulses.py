@@ -25,6 +25,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from driftlog.columns import CX, CY, GAP, NX, NY, OMEGA, UB, VB, X, Y
+
 __all__ = ["resolve_impulses", "pair_impulse", "separate_resting", "kinetic_energy", "momenta"]
 
 
@@ -40,17 +42,17 @@ def pair_impulse(S, inv_m, inv_i, b1, b2, nx, ny, cx, cy, eps, vtol, rest_speed=
     ``b2 < 0``: the other body is fixed (a wall or an obstacle).  Approach speeds below
     ``rest_speed`` are resting contact: no bounce (eps = 0).
     """
-    r1x, r1y = cx - S[b1, 0], cy - S[b1, 1]
-    v1x = S[b1, 3] - S[b1, 5] * r1y  # U + omega x r, with omega x r = omega (-r_y, r_x)
-    v1y = S[b1, 4] + S[b1, 5] * r1x
+    r1x, r1y = cx - S[b1, X], cy - S[b1, Y]
+    v1x = S[b1, UB] - S[b1, OMEGA] * r1y  # U + omega x r, with omega x r = omega (-r_y, r_x)
+    v1y = S[b1, VB] + S[b1, OMEGA] * r1x
     rn1 = _cross(r1x, r1y, nx, ny)
     k = inv_m[b1] + rn1 * rn1 * inv_i[b1]
     vx, vy = v1x, v1y
     rn2 = 0.0
     if b2 >= 0:
-        r2x, r2y = cx - S[b2, 0], cy - S[b2, 1]
-        vx -= S[b2, 3] - S[b2, 5] * r2y
-        vy -= S[b2, 4] + S[b2, 5] * r2x
+        r2x, r2y = cx - S[b2, X], cy - S[b2, Y]
+        vx -= S[b2, UB] - S[b2, OMEGA] * r2y
+        vy -= S[b2, VB] + S[b2, OMEGA] * r2x
         rn2 = _cross(r2x, r2y, nx, ny)
         k += inv_m[b2] + rn2 * rn2 * inv_i[b2]
     vn = vx * nx + vy * ny
@@ -58,13 +60,13 @@ def pair_impulse(S, inv_m, inv_i, b1, b2, nx, ny, cx, cy, eps, vtol, rest_speed=
         return 0.0
     e = eps if vn < -rest_speed else 0.0
     j = -(1.0 + e) * vn / k  # eq. 13
-    S[b1, 3] += j * nx * inv_m[b1]
-    S[b1, 4] += j * ny * inv_m[b1]
-    S[b1, 5] += rn1 * j * inv_i[b1]
+    S[b1, UB] += j * nx * inv_m[b1]
+    S[b1, VB] += j * ny * inv_m[b1]
+    S[b1, OMEGA] += rn1 * j * inv_i[b1]
     if b2 >= 0:
-        S[b2, 3] -= j * nx * inv_m[b2]
-        S[b2, 4] -= j * ny * inv_m[b2]
-        S[b2, 5] -= rn2 * j * inv_i[b2]
+        S[b2, UB] -= j * nx * inv_m[b2]
+        S[b2, VB] -= j * ny * inv_m[b2]
+        S[b2, OMEGA] -= rn2 * j * inv_i[b2]
     return j
 
 
@@ -95,8 +97,8 @@ def resolve_impulses(S, inv_m, inv_i, body1, body2, normal_point, eps, vtol, max
     while True:
         applied = 0
         for c in range(body1.size):
-            j = pair_impulse(S, inv_m, inv_i, body1[c], body2[c], normal_point[c, 1],
-                             normal_point[c, 2], normal_point[c, 3], normal_point[c, 4], eps,
+            j = pair_impulse(S, inv_m, inv_i, body1[c], body2[c], normal_point[c, NX],
+                             normal_point[c, NY], normal_point[c, CX], normal_point[c, CY], eps,
                              vtol, rest_speed)
             if j != 0.0:
                 impulse[c] += j
@@ -120,38 +122,39 @@ def separate_resting(S, inv_m, body1, body2, normal_point, rest_speed):
     """
     moved = 0
     for c in range(body1.size):
-        gap = normal_point[c, 0]
+        gap = normal_point[c, GAP]
         if gap >= 0.0:
             continue
         i, j = body1[c], body2[c]
-        nx, ny, cx, cy = normal_point[c, 1], normal_point[c, 2], normal_point[c, 3], \
-            normal_point[c, 4]
-        vx = S[i, 3] - S[i, 5] * (cy - S[i, 1])
-        vy = S[i, 4] + S[i, 5] * (cx - S[i, 0])
+        nx, ny, cx, cy = normal_point[c, NX], normal_point[c, NY], normal_point[c, CX], \
+            normal_point[c, CY]
+        vx = S[i, UB] - S[i, OMEGA] * (cy - S[i, Y])
+        vy = S[i, VB] + S[i, OMEGA] * (cx - S[i, X])
         w = inv_m[i]
         if j >= 0:
-            vx -= S[j, 3] - S[j, 5] * (cy - S[j, 1])
-            vy -= S[j, 4] + S[j, 5] * (cx - S[j, 0])
+            vx -= S[j, UB] - S[j, OMEGA] * (cy - S[j, Y])
+            vy -= S[j, VB] + S[j, OMEGA] * (cx - S[j, X])
             w += inv_m[j]
         if abs(vx * nx + vy * ny) > rest_speed or w <= 0.0:
             continue
         d = -gap / w
-        S[i, 0] += d * inv_m[i] * nx
-        S[i, 1] += d * inv_m[i] * ny
+        S[i, X] += d * inv_m[i] * nx
+        S[i, Y] += d * inv_m[i] * ny
         if j >= 0:
-            S[j, 0] -= d * inv_m[j] * nx
-            S[j, 1] -= d * inv_m[j] * ny
+            S[j, X] -= d * inv_m[j] * nx
+            S[j, Y] -= d * inv_m[j] * ny
         moved += 1
     return moved
 
 
 def kinetic_energy(S, mass, inertia):
     """Kinetic energy of translation and rotation, sum over logs."""
-    return float(0.5 * np.sum(mass * (S[:, 3] ** 2 + S[:, 4] ** 2) + inertia * S[:, 5] ** 2))
+    return float(0.5 * np.sum(mass * (S[:, UB] ** 2 + S[:, VB] ** 2)
+                              + inertia * S[:, OMEGA] ** 2))
 
 
 def momenta(S, mass, inertia):
     """Linear momentum (px, py) and angular momentum about the origin (orbital + spin)."""
-    px, py = np.sum(mass * S[:, 3]), np.sum(mass * S[:, 4])
-    lz = np.sum(mass * (S[:, 0] * S[:, 4] - S[:, 1] * S[:, 3]) + inertia * S[:, 5])
+    px, py = np.sum(mass * S[:, UB]), np.sum(mass * S[:, VB])
+    lz = np.sum(mass * (S[:, X] * S[:, VB] - S[:, Y] * S[:, UB]) + inertia * S[:, OMEGA])
     return float(px), float(py), float(lz)

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from driftlog.contact.geometry import NRES
+from driftlog.columns import CX, CY, GAP, NRES, OMEGA, POSITION, UB, VB, VELOCITY
 from driftlog.contact.impulses import resolve_impulses, separate_resting
 from driftlog.contact.moreau import moreau_solve
 from driftlog.contact.native import NativeBackend, end_contacts
@@ -55,7 +55,7 @@ class Contacts:
     @property
     def gap(self):
         """Signed gaps (negative: overlap)."""
-        return self.res[:, 0]
+        return self.res[:, GAP]
 
     def select(self, mask):
         """The contacts where ``mask`` is true."""
@@ -206,14 +206,14 @@ class ContactModel:
         S = bodies.state
         key = (bodies.t, S.shape[0])
         if self._cache is not None and self._cache[0] == key and np.array_equal(
-                self._cache[1], S[:, :3]):
+                self._cache[1], S[:, POSITION]):
             C = self._cache[2]
         else:
             C = self.detect(bodies, np.full(S.shape[0], tol))
         return C.select(C.gap <= tol)
 
     def _remember(self, bodies, C):
-        self._cache = ((bodies.t, bodies.state.shape[0]), bodies.state[:, :3].copy(), C)
+        self._cache = ((bodies.t, bodies.state.shape[0]), bodies.state[:, POSITION].copy(), C)
 
     # ----------------------------------------------------------------- hits
     def _record(self, bodies, C, impulse, t):
@@ -232,8 +232,8 @@ class ContactModel:
         jsum = np.bincount(inv, j, len(pair))
         self._hits.append(dict(time=np.full(len(pair), t), log_id=pair[:, 0], other=pair[:, 1],
                                impulse=jsum,
-                               x=np.bincount(inv, j * C.res[hit, 3], len(pair)) / jsum,
-                               y=np.bincount(inv, j * C.res[hit, 4], len(pair)) / jsum))
+                               x=np.bincount(inv, j * C.res[hit, CX], len(pair)) / jsum,
+                               y=np.bincount(inv, j * C.res[hit, CY], len(pair)) / jsum))
 
     def drain_hits(self):
         """Contacts since the last call: dict of arrays time, log_id, other, impulse, x, y."""
@@ -246,7 +246,10 @@ class ContactModel:
 
     # ----------------------------------------------------------------- stepping
     def substep(self, bodies, dt):
-        """Advance ``bodies`` (the tracker) by at most dt with contacts; returns the step."""
+        """Advance ``bodies`` by at most dt with contacts; returns the step.
+
+        ``bodies``: a ``driftlog.protocols.ContactBodies`` (the tracker, ``BallisticLogs``).
+        """
         self.stats["substeps"] += 1
         if bodies.state.shape[0] == 0:
             bodies.advance(dt)
@@ -257,10 +260,6 @@ class ContactModel:
 
     def _inverse_masses(self, bodies):
         return 1.0 / bodies.mass, 1.0 / bodies.inertia
-
-    def _min_step(self, bodies):
-        so = getattr(bodies, "step_options", None)
-        return so.min_step if so is not None else 1e-12
 
     def _jam(self, bodies, C, why):
         logs = np.concatenate([C.body1, C.body2[C.body2 >= 0]]) if len(C) else np.empty(0, int)
@@ -292,7 +291,7 @@ class ContactModel:
         if len(C):
             inv_m, inv_i = self._inverse_masses(bodies)
             imp = np.zeros(len(C))
-            vscale = float(np.abs(S[:, 3:5]).max()) + 1e-3
+            vscale = float(np.abs(S[:, UB:VB + 1]).max()) + 1e-3
             events = resolve_impulses(S, inv_m, inv_i, C.body1, C.body2, C.res,
                                       self.restitution, 1e-10 * vscale, self.max_events, imp,
                                       self.rest_speed)
@@ -309,8 +308,7 @@ class ContactModel:
             if self.rest_speed > 0.0 and separate_resting(S, inv_m, C.body1, C.body2, C.res,
                                                           self.rest_speed):
                 st["separations"] += 1
-                if hasattr(bodies, "invalidate_flow"):
-                    bodies.invalidate_flow()
+                bodies.invalidate_flow()
         self._active = _body_pairs(bodies, C)
         self._count(bodies, dt, events, C)
         h = dt
@@ -326,7 +324,7 @@ class ContactModel:
                 self._bracket = None
             else:
                 h = min(h, self._bracket - bodies.t)
-        min_step = self._min_step(bodies)
+        min_step = bodies.min_step
         while True:
             if h < min_step:
                 self._jam(bodies, C, f"the contact sub-step fell to {h:.3g} s (below "
@@ -391,7 +389,8 @@ class ContactModel:
         if len(near):
             idx = np.unique(np.concatenate([near.body1, near.body2[near.body2 >= 0]]))
             reach = 0.5 * bodies.length[idx] + bodies.radius[idx]
-            speed = float((np.hypot(S0[idx, 3], S0[idx, 4]) + np.abs(S0[idx, 5]) * reach).max())
+            speed = float((np.hypot(S0[idx, UB], S0[idx, VB])
+                           + np.abs(S0[idx, OMEGA]) * reach).max())
             if speed > 0.0:
                 dt = min(dt, self.motion_share * float(bodies.radius.min()) / speed)
         bodies.advance(dt)
@@ -399,7 +398,7 @@ class ContactModel:
         S = bodies.state
         # candidates over the motion of the step: start and free-end velocities
         fast = S0.copy()
-        fast[:, 3:6] = np.maximum(np.abs(S0[:, 3:6]), np.abs(S[:, 3:6]))
+        fast[:, VELOCITY] = np.maximum(np.abs(S0[:, VELOCITY]), np.abs(S[:, VELOCITY]))
         margin = motion_margin(fast, bodies.length, bodies.radius, dt, tol)
         C = self.detect_manifold(bodies, margin, S=S0)
         if len(C) == 0:
@@ -407,14 +406,13 @@ class ContactModel:
             return dt
         inv_m, inv_i = self._inverse_masses(bodies)
         P = np.zeros(len(C))
-        vscale = float(np.abs(S[:, 3:5]).max()) + 1e-3
+        vscale = float(np.abs(S[:, UB:VB + 1]).max()) + 1e-3
         it, _ = moreau_solve(S0, S, inv_m, inv_i, C.body1, C.body2, C.res, dt,
                              self.restitution, tol, tol, 1e-9 * vscale, self.iterations, P)
         st["pgs_iterations"] += it
         st["pgs_max_iterations"] = max(st["pgs_max_iterations"], it)
         st["max_contacts"] = max(st["max_contacts"], len(C))
-        if hasattr(bodies, "invalidate_flow"):
-            bodies.invalidate_flow()
+        bodies.invalidate_flow()
         if self.check_overlap:
             E = self.detect(bodies, np.full(S.shape[0], tol))
             if len(E):

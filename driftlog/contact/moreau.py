@@ -28,6 +28,24 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from driftlog.columns import (
+    CX,
+    CY,
+    GAP,
+    GOMEGA,
+    GU,
+    GV,
+    NX,
+    NY,
+    OMEGA,
+    THETA,
+    UB,
+    VB,
+    VELOCITY,
+    X,
+    Y,
+)
+
 __all__ = ["moreau_solve"]
 
 
@@ -43,22 +61,22 @@ def _pgs(body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, P, vtol, max_i
             if w[c] <= 0.0:
                 continue
             i, j = body1[c], body2[c]
-            nx, ny = res[c, 1], res[c, 2]
-            u = V[i, 0] * nx + V[i, 1] * ny + V[i, 2] * rn1[c]
+            nx, ny = res[c, NX], res[c, NY]
+            u = V[i, GU] * nx + V[i, GV] * ny + V[i, GOMEGA] * rn1[c]
             if j >= 0:
-                u -= V[j, 0] * nx + V[j, 1] * ny + V[j, 2] * rn2[c]
+                u -= V[j, GU] * nx + V[j, GV] * ny + V[j, GOMEGA] * rn2[c]
             p_new = max(P[c] + (target[c] - u) / w[c], 0.0)
             d = p_new - P[c]
             if d == 0.0:
                 continue
             P[c] = p_new
-            V[i, 0] += d * nx * inv_m[i]
-            V[i, 1] += d * ny * inv_m[i]
-            V[i, 2] += d * rn1[c] * inv_i[i]
+            V[i, GU] += d * nx * inv_m[i]
+            V[i, GV] += d * ny * inv_m[i]
+            V[i, GOMEGA] += d * rn1[c] * inv_i[i]
             if j >= 0:
-                V[j, 0] -= d * nx * inv_m[j]
-                V[j, 1] -= d * ny * inv_m[j]
-                V[j, 2] -= d * rn2[c] * inv_i[j]
+                V[j, GU] -= d * nx * inv_m[j]
+                V[j, GV] -= d * ny * inv_m[j]
+                V[j, GOMEGA] -= d * rn2[c] * inv_i[j]
             residual = max(residual, abs(d) * w[c])
         if residual <= vtol:
             break
@@ -100,30 +118,31 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
     u_free = np.empty(k)
     for c in range(k):
         i, j = body1[c], body2[c]
-        nx, ny = res[c, 1], res[c, 2]
-        rn1[c] = (res[c, 3] - S0[i, 0]) * ny - (res[c, 4] - S0[i, 1]) * nx
+        nx, ny = res[c, NX], res[c, NY]
+        rn1[c] = (res[c, CX] - S0[i, X]) * ny - (res[c, CY] - S0[i, Y]) * nx
         w[c] = inv_m[i] + rn1[c] * rn1[c] * inv_i[i]
-        uf = S[i, 3] * nx + S[i, 4] * ny + S[i, 5] * rn1[c]
-        u0 = S0[i, 3] * nx + S0[i, 4] * ny + S0[i, 5] * rn1[c]
-        dg = (S[i, 0] - S0[i, 0]) * nx + (S[i, 1] - S0[i, 1]) * ny + (S[i, 2] - S0[i, 2]) * rn1[c]
+        uf = S[i, UB] * nx + S[i, VB] * ny + S[i, OMEGA] * rn1[c]
+        u0 = S0[i, UB] * nx + S0[i, VB] * ny + S0[i, OMEGA] * rn1[c]
+        dg = ((S[i, X] - S0[i, X]) * nx + (S[i, Y] - S0[i, Y]) * ny
+              + (S[i, THETA] - S0[i, THETA]) * rn1[c])
         if j >= 0:
-            rn2[c] = (res[c, 3] - S0[j, 0]) * ny - (res[c, 4] - S0[j, 1]) * nx
+            rn2[c] = (res[c, CX] - S0[j, X]) * ny - (res[c, CY] - S0[j, Y]) * nx
             w[c] += inv_m[j] + rn2[c] * rn2[c] * inv_i[j]
-            uf -= S[j, 3] * nx + S[j, 4] * ny + S[j, 5] * rn2[c]
-            u0 -= S0[j, 3] * nx + S0[j, 4] * ny + S0[j, 5] * rn2[c]
-            dg -= ((S[j, 0] - S0[j, 0]) * nx + (S[j, 1] - S0[j, 1]) * ny
-                   + (S[j, 2] - S0[j, 2]) * rn2[c])
+            uf -= S[j, UB] * nx + S[j, VB] * ny + S[j, OMEGA] * rn2[c]
+            u0 -= S0[j, UB] * nx + S0[j, VB] * ny + S0[j, OMEGA] * rn2[c]
+            dg -= ((S[j, X] - S0[j, X]) * nx + (S[j, Y] - S0[j, Y]) * ny
+                   + (S[j, THETA] - S0[j, THETA]) * rn2[c])
         # the end gap g0 + dg + dt (u+ - u_free) must stay >= -slop; an overlap deeper than
         # slop at the start must not deepen (it is removed by the position pass below)
-        g0 = max(res[c, 0], -slop)
-        g_free[c] = res[c, 0] + dg
+        g0 = max(res[c, GAP], -slop)
+        g_free[c] = res[c, GAP] + dg
         u_free[c] = uf
         target[c] = uf - (g0 + dg + slop) / dt
-        if (res[c, 0] <= tol or res[c, 0] + dg <= 0.0) and u0 < 0.0:
+        if (res[c, GAP] <= tol or res[c, GAP] + dg <= 0.0) and u0 < 0.0:
             # active (touching, or closing within the step): Newton's impact law
             target[c] = max(target[c], -eps * u0)
         P[c] = 0.0
-    V = S[:, 3:6].copy()
+    V = S[:, VELOCITY].copy()
     it, residual = _pgs(body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, P, vtol,
                         max_iterations)
     # position pass: pseudo-velocities that remove a share of the remaining overlap
@@ -132,10 +151,10 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
     deep = 0
     for c in range(k):
         i, j = body1[c], body2[c]
-        nx, ny = res[c, 1], res[c, 2]
-        u = V[i, 0] * nx + V[i, 1] * ny + V[i, 2] * rn1[c]
+        nx, ny = res[c, NX], res[c, NY]
+        u = V[i, GU] * nx + V[i, GV] * ny + V[i, GOMEGA] * rn1[c]
         if j >= 0:
-            u -= V[j, 0] * nx + V[j, 1] * ny + V[j, 2] * rn2[c]
+            u -= V[j, GU] * nx + V[j, GV] * ny + V[j, GOMEGA] * rn2[c]
         g_end = g_free[c] + dt * (u - u_free[c])
         target[c] = recovery * max(-g_end - slop, 0.0) / dt
         if target[c] > 0.0:
@@ -144,7 +163,7 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
         _pgs(body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, Vp, Pp, vtol,
              max_iterations)
     for b in range(n):  # q+ = q_free + dt (V+ - V_free) + dt Vp
-        for m in range(3):
-            S[b, m] += dt * (V[b, m] - S[b, 3 + m] + Vp[b, m])
-            S[b, 3 + m] = V[b, m]
+        for m in range(GOMEGA + 1):  # position X + m has the rate UB + m (GU + m in V)
+            S[b, X + m] += dt * (V[b, m] - S[b, UB + m] + Vp[b, m])
+            S[b, UB + m] = V[b, m]
     return it, residual

@@ -11,8 +11,9 @@ import numba as nb
 import numpy as np
 
 from driftlog._numba import kernel
+from driftlog.columns import NX, NY, THETA, X, Y
 from driftlog.contact.broadphase import StaticGrid, grid_pairs, log_boxes
-from driftlog.contact.geometry import NRES, capsule_gap, log_endpoints
+from driftlog.contact.geometry import NRES, capsule_gap, capsule_row, log_endpoints
 
 __all__ = ["NativeBackend", "end_contacts"]
 
@@ -21,8 +22,8 @@ __all__ = ["NativeBackend", "end_contacts"]
 def _log_log_gaps(pairs, S, length, radius, out):
     for k in nb.prange(pairs.shape[0]):
         i, j = pairs[k, 0], pairs[k, 1]
-        ax, ay, bx, by = log_endpoints(S[i, 0], S[i, 1], S[i, 2], length[i])
-        cx, cy, dx, dy = log_endpoints(S[j, 0], S[j, 1], S[j, 2], length[j])
+        ax, ay, bx, by = log_endpoints(S[i, X], S[i, Y], S[i, THETA], length[i])
+        cx, cy, dx, dy = log_endpoints(S[j, X], S[j, Y], S[j, THETA], length[j])
         capsule_gap(ax, ay, bx, by, radius[i], cx, cy, dx, dy, radius[j], out[k])
 
 
@@ -30,9 +31,9 @@ def _log_log_gaps(pairs, S, length, radius, out):
 def _log_obstacle_gaps(pairs, S, length, radius, caps, out):
     for k in nb.prange(pairs.shape[0]):
         i, c = pairs[k, 0], pairs[k, 1]
-        ax, ay, bx, by = log_endpoints(S[i, 0], S[i, 1], S[i, 2], length[i])
-        capsule_gap(ax, ay, bx, by, radius[i], caps[c, 0], caps[c, 1], caps[c, 2], caps[c, 3],
-                    caps[c, 4], out[k])
+        ax, ay, bx, by = log_endpoints(S[i, X], S[i, Y], S[i, THETA], length[i])
+        cax, cay, cbx, cby, cr = capsule_row(caps, c)
+        capsule_gap(ax, ay, bx, by, radius[i], cax, cay, cbx, cby, cr, out[k])
 
 
 @nb.njit(cache=True)
@@ -45,16 +46,16 @@ def _ends_against(ax, ay, bx, by, r1, cx, cy, dx, dy, r2, flip, out, row):
         px, py = (ax, ay) if e == 0 else (bx, by)
         capsule_gap(px, py, px, py, r1, cx, cy, dx, dy, r2, out[row + e])
         if flip:
-            out[row + e, 1] = -out[row + e, 1]
-            out[row + e, 2] = -out[row + e, 2]
+            out[row + e, NX] = -out[row + e, NX]
+            out[row + e, NY] = -out[row + e, NY]
 
 
 @kernel
 def _log_log_manifold(pairs, S, length, radius, out):
     for k in nb.prange(pairs.shape[0]):
         i, j = pairs[k, 0], pairs[k, 1]
-        ax, ay, bx, by = log_endpoints(S[i, 0], S[i, 1], S[i, 2], length[i])
-        cx, cy, dx, dy = log_endpoints(S[j, 0], S[j, 1], S[j, 2], length[j])
+        ax, ay, bx, by = log_endpoints(S[i, X], S[i, Y], S[i, THETA], length[i])
+        cx, cy, dx, dy = log_endpoints(S[j, X], S[j, Y], S[j, THETA], length[j])
         _ends_against(ax, ay, bx, by, radius[i], cx, cy, dx, dy, radius[j], False, out[k], 0)
         _ends_against(cx, cy, dx, dy, radius[j], ax, ay, bx, by, radius[i], True, out[k], 2)
 
@@ -63,12 +64,11 @@ def _log_log_manifold(pairs, S, length, radius, out):
 def _log_obstacle_manifold(pairs, S, length, radius, caps, out):
     for k in nb.prange(pairs.shape[0]):
         i, c = pairs[k, 0], pairs[k, 1]
-        ax, ay, bx, by = log_endpoints(S[i, 0], S[i, 1], S[i, 2], length[i])
-        _ends_against(ax, ay, bx, by, radius[i], caps[c, 0], caps[c, 1], caps[c, 2],
-                      caps[c, 3], caps[c, 4], False, out[k], 0)
+        ax, ay, bx, by = log_endpoints(S[i, X], S[i, Y], S[i, THETA], length[i])
+        cax, cay, cbx, cby, cr = capsule_row(caps, c)
+        _ends_against(ax, ay, bx, by, radius[i], cax, cay, cbx, cby, cr, False, out[k], 0)
         # the obstacle's ends against the log (a wall's corner pressing on a log's side)
-        _ends_against(caps[c, 0], caps[c, 1], caps[c, 2], caps[c, 3], caps[c, 4], ax, ay, bx,
-                      by, radius[i], True, out[k], 2)
+        _ends_against(cax, cay, cbx, cby, cr, ax, ay, bx, by, radius[i], True, out[k], 2)
 
 
 def end_contacts(S, length, radius, caps, ll, lo):
@@ -112,8 +112,8 @@ class NativeBackend:
         n = S.shape[0]
         ex, ey = np.empty(n), np.empty(n)
         log_boxes(S, length, radius, margin, ex, ey)
-        x = np.ascontiguousarray(S[:, 0])
-        y = np.ascontiguousarray(S[:, 1])
+        x = np.ascontiguousarray(S[:, X])
+        y = np.ascontiguousarray(S[:, Y])
         ll = grid_pairs(x, y, ex, ey)
         if self.obstacles.capsules.shape[0] == 0 or n == 0:
             return ll, np.empty((0, 2), np.int64)

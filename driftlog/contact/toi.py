@@ -23,6 +23,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from driftlog.columns import CX, CY, GAP, NX, NY, OMEGA, UB, VB, X, Y
+
 __all__ = ["conservative_step", "motion_margin"]
 
 
@@ -38,17 +40,17 @@ def conservative_step(S, length, radius, body1, body2, res, tol, h_max, near):
     h = h_max
     for c in range(body1.size):
         i, j = body1[c], body2[c]
-        gap, nx, ny = res[c, 0], res[c, 1], res[c, 2]
-        dux, duy = S[i, 3], S[i, 4]
-        rot = abs(S[i, 5]) * (0.5 * length[i] + radius[i])
-        r1x, r1y = res[c, 3] - S[i, 0], res[c, 4] - S[i, 1]
-        vc = (S[i, 3] - S[i, 5] * r1y) * nx + (S[i, 4] + S[i, 5] * r1x) * ny
+        gap, nx, ny = res[c, GAP], res[c, NX], res[c, NY]
+        dux, duy = S[i, UB], S[i, VB]
+        rot = abs(S[i, OMEGA]) * (0.5 * length[i] + radius[i])
+        r1x, r1y = res[c, CX] - S[i, X], res[c, CY] - S[i, Y]
+        vc = (S[i, UB] - S[i, OMEGA] * r1y) * nx + (S[i, VB] + S[i, OMEGA] * r1x) * ny
         if j >= 0:
-            dux -= S[j, 3]
-            duy -= S[j, 4]
-            rot += abs(S[j, 5]) * (0.5 * length[j] + radius[j])
-            r2x, r2y = res[c, 3] - S[j, 0], res[c, 4] - S[j, 1]
-            vc -= (S[j, 3] - S[j, 5] * r2y) * nx + (S[j, 4] + S[j, 5] * r2x) * ny
+            dux -= S[j, UB]
+            duy -= S[j, VB]
+            rot += abs(S[j, OMEGA]) * (0.5 * length[j] + radius[j])
+            r2x, r2y = res[c, CX] - S[j, X], res[c, CY] - S[j, Y]
+            vc -= (S[j, UB] - S[j, OMEGA] * r2y) * nx + (S[j, VB] + S[j, OMEGA] * r2x) * ny
         if gap < near and vc >= 0.0:
             continue
         vn = dux * nx + duy * ny  # > 0: separating
@@ -64,5 +66,5 @@ def conservative_step(S, length, radius, body1, body2, res, tol, h_max, near):
 
 def motion_margin(S, length, radius, dt, tol):
     """How far each log's surface can move in dt at its current velocities, plus tol."""
-    speed = np.hypot(S[:, 3], S[:, 4]) + np.abs(S[:, 5]) * (0.5 * length + radius)
+    speed = np.hypot(S[:, UB], S[:, VB]) + np.abs(S[:, OMEGA]) * (0.5 * length + radius)
     return speed * dt + tol

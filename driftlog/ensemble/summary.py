@@ -50,15 +50,15 @@ MAX_WALK = 1_000_000  # faces crossed by one segment before the walk gives up
 
 # --------------------------------------------------------------------- kernels
 @nb.njit(cache=True)
-def _sweep(start, log, xa, ya, ta, fa, xb, yb, tb, fb, n_faces, keys, times, n_out,
-           face_nodes, face_n, face_nbr, node_x, node_y,
-           x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces):
+def _sweep(start, log, xa, ya, ta, fa, xb, yb, tb, fb, n_faces, keys, times, n_out, loc):
     """Walk segments i >= start across the mesh; append (log, face) keys with entry times.
 
     Returns (n_out, i): i == log.size when done, else the segment where the buffers filled up
     (its entries so far are kept; redoing it appends duplicates, which ``_compact`` merges).
     """
     cap = keys.shape[0]
+    face_nodes, face_n, face_nbr = loc.face_nodes, loc.face_n, loc.face_nbr
+    node_x, node_y = loc.node_x, loc.node_y
     for i in range(start, log.size):
         f = fa[i]
         locate_end = f < 0  # start unknown (outside): mark where the segment ends
@@ -92,8 +92,7 @@ def _sweep(start, log, xa, ya, ta, fa, xb, yb, tb, fb, n_faces, keys, times, n_o
             n_out += 1
             f = g
         if locate_end:
-            f = locate_one(xb[i], yb[i], -1, face_nodes, face_n, face_nbr, node_x, node_y,
-                           x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
+            f = locate_one(xb[i], yb[i], -1, loc)
             if f >= 0:
                 if n_out >= cap:
                     return n_out, i
@@ -185,7 +184,7 @@ class _Entries:
         i = 0
         while True:
             self.n, i = _sweep(i, log, xa, ya, ta, fa, xb, yb, tb, fb, self.n_faces,
-                               self.keys, self.times, self.n, *mesh.locator_args())
+                               self.keys, self.times, self.n, mesh.locator())
             if i >= log.size:
                 return fb
             self.compact()

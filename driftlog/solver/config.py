@@ -215,11 +215,7 @@ def build_solver(sec, mesh=None):
     else:
         h = np.zeros(mesh.n_faces)
     if "polygon" in ini:
-        from matplotlib.path import Path as MplPath
-
-        inside = MplPath(np.asarray(ini["polygon"], float)).contains_points(
-            np.column_stack([mesh.face_x, mesh.face_y]))
-        h = np.where(inside, h, 0.0)
+        h = np.where(mesh.faces_in_polygon(ini["polygon"]), h, 0.0)
     if coast is not None:
         from driftlog.floodsetup import fill_sea
 

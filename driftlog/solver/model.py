@@ -188,11 +188,7 @@ class ShallowWaterSolver:
         """Still water (or a uniform velocity) up to ``level``, optionally only in a polygon."""
         h = np.maximum(float(level) - self.bed, 0.0)
         if polygon is not None:
-            from matplotlib.path import Path as MplPath
-
-            inside = MplPath(np.asarray(polygon, float)).contains_points(
-                np.column_stack([self.mesh.face_x, self.mesh.face_y]))
-            h = np.where(inside, h, 0.0)
+            h = np.where(self.mesh.faces_in_polygon(polygon), h, 0.0)
         self.set_state(h, h * velocity[0], h * velocity[1])
 
     # ----------------------------------------------------------------- time step

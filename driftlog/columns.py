@@ -1,0 +1,48 @@
+"""Named columns of the arrays the kernels share: one name per index, never a raw number.
+
+Rows are logs (state, flow sample, parameters, drag linearisation), mesh nodes (snapshot node
+values) or contacts (contact result, capsule).  The kernels index with these module-level
+integers, which numba compiles as constants: naming a column costs nothing.  The modules that
+own each array (``logs``, ``flow``, ``physics``, ``contact.geometry``) re-export theirs.
+"""
+
+# --------------------------------------------------------------------- log state (n, NSTATE)
+# centre, axis angle, velocity of the centre, angular velocity (docs: MODEL.md section 2)
+X, Y, THETA, UB, VB, OMEGA = range(6)
+NSTATE = 6
+STATE_NAMES = ("x", "y", "theta", "u", "v", "omega")  # in column order, as in trajectory files
+POSITION = slice(X, THETA + 1)  # x, y, theta
+VELOCITY = slice(UB, OMEGA + 1)  # u, v, omega: the rates of POSITION, in the same order
+# a velocity row (n, 3) = state[:, VELOCITY] (the contact solvers' generalised velocity)
+GU, GV, GOMEGA = UB - UB, VB - UB, OMEGA - UB
+
+# --------------------------------------------------------------------- flow sample (n, NVAR)
+# depth, velocity, local dU/dt, velocity gradient J_ij = dU_i/dx_j, free-surface slope, level
+H, U, V, DUDT, DVDT, DUDX, DUDY, DVDX, DVDY, DETADX, DETADY, ETA = range(12)
+NVAR = 12
+# flag of a sampled point
+OUTSIDE, DRY, WET = 0, 1, 2
+
+# --------------------------------------------------------------------- snapshot node values
+# (n_nodes, NQ) per snapshot: values, then the least-squares gradients of u, v and eta
+Q_H, Q_U, Q_V, Q_ETA, Q_UX, Q_UY, Q_VX, Q_VY, Q_EX, Q_EY = range(10)
+NQ = 10
+
+# --------------------------------------------------------------------- per-log parameters
+# (n, NPARAM): length, radius, density, volume, mass, inertia, volume-equivalent diameter,
+# sphericity, Ganser's K2, flotation depth
+P_L, P_R, P_RHOB, P_VOL, P_MASS, P_INERTIA, P_DV, P_PSI, P_K2, P_HSTAR = range(10)
+NPARAM = 10
+
+# --------------------------------------------------------------------- drag linearisation
+# (n, NLIN): drag rates along and across the relative velocity, its direction, rotational rate
+L_PAR, L_PERP, L_WX, L_WY, L_ROT = range(5)
+NLIN = 5
+
+# --------------------------------------------------------------------- contacts
+# contact result (k, NRES): signed gap, unit normal, contact point
+GAP, NX, NY, CX, CY = range(5)
+NRES = 5
+# capsule (k, NCAP): the segment [a, b] and the radius
+CAP_AX, CAP_AY, CAP_BX, CAP_BY, CAP_R = range(5)
+NCAP = 5
