@@ -58,7 +58,7 @@ def run(quick=False):
         field = on_mesh(FreeVortex(2e4, center=((x0 + x1) / 2, (y0 + y1) / 2), core_radius=200.0),
                         mesh, times=[0.0, 10.0])
         vals, a, inv_dt = field.node_values(5.0)
-        loc = mesh.locator()
+        locator = mesh.locator()
         for n in sizes:
             x, y = points(mesh, n, rng)
             hint0 = mesh.locate(x, y)
@@ -74,12 +74,12 @@ def run(quick=False):
 
                     def loc():
                         face[:] = -1 if mode == "cold" else hint0
-                        locate_points.parallel(px, py, face, loc)
+                        locate_points.parallel(px, py, face, locator)
 
                     def samp():
                         face[:] = -1 if mode == "cold" else hint0
                         sample_mesh_kernel.parallel(px, py, face, out, flag, a, inv_dt, vals,
-                                                    1e-3, True, loc)
+                                                    1e-3, True, locator)
 
                     loc()
                     samp()  # compile
