@@ -1,8 +1,9 @@
 """Regular-grid sampling: driftlog's bilinear grid field beside Parcels on one CF file (issue 12).
 
 The drifting Gaussian eddy of ``peers_tracking.py`` (exact trajectories known) written as a CF
-grid of cell-centred values (snapshots every ``SNAPSHOT`` s) with cells of 40, 20 and 10 m.  On each file, the same particles are advected with classical RK4 at the same fixed step
-over the same time by
+grid of cell-centred values (snapshots every ``SNAPSHOT`` s) with cells of 40, 20 and 10 m.
+On each file, the same particles are advected with classical RK4 at the same fixed step over
+the same time by
 
 - driftlog, ``adapters.cfgrid.open_cf_grid``: the ``GridFlowField`` (bilinear between the cell
   centres, linear in time; ``driftlog.gridflow``), tracer physics;

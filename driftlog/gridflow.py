@@ -48,8 +48,11 @@ NG = 4
 
 @nb.njit(cache=True, inline="always")
 def _axis(f, n):
-    """Lower point index, upper point index, weight of the upper one, and 1 if the interpolant
-    varies along this axis at f (0 in the outer half cells); f in cell units from the edge."""
+    """Lower and upper point index along one axis, the upper one's weight, and 1 or 0.
+
+    The last value is 1 where the interpolant varies along this axis at f, 0 in the outer half
+    cells; f is the position in cell units from the grid's edge.
+    """
     s = f - 0.5
     if s <= 0.0:
         return 0, 0, 0.0, 0.0
@@ -175,6 +178,7 @@ class GridFlowField(MeshFlowField):
         return self._snap[i]
 
     def sample_into(self, x, y, t, face, out, flag):
+        """Kernel entry: fill ``out`` (n, NVAR) and ``flag`` (n,); ``face`` gets the cells."""
         vals, a, inv_dt = self.node_values(t)
         nx, ny, x0, y0, dx, dy = self.grid
         sample_grid_kernel(x, y, face, out, flag, a, inv_dt, vals, self.dry_depth, nx, ny, x0,

@@ -72,8 +72,11 @@ def test_gradient_is_the_derivative_of_the_interpolant():
     t, e = 5.5, 1e-4
     s = f.sample(x, y, t)
     for col, (gx, gy) in ((1, (5, 6)), (2, (7, 8)), (11, (9, 10))):
-        ddx = (f.sample(x + e, y, t).values[:, col] - f.sample(x - e, y, t).values[:, col]) / (2 * e)
-        ddy = (f.sample(x, y + e, t).values[:, col] - f.sample(x, y - e, t).values[:, col]) / (2 * e)
+        def at(xx, yy, c=col):
+            return f.sample(xx, yy, t).values[:, c]
+
+        ddx = (at(x + e, y) - at(x - e, y)) / (2 * e)
+        ddy = (at(x, y + e) - at(x, y - e)) / (2 * e)
         np.testing.assert_allclose(s.values[:, gx], ddx, atol=1e-8)
         np.testing.assert_allclose(s.values[:, gy], ddy, atol=1e-8)
     ddt = (f.sample(x, y, t + e).values[:, 1:3] - f.sample(x, y, t - e).values[:, 1:3]) / (2 * e)
