@@ -5,7 +5,8 @@ either direction) and fields on (time, y, x), or (y, x) for one steady snapshot:
 depth or water level (with a bed), and velocities or unit discharges.  Staggered fields as
 LISFLOOD-FP writes them, ``Qx`` / ``Vx`` on the nx + 1 cell edges along x and ``Qy`` / ``Vy``
 on the ny + 1 edges along y, are averaged to the cells (Q in m3/s is divided by the edge
-length to give a unit discharge).  The raster becomes ``Mesh.regular_grid`` (face
+length to give a unit discharge).  The raster becomes a ``GridFlowField``: sampled
+bilinearly between the cell centres (``driftlog.gridflow``), on ``Mesh.regular_grid`` (face
 ``j * nx + i`` is cell (row j, column i), rows from south to north).
 """
 
@@ -16,8 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from driftlog.errors import FlowFileError
-from driftlog.flow import MeshFlowField, check_times
-from driftlog.mesh import Mesh
+from driftlog.flow import check_times
+from driftlog.gridflow import GridFlowField
 from driftlog.schema import Key
 
 from ._common import SubsetSnapshots, select_times, unit_factor
@@ -101,7 +102,7 @@ class GridSnapshots(NetCDFSource):
 
 def open_cf_grid(path, time_range=None, variables=None, dry_depth=1e-3, fill="error",
                  units=None):
-    """Open a CF regular-grid NetCDF file as a MeshFlowField (snapshots read lazily).
+    """Open a CF regular-grid NetCDF file as a GridFlowField (snapshots read lazily).
 
     Parameters
     ----------
@@ -226,14 +227,14 @@ def _open(ds, path, time_range, mapping, dry_depth, fill, units_override):
     src.bed = bed
     x0 = min(x[0], x[-1]) - dx / 2
     y0 = min(y[0], y[-1]) - dy / 2
-    mesh = Mesh.regular_grid(nx, ny, dx, dy, x0=x0, y0=y0)
     idx = select_times(times, time_range, str(path))
     source = SubsetSnapshots(src, idx) if idx.size != times.size else src
     attrs = {"source": "cf_grid" + (f" ({ds.source})" if hasattr(ds, "source") else ""),
              "source_path": str(path.resolve()), "time_origin": origin or "",
              "variables": ", ".join(f"{k}={v[0]}" for k, v in spec.items()),
              "import_notes": "; ".join(notes), "grid_shape": f"{ny} {nx}"}
-    return MeshFlowField(mesh, bed, source, dry_depth=dry_depth, name=str(path), attrs=attrs)
+    return GridFlowField(nx, ny, dx, dy, x0, y0, bed, source, dry_depth=dry_depth,
+                         name=str(path), attrs=attrs)
 
 
 def _find_bed(ds, yn, xn, lead, mapping, path):
