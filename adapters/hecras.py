@@ -44,8 +44,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from driftlog.errors import FlowFileError, MeshError
+from driftlog.schema import Key
 
-__all__ = ["KIND", "SUFFIXES", "OPTION_SPECS", "can_open", "open", "open_hecras", "describe",
+__all__ = ["KIND", "SUFFIXES", "OPTIONS", "can_open", "open", "open_hecras", "describe",
            "read_geometry", "HecrasGeometry", "FT"]
 
 KIND = "hecras"
@@ -59,21 +60,20 @@ _SERIES = _OUTPUT + "/Unsteady Time Series"
 _SUMMARY = _OUTPUT + "/Summary Output/2D Flow Areas"
 _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
-#: name -> (type, default, doc): the reader's own scenario keys ([flow.options])
-OPTION_SPECS = {
-    "areas": ("list[str] | str", None, "2D flow areas to read (default: all of the file's)"),
-    "bed": ("str", "auto", "'auto': Cells Minimum Elevation from the plan, else from 'geometry', "
-            "else from 'terrain' (error if none); 'min_water_surface': the plan's summary "
-            "minimum water surface per cell (exact where a cell went dry, above the bed "
-            "elsewhere)"),
-    "geometry": ("path", None, "HEC-RAS geometry HDF (.gNN.hdf) with Cells Minimum Elevation "
-                 "for the plan's areas"),
-    "terrain": ("path", None, "terrain raster (GeoTIFF...) in the project's units and "
-                "coordinates: bed = lowest pixel in each cell"),
-    "results": ("path", None, "HDF file with the plan's 'Unsteady Time Series' when it is not "
-                "in the plan file itself"),
-}
-
+OPTIONS = [
+    Key("areas", "any", None, "2D flow areas to read: a name or a list of names (default: all "
+        "of the file's)"),
+    Key("bed", "str", "auto", "'auto': Cells Minimum Elevation of the plan, else of the "
+        "'geometry' file, else the lowest pixel of 'terrain' in each cell (an error if none); "
+        "'min_water_surface': the lowest water surface the plan reports per cell (the bed where "
+        "a cell went dry, above it elsewhere)", choices=("auto", "min_water_surface")),
+    Key("geometry", "path", None, "HEC-RAS geometry HDF (*.gNN.hdf) whose Cells Minimum "
+        "Elevation is the bed, when the plan file lacks it", must_exist=True),
+    Key("terrain", "path", None, "terrain raster (GeoTIFF...) in the project's coordinates and "
+        "units: the bed is its lowest pixel in each cell (needs rasterio)", must_exist=True),
+    Key("results", "path", None, "HDF file holding the plan's 'Unsteady Time Series' when the "
+        "plan file given has none", must_exist=True),
+]
 
 # --------------------------------------------------------------------- small helpers
 def _s(v) -> str:
@@ -721,7 +721,7 @@ def open_hecras(path, time_range=None, variables=None, dry_depth=1e-3, areas=Non
     dry_depth : float
         Depth (m) below which a face is dry.
     areas, bed, geometry, terrain, results
-        See ``OPTION_SPECS``.
+        See ``OPTIONS``.
 
     Returns
     -------

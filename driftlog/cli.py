@@ -91,6 +91,12 @@ def cmd_info(args):
             if k in field.attrs:
                 print(f"  {k}: {field.attrs[k]}")
         return 0
+    from driftlog.adapters import READERS
+
+    for r in READERS:  # another model's output whose reader can describe it
+        if hasattr(r, "describe") and r.can_open(path):
+            print("\n".join(r.describe(path)))
+            return 0
     from driftlog.mesh import read_mesh
 
     print(read_mesh(path))

@@ -100,16 +100,19 @@ def describe_keys(section: str | None = None) -> str:
 
 # --------------------------------------------------------------------- the sections
 # driftlog's own flow file, then what is built here, then the other readers (the registry)
-FLOW_SOURCES = (adapters.KINDS[0], "solver", "analytic") + adapters.KINDS[1:]
+# 'auto': the first reader of the registry whose content sniff accepts the path
+FLOW_SOURCES = (adapters.KINDS[0], "solver", "analytic") + adapters.KINDS[1:] + ("auto",)
 ANALYTIC_KINDS = ("uniform", "solid_body_rotation", "free_vortex")
 
 
 def _check_flow(t, prefix, scen):
     src = t["source"]
-    if src in adapters.KINDS and not t["path"]:
+    if src == "auto" and t["path"] and Path(t["path"]).exists():
+        src = t["source"] = adapters.detect_format(t["path"])  # its options are checked below
+    if (src in adapters.KINDS or src == "auto") and not t["path"]:
         raise ScenarioError(f"{prefix}.path", None,
                             f"is required when source = {src!r}: the flow file or case to read")
-    if src in adapters.KINDS and not Path(t["path"]).exists():
+    if (src in adapters.KINDS or src == "auto") and not Path(t["path"]).exists():
         raise ScenarioError(f"{prefix}.path", t["path"], "file not found")
     t["options"] = adapters.check_flow_options(t, prefix, scen.base_dir)
     if src == "analytic" and t["kind"] not in ANALYTIC_KINDS:

@@ -290,3 +290,55 @@ def test_terrain_bed_is_the_lowest_pixel_in_each_cell(tmp_path, muncie):
     assert np.all(bed >= low * FT - 1e-9) and np.all(bed <= high * FT + 1e-9)
     rise = np.hypot(0.01, 0.02) * res * np.sqrt(2) * FT
     assert np.mean(bed <= low * FT + rise) > 0.99
+
+
+def test_import_cli_auto_and_scenario_source(tmp_path):
+    """`driftlog import plan.hdf`, `source = "auto"` and `source = "hecras"` all read it."""
+    import netCDF4
+    from driftlog.adapters import detect_format
+
+    from driftlog.cli import main
+    from driftlog.scenario import load_scenario
+    from driftlog.sources import flow_from_scenario
+
+    assert detect_format(PLAN) == "hecras" and detect_format(MUNCIE) == "hecras"
+    out = tmp_path / "flow.nc"
+    assert main(["import", PLAN, "-o", str(out), "--option", f"results={SERIES}",
+                 "--option", "bed=min_water_surface"]) == 0
+    with netCDF4.Dataset(out) as ds:
+        assert ds["time"].units == "seconds since 1999-01-01T12:00:00"
+        assert ds["time"].size == 37 and "Pennsylvania" in ds.crs_wkt
+        assert ds.dimensions["mesh2d_nMax_face_nodes"].size == 8
+    # a plan without bed: the error names the options (exit code 2, no traceback)
+    assert main(["import", PLAN, "-o", str(tmp_path / "x.nc"), "--option",
+                 f"results={SERIES}"]) == 2
+    for source in ("auto", "hecras"):
+        scen = load_scenario(f"""
+[flow]
+source = "{source}"
+path = "{PLAN}"
+[flow.options]
+results = "{SERIES}"
+bed = "min_water_surface"
+areas = ["BaldEagleCr"]
+[time]
+end = 3600.0
+[[logs]]
+x = [618646.677]
+y = [102034.111]
+""")
+        fl = flow_from_scenario(scen)
+        assert fl.source.geom.areas == ["BaldEagleCr"] and fl.times.size == 37
+    with pytest.raises(Exception, match="bed"):
+        load_scenario(f"""
+[flow]
+source = "hecras"
+path = "{PLAN}"
+[flow.options]
+bed = "terrain_please"
+[time]
+end = 1.0
+[[logs]]
+x = [0.0]
+y = [0.0]
+""")
