@@ -30,13 +30,18 @@ import struct
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters._common import SubsetSnapshots, select_times, unit_factor
+from driftlog.adapters._common import (
+    SubsetSnapshots,
+    reference_epoch,
+    select_times,
+    unit_factor,
+)
 
 from driftlog.errors import FlowFileError, MeshError
 from driftlog.flow import MeshFlowField, check_times
 
 __all__ = ["KIND", "SUFFIXES", "OPTION_NAMES", "can_open", "open", "describe",
-           "open_selafin", "SelafinSnapshots", "ROLES"]
+           "open_selafin", "SelafinSnapshots", "ROLES", "write", "triangles"]
 
 KIND = "selafin"
 SUFFIXES = (".slf", ".srf", ".sel", ".res", ".selafin")
@@ -367,3 +372,94 @@ def describe(path) -> list[str]:
         lines.append("  variables: " + ", ".join(f"{n} [{u}]" for n, u in
                                                  _variables(ds).values()))
     return lines
+
+
+# --------------------------------------------------------------------- writing
+def triangles(mesh):
+    """The mesh's faces as triangles, quadrilaterals fanned from their first node.
+
+    The sampler splits quadrilaterals the same way, so P1 on these triangles is its
+    interpolant.
+    """
+    fn = mesh.face_nodes
+    tri = fn[:, :3]
+    if fn.shape[1] == 4:
+        q = np.flatnonzero(mesh.face_n == 4)
+        tri = np.vstack([tri, fn[q][:, [0, 2, 3]]])
+    return np.ascontiguousarray(tri)
+
+
+def write(field, path, precision="double", title=None):
+    """Write a mesh flow as a TELEMAC-2D Selafin result file with xarray-selafin.
+
+    Node values are the ones the sampler interpolates (``MeshFlowField.node_snapshot``): the
+    data themselves for a node-located flow, the nodes' least-squares fits of the face values
+    for a face-located one, so that the file read back is sampled with the same depth and
+    velocity (the recovered gradients differ: see ``driftlog.nodal``).  Variables WATER
+    DEPTH, VELOCITY U, VELOCITY V, FREE SURFACE and BOTTOM; quadrilaterals are split into the
+    sampler's two triangles.  Frames are computed one at a time while writing.
+
+    Parameters
+    ----------
+    field : MeshFlowField
+    path : path
+    precision : 'double' (SERAFIND) or 'single' (SERAFIN, TELEMAC's default)
+    title : str, optional
+        The file's title (80 characters at most).
+
+    Notes
+    -----
+    xarray-selafin stores times as whole seconds after the header's date: the field's times
+    (relative to its ``time_reference``, or to 1900-01-01 without one) must be whole seconds.
+    """
+    import dask.array as da
+    import xarray as xr
+    import xarray_selafin.xarray_backend  # noqa: F401
+
+    if precision not in ("double", "single"):
+        raise FlowFileError(f"{path}: precision {precision!r}: 'double' or 'single'")
+    times = np.asarray(field.times, dtype=np.float64)
+    if np.any(np.abs(times - np.round(times)) > 1e-6):
+        raise FlowFileError(f"{path}: the flow's times are not whole seconds (e.g. "
+                            f"{times[np.abs(times - np.round(times)) > 1e-6][0]!r} s); "
+                            "xarray-selafin writes whole seconds after the header date")
+    epoch = reference_epoch(field.attrs, str(path)) or np.datetime64("1900-01-01T00:00:00",
+                                                                      "us")
+    date = epoch.astype(object)
+    stamps = epoch + np.round(times).astype(np.int64).astype("timedelta64[s]")
+    mesh = field.mesh
+    n = mesh.n_nodes
+    if field.location == "node":
+        bed = field.node_bed
+    else:
+        bed = mesh.node_operators()[0] @ field.bed
+    dtype = np.float64 if precision == "double" else np.float32
+
+    def frame(key, block_info=None):
+        i = block_info[None]["chunk-location"][0]
+        snap = field.node_snapshot(i)
+        val = snap[key] if key != "B" else bed
+        if key == "eta":
+            val = snap["h"] + bed
+        return np.asarray(val, dtype=dtype)[None, :]
+
+    data = {}
+    for vid, key in (("H", "h"), ("U", "u"), ("V", "v"), ("S", "eta"), ("B", "B")):
+        arr = da.map_blocks(frame, key, dtype=dtype, chunks=((1,) * times.size, (n,)),
+                            meta=np.empty((0, 0), dtype))
+        data[vid] = (("time", "node"), arr)
+    ds = xr.Dataset(data, coords={"x": ("node", mesh.node_x), "y": ("node", mesh.node_y),
+                                  "time": stamps.astype("datetime64[ns]")})
+    ds.attrs.update(
+        title=(title or f"driftlog flow {field.name}")[:72],
+        float_size=8 if precision == "double" else 4,
+        ikle2=(triangles(mesh) + 1).astype(np.int32),
+        date_start=(date.year, date.month, date.day, date.hour, date.minute, date.second),
+        variables={"H": ("WATER DEPTH", "M"), "U": ("VELOCITY U", "M/S"),
+                   "V": ("VELOCITY V", "M/S"), "S": ("FREE SURFACE", "M"),
+                   "B": ("BOTTOM", "M")})
+    import dask
+
+    with dask.config.set(scheduler="synchronous"):
+        ds.selafin.write(str(path))
+    return Path(path)
