@@ -6,8 +6,8 @@ import pytest
 xr = pytest.importorskip("xarray")
 pytest.importorskip("xarray_selafin")
 import xarray_selafin.xarray_backend  # noqa: E402,F401
-
 from driftlog.adapters import selafin  # noqa: E402
+
 from driftlog.errors import FlowFileError  # noqa: E402
 from driftlog.flow import WET  # noqa: E402
 from driftlog.mesh import Mesh  # noqa: E402
@@ -61,7 +61,8 @@ def write_slf(path, names=ENGLISH, keep=("H", "U", "V", "B", "S"), float_size=8,
             data[k] = [np.array([a * (0.5 + k2 / (planes - 1)) for k2 in range(planes)])
                        for a in data[k]]
         names = dict(names, Z=("ELEVATION Z", "M"))
-    t0 = np.datetime64("%04d-%02d-%02dT%02d:%02d:%02d" % date)
+    yy, mo, dd, hh, mi, ss = date
+    t0 = np.datetime64(f"{yy:04d}-{mo:02d}-{dd:02d}T{hh:02d}:{mi:02d}:{ss:02d}")
     ds = xr.Dataset({k: (dims, np.array(data[k])) for k in keep},
                     coords={"x": ("node", x), "y": ("node", y),
                             "time": t0 + (np.asarray(times) * 1e6).astype("timedelta64[us]")})
