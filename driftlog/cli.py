@@ -87,8 +87,8 @@ def cmd_info(args):
         field = open_flow(path)
         print(field)
         print(field.mesh)
-        for k in ("source", "title", "driftlog_version"):
-            if k in field.attrs:
+        for k in ("source", "title", "driftlog_version", "import_notes"):
+            if field.attrs.get(k):
                 print(f"  {k}: {field.attrs[k]}")
         return 0
     from driftlog.mesh import read_mesh
