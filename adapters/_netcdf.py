@@ -5,9 +5,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters._common import check_values, time_in_seconds, unit_factor
 
 from driftlog.errors import FlowFileError
+
+from ._common import check_values, time_in_seconds, unit_factor
 
 __all__ = ["open_dataset", "check_netcdf3_size", "netcdf3_expected_size", "variable_attrs",
            "read_times", "NetCDFSource", "FaceSnapshots",
@@ -293,7 +294,7 @@ class FaceSnapshots(NetCDFSource):
 
 def find_roles(variables, mapping, where, need_bed):
     """Pick variables for depth/level, bed, velocity or unit discharge; returns role -> name."""
-    from driftlog.adapters._common import find_variable
+    from ._common import find_variable
 
     roles = {}
     for role in ("depth", "level", "u", "v", "hu", "hv"):

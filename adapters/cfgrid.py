@@ -15,8 +15,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters._common import SubsetSnapshots, select_times, unit_factor
-from driftlog.adapters._netcdf import (
+
+from driftlog.errors import FlowFileError
+from driftlog.flow import check_times
+from driftlog.gridflow import GridFlowField
+from driftlog.schema import Key
+
+from ._common import SubsetSnapshots, select_times, unit_factor
+from ._netcdf import (
     ROLES,
     NetCDFSource,
     find_roles,
@@ -24,10 +30,6 @@ from driftlog.adapters._netcdf import (
     read_times,
     variable_attrs,
 )
-
-from driftlog.errors import FlowFileError
-from driftlog.flow import check_times
-from driftlog.gridflow import GridFlowField
 
 __all__ = ["open_cf_grid", "is_cf_grid", "GridSnapshots"]
 
@@ -236,7 +238,7 @@ def _open(ds, path, time_range, mapping, dry_depth, fill, units_override):
 
 
 def _find_bed(ds, yn, xn, lead, mapping, path):
-    from driftlog.adapters._common import find_variable
+    from ._common import find_variable
 
     static = variable_attrs(ds, (yn, xn))
     timed = variable_attrs(ds, lead + (yn, xn)) if lead else {}
@@ -256,7 +258,36 @@ def _find_bed(ds, yn, xn, lead, mapping, path):
 
 
 def _has_level(allvars, mapping, where):
-    from driftlog.adapters._common import find_variable
+    from ._common import find_variable
 
     _, std, alias = ROLES["level"]
     return find_variable(allvars, alias, "level", mapping, std, where, required=False)
+
+
+# --------------------------------------------------------------------- the reader contract
+KIND = "cf_grid"
+SUFFIXES = (".nc",)
+OPTIONS = [
+    Key("fill", "str", "error", "fill values / NaN (cells outside the flood extent): an error, "
+        "or dry cells", choices=("error", "dry")),
+    Key("units", "table", None, "units for variables without a units attribute "
+        "({hu = 'm3 s-1'})"),
+]
+
+
+def can_open(path) -> bool:
+    """Whether ``path`` is a NetCDF file with 1-D x and y coordinates (a regular grid)."""
+    try:
+        p = Path(path)
+        if not p.is_file():
+            return False
+        with open_dataset(p) as ds:
+            return is_cf_grid(ds)
+    except Exception:
+        return False
+
+
+def open(path, *, time_range=None, variables=None, dry_depth=1e-3, **options):
+    """``open_cf_grid`` under the reader contract (``options``: ``OPTIONS``)."""
+    return open_cf_grid(path, time_range=time_range, variables=variables, dry_depth=dry_depth,
+                        **options)
