@@ -24,17 +24,18 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters._common import SubsetSnapshots, reference_epoch, select_times
 
 from driftlog.errors import FlowFileError, MeshError
 from driftlog.flow import MeshFlowField, check_times
 
-__all__ = ["KIND", "SUFFIXES", "OPTION_NAMES", "can_open", "open", "describe", "open_dfsu",
+from ._common import SubsetSnapshots, reference_epoch, select_times
+
+__all__ = ["KIND", "SUFFIXES", "OPTIONS", "can_open", "open", "describe", "open_dfsu",
            "DfsuSnapshots", "ROLES", "write"]
 
 KIND = "dfsu"
 SUFFIXES = (".dfsu",)
-OPTION_NAMES = ()
+OPTIONS = []  # no options of its own
 
 MAGIC = b"DHI_DFS_"
 #: role -> (EUM type names, item names, units kind)

@@ -30,22 +30,22 @@ import struct
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters._common import (
-    SubsetSnapshots,
-    reference_epoch,
-    select_times,
-    unit_factor,
-)
 
 from driftlog.errors import FlowFileError, MeshError
 from driftlog.flow import MeshFlowField, check_times
+from driftlog.schema import Key
 
-__all__ = ["KIND", "SUFFIXES", "OPTION_NAMES", "can_open", "open", "describe",
+from ._common import SubsetSnapshots, reference_epoch, select_times, unit_factor
+
+__all__ = ["KIND", "SUFFIXES", "OPTIONS", "can_open", "open", "describe",
            "open_selafin", "SelafinSnapshots", "ROLES", "write", "triangles"]
 
 KIND = "selafin"
 SUFFIXES = (".slf", ".srf", ".sel", ".res", ".selafin")
-OPTION_NAMES = ("depth_average",)
+OPTIONS = [
+    Key("depth_average", "bool", False, "read a TELEMAC-3D file as its depth average "
+        "(trapezoidal over the planes in ELEVATION Z); false: a 3D file is refused"),
+]
 
 #: role -> (English name, French name, variable id); units kind
 ROLES = {
