@@ -5,7 +5,8 @@ either direction) and fields on (time, y, x), or (y, x) for one steady snapshot:
 depth or water level (with a bed), and velocities or unit discharges.  Staggered fields as
 LISFLOOD-FP writes them, ``Qx`` / ``Vx`` on the nx + 1 cell edges along x and ``Qy`` / ``Vy``
 on the ny + 1 edges along y, are averaged to the cells (Q in m3/s is divided by the edge
-length to give a unit discharge).  The raster becomes ``Mesh.regular_grid`` (face
+length to give a unit discharge).  The raster becomes a ``GridFlowField``: sampled
+bilinearly between the cell centres (``driftlog.gridflow``), on ``Mesh.regular_grid`` (face
 ``j * nx + i`` is cell (row j, column i), rows from south to north).
 """
 
@@ -14,8 +15,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters._common import SubsetSnapshots, select_times, unit_factor
-from driftlog.adapters._netcdf import (
+
+from driftlog.errors import FlowFileError
+from driftlog.flow import check_times
+from driftlog.gridflow import GridFlowField
+from driftlog.schema import Key
+
+from ._common import SubsetSnapshots, select_times, unit_factor
+from ._netcdf import (
     ROLES,
     NetCDFSource,
     find_roles,
@@ -23,10 +30,6 @@ from driftlog.adapters._netcdf import (
     read_times,
     variable_attrs,
 )
-
-from driftlog.errors import FlowFileError
-from driftlog.flow import MeshFlowField, check_times
-from driftlog.mesh import Mesh
 
 __all__ = ["open_cf_grid", "is_cf_grid", "GridSnapshots"]
 
@@ -99,7 +102,7 @@ class GridSnapshots(NetCDFSource):
 
 def open_cf_grid(path, time_range=None, variables=None, dry_depth=1e-3, fill="error",
                  units=None):
-    """Open a CF regular-grid NetCDF file as a MeshFlowField (snapshots read lazily).
+    """Open a CF regular-grid NetCDF file as a GridFlowField (snapshots read lazily).
 
     Parameters
     ----------
@@ -224,18 +227,18 @@ def _open(ds, path, time_range, mapping, dry_depth, fill, units_override):
     src.bed = bed
     x0 = min(x[0], x[-1]) - dx / 2
     y0 = min(y[0], y[-1]) - dy / 2
-    mesh = Mesh.regular_grid(nx, ny, dx, dy, x0=x0, y0=y0)
     idx = select_times(times, time_range, str(path))
     source = SubsetSnapshots(src, idx) if idx.size != times.size else src
     attrs = {"source": "cf_grid" + (f" ({ds.source})" if hasattr(ds, "source") else ""),
              "source_path": str(path.resolve()), "time_origin": origin or "",
              "variables": ", ".join(f"{k}={v[0]}" for k, v in spec.items()),
              "import_notes": "; ".join(notes), "grid_shape": f"{ny} {nx}"}
-    return MeshFlowField(mesh, bed, source, dry_depth=dry_depth, name=str(path), attrs=attrs)
+    return GridFlowField(nx, ny, dx, dy, x0, y0, bed, source, dry_depth=dry_depth,
+                         name=str(path), attrs=attrs)
 
 
 def _find_bed(ds, yn, xn, lead, mapping, path):
-    from driftlog.adapters._common import find_variable
+    from ._common import find_variable
 
     static = variable_attrs(ds, (yn, xn))
     timed = variable_attrs(ds, lead + (yn, xn)) if lead else {}
@@ -255,7 +258,36 @@ def _find_bed(ds, yn, xn, lead, mapping, path):
 
 
 def _has_level(allvars, mapping, where):
-    from driftlog.adapters._common import find_variable
+    from ._common import find_variable
 
     _, std, alias = ROLES["level"]
     return find_variable(allvars, alias, "level", mapping, std, where, required=False)
+
+
+# --------------------------------------------------------------------- the reader contract
+KIND = "cf_grid"
+SUFFIXES = (".nc",)
+OPTIONS = [
+    Key("fill", "str", "error", "fill values / NaN (cells outside the flood extent): an error, "
+        "or dry cells", choices=("error", "dry")),
+    Key("units", "table", None, "units for variables without a units attribute "
+        "({hu = 'm3 s-1'})"),
+]
+
+
+def can_open(path) -> bool:
+    """Whether ``path`` is a NetCDF file with 1-D x and y coordinates (a regular grid)."""
+    try:
+        p = Path(path)
+        if not p.is_file():
+            return False
+        with open_dataset(p) as ds:
+            return is_cf_grid(ds)
+    except Exception:
+        return False
+
+
+def open(path, *, time_range=None, variables=None, dry_depth=1e-3, **options):
+    """``open_cf_grid`` under the reader contract (``options``: ``OPTIONS``)."""
+    return open_cf_grid(path, time_range=time_range, variables=variables, dry_depth=dry_depth,
+                        **options)

@@ -87,8 +87,8 @@ def cmd_info(args):
         field = open_flow(path)
         print(field)
         print(field.mesh)
-        for k in ("source", "title", "driftlog_version"):
-            if k in field.attrs:
+        for k in ("source", "title", "driftlog_version", "import_notes"):
+            if field.attrs.get(k):
                 print(f"  {k}: {field.attrs[k]}")
         return 0
     from driftlog.mesh import read_mesh
@@ -337,9 +337,9 @@ def add_import(sub):
                          "format is detected from the source unless --format is given.")
     p.add_argument("source", help="file, or OpenFOAM case directory")
     p.add_argument("-o", "--output", required=True, help="flow file to write (.nc)")
-    p.add_argument("--format", default="auto",
-                   choices=("auto", "openfoam", "ugrid", "anuga", "cf_grid", "file"),
-                   help="the source's format (default: detected)")
+    p.add_argument("--format", "--kind", dest="format", default="auto",
+                   help="the source's format: auto (detected), or the kind of a reader of "
+                   "driftlog.adapters (file, openfoam, ugrid, anuga, cf_grid...)")
     p.add_argument("--time-range", nargs=2, type=float, metavar=("START", "END"),
                    help="only the snapshots in [START, END] (s)")
     p.add_argument("--var", action="append", default=[], metavar="NAME=VARIABLE",
