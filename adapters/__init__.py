@@ -25,6 +25,7 @@ openfoam    shallowWaterFoam case; interFoam depth-averaged   openfoam, openfoam
 ugrid       UGRID NetCDF (D-Flow FM map files...)             ugrid
 anuga       ANUGA .sww                                        anuga
 cf_grid     CF regular grid NetCDF (LISFLOOD-FP...)           cfgrid
+raster      LISFLOOD-FP ASCII results, GeoTIFF series         raster (rioxarray)
 =========  ===============================================  ===========================
 
 ``open_flow_source(kind, path, **options)`` opens any of them ('auto' detects the kind);
@@ -40,13 +41,13 @@ from pathlib import Path
 from driftlog.errors import FlowFileError
 from driftlog.schema import Section, check_table
 
-from . import anuga, cfgrid, file, openfoam, ugrid
+from . import anuga, cfgrid, file, openfoam, raster, ugrid
 from ._netcdf import open_dataset
 
 __all__ = ["READERS", "KINDS", "reader", "options_section", "open_flow_source",
            "detect_format", "flow_from_scenario", "import_flow", "checked_snapshot"]
 
-READERS = [file, openfoam, ugrid, anuga, cfgrid]
+READERS = [file, openfoam, ugrid, anuga, cfgrid, raster]
 """The reader modules, in the order 'auto' tries them."""
 
 KINDS = tuple(r.KIND for r in READERS)
