@@ -110,6 +110,7 @@ class SubsetSnapshots:
         self.index = np.asarray(index, dtype=np.int64)
         self.times = np.asarray(source.times)[self.index]
         self.name = getattr(source, "name", "flow")
+        self.location = getattr(source, "location", "face")  # where its arrays are
 
     def read(self, i):
         return self.source.read(int(self.index[i]))

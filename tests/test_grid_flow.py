@@ -146,3 +146,66 @@ def test_bad_grid():
     with pytest.raises(FlowFileError, match="nx, ny >= 1"):
         GridFlowField.from_arrays(0, 3, 1.0, 1.0, 0, 0, np.zeros(0), [0.0], np.zeros((1, 0)),
                                   np.zeros((1, 0)), np.zeros((1, 0)))
+
+
+def test_node_layout_bilinear_on_the_hull_of_the_points():
+    """Node-based values (the points are the cells' corners): exact for a bilinear field on
+    the whole domain, which ends at the outermost points; the mesh's nodes are the points."""
+    nx, ny, x0, y0 = 6, 4, 10.0, 20.0
+    X, Y = np.meshgrid(x0 + DX * np.arange(nx), y0 + DY * np.arange(ny))
+    px, py = X.ravel(), Y.ravel()
+    h = np.stack([np.full(px.size, 1.5) for _ in TIMES])
+    u = np.stack([bilinear_u(px, py, t) for t in TIMES])
+    v = np.stack([bilinear_v(px, py, t) for t in TIMES])
+    f = GridFlowField.from_arrays(nx, ny, DX, DY, x0, y0, 0.01 * px, TIMES, h, h * u, h * v,
+                                  layout="node")
+    np.testing.assert_allclose(f.mesh.node_x, px)
+    np.testing.assert_allclose(f.mesh.node_y, py)
+    assert f.mesh.n_faces == (nx - 1) * (ny - 1)
+    np.testing.assert_allclose(f.point_coordinates()[0], px)
+    rng = np.random.default_rng(4)
+    x = x0 + (nx - 1) * DX * rng.random(300)
+    y = y0 + (ny - 1) * DY * rng.random(300)
+    for t in (0.0, 5.0, 10.0):
+        s = f.sample(x, y, t)
+        assert np.all(s.flag == WET)
+        np.testing.assert_allclose(s.u, bilinear_u(x, y, t), atol=1e-12)
+        np.testing.assert_allclose(s.v, bilinear_v(x, y, t), atol=1e-12)
+        np.testing.assert_allclose(s.jacobian[:, 0, 1], -0.02 + 2e-4 * x, atol=1e-12)
+        np.testing.assert_allclose(s.eta, 1.5 + 0.01 * x, atol=1e-12)
+        np.testing.assert_array_equal(s.face, f.mesh.locate(x, y))
+    out = f.sample(np.array([x0 - 0.01, x0 + 5.0]), np.array([y0 + 5.0, y0 - 0.01]), 1.0)
+    np.testing.assert_array_equal(out.flag, [OUTSIDE, OUTSIDE])
+    # face arrays: the mean of each cell's four corners; freeze keeps the layout
+    np.testing.assert_allclose(f.snapshot(1)["h"], 1.5)
+    g = f.freeze(7.0)
+    assert g.layout == "node"
+    np.testing.assert_allclose(g.sample(x, y, 0.0).u, f.sample(x, y, 7.0).u, atol=1e-12)
+
+
+def test_cf_grid_node_layout_option(tmp_path):
+    """cf_grid with [flow.options] layout = 'node': the domain is the coordinates' hull."""
+    import netCDF4
+    from driftlog.adapters import open_flow_source
+
+    path = tmp_path / "g.nc"
+    xs, ys = 100.0 + DX * np.arange(5), 50.0 + DY * np.arange(4)
+    with netCDF4.Dataset(path, "w") as ds:
+        for name, c in (("x", xs), ("y", ys)):
+            ds.createDimension(name, c.size)
+            var = ds.createVariable(name, "f8", (name,))
+            var[:] = c
+            var.units = "m"
+        X, Y = np.meshgrid(xs, ys)
+        for name, val in (("bed", 0.0 * X), ("depth", 1.0 + 0 * X), ("u", bilinear_u(X, Y, 0)),
+                          ("v", bilinear_v(X, Y, 0))):
+            ds.createVariable(name, "f8", ("y", "x"))[:] = val
+    cell = open_flow_source("cf_grid", path)
+    node = open_flow_source("cf_grid", path, layout="node")
+    assert cell.grid[2:4] == (100.0 - DX / 2, 50.0 - DY / 2) and cell.layout == "cell"
+    assert node.grid[2:4] == (100.0, 50.0) and node.mesh.n_nodes == 20
+    x, y = np.array([101.0, 99.0]), np.array([51.0, 51.0])
+    assert node.sample(x, y, 0.0).flag.tolist() == [WET, OUTSIDE]
+    assert cell.sample(x, y, 0.0).flag.tolist() == [WET, WET]
+    np.testing.assert_allclose(node.sample(x[:1], y[:1], 0.0).u, bilinear_u(x[:1], y[:1], 0),
+                               atol=1e-12)
