@@ -142,8 +142,9 @@ register_section(Section("flow", [
     Key("time_range", "floats", None, "import only snapshots in [start, end]", "s", length=2),
     Key("options", "table", {}, "options of the importer (driftlog.adapters): openfoam "
         "decomposed, mode ('shallow_water' | 'vof'), raster ([x0, y0, dx, nx, ny]); ugrid and "
-        "cf_grid fill ('error' | 'dry'), units ({hu = 'm3 s-1'}); anuga use_centroids",
-        when="source = openfoam, ugrid, anuga, cf_grid"),
+        "cf_grid fill ('error' | 'dry'), units ({hu = 'm3 s-1'}); anuga use_centroids; "
+        "selafin depth_average",
+        when="source = openfoam, ugrid, anuga, cf_grid, selafin"),
 ], doc="the hydro source", check=_check_flow))
 
 
