@@ -22,15 +22,16 @@ Wet and dry, as the mesh field (``driftlog.flow.MeshFlowField``) does it: on eac
 the velocity is hu / h where h > ``dry_depth`` and 0 elsewhere, the four columns h, u, v and
 the water level are interpolated on their own, and a sample is wet where the interpolated depth
 exceeds ``dry_depth``.  Land (cells the source marks with fill values, read with ``fill =
-'dry'``) is dry ground: depth 0, velocity 0; logs reaching it strand as on any dry face.
+'dry'``) is dry ground: depth 0, velocity 0; logs reaching it ground (resting or stranded) in
+the shallowing water at its shore, as at the dry faces of a mesh.
 
 The field is a ``MeshFlowField`` on ``Mesh.regular_grid`` (face ``j * nx + i`` is cell (row j,
 column i)), so everything built on faces works unchanged: the face arrays of snapshots (for a
 node-based grid, each cell's mean of its four corners, as for any node-located source), flow
 files written from it (``driftlog import``), ``freeze``, location hints (the cell holding the
-point) and contact walls, which are the grid's outer edges.  Land cells are not walls: a log
-drifting towards land strands in the shallowing water (or is stopped as dry) as on a mesh
-whose dry faces are part of the mesh.
+point) and contact walls, which are the grid's outer edges (tagged as on any mesh).  Land
+cells are not walls: a log drifting towards land grounds in the shallowing water, as on a mesh
+whose dry faces are part of the mesh (tests/test_grid_flow.py).
 """
 
 from __future__ import annotations
