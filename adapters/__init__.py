@@ -180,6 +180,9 @@ def import_flow(source, output, kind="auto", compress=True, progress=None, keep_
     attrs.setdefault("source", field.name)
     attrs["dry_depth"] = field.dry_depth
     attrs["imported_from"] = str(Path(source).resolve())
+    if getattr(field, "location", "face") == "node":
+        note = "node values averaged on each face (a driftlog flow file holds face values)"
+        attrs["import_notes"] = "; ".join(filter(None, [attrs.get("import_notes"), note]))
     try:
         writer = FlowFileWriter(output, field.mesh, field.bed, attrs=attrs, compress=compress)
     except OSError as exc:

@@ -420,6 +420,52 @@ def cmd_import(args):
     return 0
 
 
+@command
+def add_export(sub):
+    p = _sub(sub, "export", "write a flow as another model's result file (TELEMAC Selafin, "
+             "MIKE 21 FM dfsu)",
+             "driftlog export flow.nc -o flow.slf\n  driftlog export flow.nc -o flow.dfsu",
+             description="Read a flow (any source driftlog reads) and write it with the "
+                         "format's own library: Selafin with xarray-selafin (the node values "
+                         "driftlog's sampler interpolates), dfsu with mikeio (face values, "
+                         "float32).  The format follows the output's suffix unless --format "
+                         "is given.")
+    p.add_argument("source", help="flow file, or any hydro source driftlog reads")
+    p.add_argument("-o", "--output", required=True, help="file to write (.slf or .dfsu)")
+    p.add_argument("--format", choices=("selafin", "dfsu"), default=None,
+                   help="output format (default: from the suffix: .slf/.srf/.sel/.res "
+                        "selafin, .dfsu dfsu)")
+    p.add_argument("--precision", choices=("single", "double"), default="single",
+                   help="Selafin precision (default single, TELEMAC's SERAFIN)")
+    p.set_defaults(run=cmd_export)
+
+
+def cmd_export(args):
+    from driftlog.adapters import mike, open_flow_source, selafin
+
+    out = Path(args.output)
+    fmt = args.format
+    if fmt is None:
+        if out.suffix.lower() in selafin.SUFFIXES:
+            fmt = "selafin"
+        elif out.suffix.lower() in mike.SUFFIXES:
+            fmt = "dfsu"
+        else:
+            raise DriftlogError(f"{out}: format not known from the suffix {out.suffix!r}: give "
+                                "--format selafin or --format dfsu")
+    field = open_flow_source("auto", args.source)
+    try:
+        if fmt == "selafin":
+            selafin.write(field, out, precision=args.precision)
+        else:
+            mike.write(field, out)
+    except OSError as exc:
+        raise DriftlogError(f"{out}: cannot write the {fmt} file ({exc})") from None
+    print(f"{args.source} -> {out} ({fmt}, {field.times.size} snapshots, "
+          f"{field.mesh.n_faces} faces)")
+    return 0
+
+
 # --------------------------------------------------------------------- comparison
 @command
 def add_compare(sub):
