@@ -65,7 +65,8 @@ def cmd_scenario(args):
 def add_info(sub):
     p = _sub(sub, "info", "describe a flow file, a mesh, or a trajectory file",
              "driftlog info flow.nc")
-    p.add_argument("file", help="NetCDF flow or trajectory file, or a mesh file")
+    p.add_argument("file", help="NetCDF flow or trajectory file, another model's result file "
+                   "(TELEMAC Selafin, MIKE dfsu...), or a mesh file")
     p.set_defaults(run=cmd_info)
 
 
@@ -87,10 +88,16 @@ def cmd_info(args):
         field = open_flow(path)
         print(field)
         print(field.mesh)
-        for k in ("source", "title", "driftlog_version"):
-            if k in field.attrs:
+        for k in ("source", "title", "driftlog_version", "import_notes"):
+            if field.attrs.get(k):
                 print(f"  {k}: {field.attrs[k]}")
         return 0
+    from driftlog.adapters import READERS
+
+    for r in READERS:  # other models' files: a few lines from the reader that opens them
+        if hasattr(r, "describe") and r.can_open(path):
+            print("\n".join(r.describe(path)))
+            return 0
     from driftlog.mesh import read_mesh
 
     print(read_mesh(path))
@@ -332,14 +339,15 @@ def add_import(sub):
              "  driftlog import FlowFM_map.nc -o flow.nc --var depth=mesh2d_waterdepth\n"
              "  driftlog import damBreak3d -o flow.nc --option raster=0,0,0.1,6,2",
              description="Read a hydro source (OpenFOAM case, UGRID / D-Flow FM map file, "
-                         "ANUGA .sww, CF grid NetCDF such as LISFLOOD-FP's) and write it as a "
+                         "ANUGA .sww, CF grid NetCDF such as LISFLOOD-FP's, TELEMAC Selafin, "
+                         "MIKE 21 FM dfsu) and write it as a "
                          "driftlog flow file (UGRID-1.0 + CF), snapshot by snapshot.  The "
                          "format is detected from the source unless --format is given.")
     p.add_argument("source", help="file, or OpenFOAM case directory")
     p.add_argument("-o", "--output", required=True, help="flow file to write (.nc)")
-    p.add_argument("--format", default="auto",
-                   choices=("auto", "openfoam", "ugrid", "anuga", "cf_grid", "file"),
-                   help="the source's format (default: detected)")
+    p.add_argument("--format", "--kind", dest="format", default="auto",
+                   help="the source's format: auto (detected), or the kind of a reader of "
+                   "driftlog.adapters (file, openfoam, ugrid, anuga, cf_grid, selafin, dfsu...)")
     p.add_argument("--time-range", nargs=2, type=float, metavar=("START", "END"),
                    help="only the snapshots in [START, END] (s)")
     p.add_argument("--var", action="append", default=[], metavar="NAME=VARIABLE",
@@ -409,6 +417,52 @@ def cmd_import(args):
     print(f"  {field.times.size} snapshots from {field.times[0]:g} to {field.times[-1]:g} s")
     for note in filter(None, str(field.attrs.get("import_notes", "")).split("; ")):
         print(f"  note: {note}")
+    return 0
+
+
+@command
+def add_export(sub):
+    p = _sub(sub, "export", "write a flow as another model's result file (TELEMAC Selafin, "
+             "MIKE 21 FM dfsu)",
+             "driftlog export flow.nc -o flow.slf\n  driftlog export flow.nc -o flow.dfsu",
+             description="Read a flow (any source driftlog reads) and write it with the "
+                         "format's own library: Selafin with xarray-selafin (the node values "
+                         "driftlog's sampler interpolates), dfsu with mikeio (face values, "
+                         "float32).  The format follows the output's suffix unless --format "
+                         "is given.")
+    p.add_argument("source", help="flow file, or any hydro source driftlog reads")
+    p.add_argument("-o", "--output", required=True, help="file to write (.slf or .dfsu)")
+    p.add_argument("--format", choices=("selafin", "dfsu"), default=None,
+                   help="output format (default: from the suffix: .slf/.srf/.sel/.res "
+                        "selafin, .dfsu dfsu)")
+    p.add_argument("--precision", choices=("single", "double"), default="single",
+                   help="Selafin precision (default single, TELEMAC's SERAFIN)")
+    p.set_defaults(run=cmd_export)
+
+
+def cmd_export(args):
+    from driftlog.adapters import mike, open_flow_source, selafin
+
+    out = Path(args.output)
+    fmt = args.format
+    if fmt is None:
+        if out.suffix.lower() in selafin.SUFFIXES:
+            fmt = "selafin"
+        elif out.suffix.lower() in mike.SUFFIXES:
+            fmt = "dfsu"
+        else:
+            raise DriftlogError(f"{out}: format not known from the suffix {out.suffix!r}: give "
+                                "--format selafin or --format dfsu")
+    field = open_flow_source("auto", args.source)
+    try:
+        if fmt == "selafin":
+            selafin.write(field, out, precision=args.precision)
+        else:
+            mike.write(field, out)
+    except OSError as exc:
+        raise DriftlogError(f"{out}: cannot write the {fmt} file ({exc})") from None
+    print(f"{args.source} -> {out} ({fmt}, {field.times.size} snapshots, "
+          f"{field.mesh.n_faces} faces)")
     return 0
 
 
