@@ -168,6 +168,7 @@ def test_boundaries_and_states_without_an_openfoam_equivalent(tmp_path):
 
 def test_openfoam_not_installed(tmp_path, monkeypatch):
     import driftlog.adapters.openfoam_case as oc
+
     from driftlog.solver.config import flow_from_scenario
 
     (tmp_path / "flow_shallowWaterFoam.nc").write_bytes(b"kept")
