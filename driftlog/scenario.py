@@ -352,6 +352,15 @@ def _check_solver(t, prefix, scen):
 
 
 register_section(Section("solver", [
+    Key("engine", "str", "driftlog", "what computes the flow: driftlog's solver, or "
+        "OpenFOAM's shallowWaterFoam on the same mesh, bed, initial state and boundaries "
+        "(flow file [flow] path + '_shallowWaterFoam', case folder beside it)",
+        choices=("driftlog", "shallowWaterFoam")),
+    Key("n_procs", "int", 1, "processes of an OpenFOAM engine run (decomposePar + mpirun when "
+        "> 1)", min=1),
+    Key("openfoam_friction", "str", "refuse", "shallowWaterFoam has no bed friction: refuse a "
+        "section with manning/strickler, or omit the friction in the OpenFOAM run (recorded in "
+        "the flow's attributes)", choices=("refuse", "omit")),
     Key("mesh", "str", "channel", "the mesh: a channel built here, a polygon (outline with "
         "tagged sides) built here, or a mesh file", choices=("channel", "polygon", "file")),
     Key("outline", "points", None, "outer boundary [[x, y], ...] of mesh = 'polygon'; side i "
