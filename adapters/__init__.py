@@ -147,14 +147,14 @@ def check_flow_options(section: dict, prefix: str, base_dir: Path) -> dict:
 def flow_from_scenario(scenario):
     """The FlowField of a validated scenario's ``[flow]`` section.
 
-    For the sources of ``KINDS`` (file, openfoam, ugrid, anuga, cf_grid...); frozen at
-    ``steady_at`` if set.
+    For the sources of ``KINDS`` (file, openfoam, ugrid, anuga, cf_grid...), or 'auto' (the
+    reader whose ``can_open`` takes the file); frozen at ``steady_at`` if set.
 
     ``scenario``: a ``driftlog.scenario.Scenario`` or its ``[flow]`` table (a dict).
     """
     flow = scenario["flow"] if not isinstance(scenario, dict) or "flow" in scenario else scenario
     kind = flow["source"]
-    if kind not in KINDS:
+    if kind not in KINDS and kind != "auto":
         raise FlowFileError(f"[flow] source = {kind!r} is not read by driftlog.adapters (it "
                             f"reads {', '.join(KINDS)}); 'analytic' and 'solver' are built "
                             "elsewhere")
@@ -181,6 +181,9 @@ def import_flow(source, output, kind="auto", compress=True, progress=None, keep_
     attrs.setdefault("source", field.name)
     attrs["dry_depth"] = field.dry_depth
     attrs["imported_from"] = str(Path(source).resolve())
+    if getattr(field, "location", "face") == "node":
+        note = "node values averaged on each face (a driftlog flow file holds face values)"
+        attrs["import_notes"] = "; ".join(filter(None, [attrs.get("import_notes"), note]))
     try:
         writer = FlowFileWriter(output, field.mesh, field.bed, attrs=attrs, compress=compress)
     except OSError as exc:

@@ -22,6 +22,8 @@ GeoTIFF series
     ``dem.tif`` / ``bed.tif``; ``[flow] variables = {depth = "wd_*.tif", bed = "terrain.tif"}``
     names other patterns.  The ``*`` part of each name is the time in ``time_units`` (seconds
     by default).  Velocities are cell values, north positive (GeoTIFF y is a map coordinate).
+    A raster whose AREA_OR_POINT is Point holds values at points: they are taken as the
+    corners of the cells (``layout = "node"``: the domain ends at the outermost values).
 
 Nodata (the raster's nodata value, or NaN): with ``fill = "dry"`` (the default for rasters,
 whose nodata marks cells outside the flood extent or the model) a dry cell (depth 0, velocity
@@ -61,6 +63,9 @@ OPTIONS = [
         "(LISFLOOD's rows run north to south)", choices=("south", "north")),
     Key("time_units", "str", "s", "GeoTIFF series: units of the time in the file names",
         choices=("s", "min", "h", "d")),
+    Key("layout", "str", "auto", "where the values sit: the cell centres (pixel is area), or "
+        "the cell corners (pixel is point: the domain ends at the outermost values); auto: "
+        "the rasters' AREA_OR_POINT", choices=("auto", "cell", "node")),
 ]
 
 _TIME_FACTOR = {"s": 1.0, "min": 60.0, "h": 3600.0, "d": 86400.0}
@@ -412,8 +417,11 @@ def open_raster_series(path, time_range=None, variables=None, dry_depth=1e-3, **
     if abs(dx - dy) > 1e-6 * dx:
         notes.append(f"cells of {dx:g} x {dy:g} m")
     flip = geo["y"][0] > geo["y"][-1]  # rows from the north: turn them
-    if geo["point"].lower() == "point":
-        notes.append("AREA_OR_POINT = Point: values taken at the pixel centres")
+    layout = options.get("layout", "auto")
+    if layout in (None, "auto"):
+        layout = "node" if geo["point"].lower() == "point" else "cell"
+        if layout == "node":
+            notes.append("AREA_OR_POINT = Point: values at the cell corners (node layout)")
     outside = _bad(bed, nodata)
     if outside.all():
         raise FlowFileError(f"{dem_path}: every cell is nodata")
@@ -435,17 +443,19 @@ def open_raster_series(path, time_range=None, variables=None, dry_depth=1e-3, **
                 raise FlowFileError(f"{paths[0]}: not on the grid of {dem_path.name} (cell "
                                     f"centres from ({g['x'][0]:g}, {g['y'][0]:g}), the bed's "
                                     f"from ({geo['x'][0]:g}, {geo['y'][0]:g}))")
-    x0 = float(geo["x"].min()) - dx / 2
-    y0 = float(geo["y"].min()) - dy / 2
+    shift = 0.0 if layout == "node" else 0.5
+    x0 = float(geo["x"].min()) - shift * dx
+    y0 = float(geo["y"].min()) - shift * dy
     src = RasterSnapshots(str(path), times, roles, stagger, sign, flip, (ny, nx), bed.ravel(),
                           options.get("fill", "dry"), outside.ravel())
+    src.location = "node" if layout == "node" else "face"
     idx = select_times(times, time_range, str(path))
     source = SubsetSnapshots(src, idx) if idx.size != times.size else src
     attrs = {"source": "lisflood-fp" if lisflood else "geotiff series",
              "source_path": str(path.resolve()), "import_notes": "; ".join(notes),
              "grid_shape": f"{ny} {nx}", "crs": geo["crs"]}
     return GridFlowField(nx, ny, dx, dy, x0, y0, bed.ravel(), source, dry_depth=dry_depth,
-                         name=str(path), attrs=attrs)
+                         name=str(path), attrs=attrs, layout=layout)
 
 
 def can_open(path) -> bool:

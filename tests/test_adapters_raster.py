@@ -255,3 +255,30 @@ def test_import_and_track_on_a_lisflood_run(tmp_path):
             t_end=60.0, output_interval=60.0).run()
     # u > 0 and v < 0 about the release point: east and south
     assert logs.state[0, 0] > X0 + 30.0 and logs.state[0, 1] < Y0 + 30.0
+
+
+def test_geotiff_pixel_is_point_is_node_layout(tmp_path):
+    """AREA_OR_POINT = Point: the values are point values, the cells' corners; the domain
+    ends at the outermost points, and the field is still exact for a linear flow there."""
+    folder = tmp_path / "pt"
+    folder.mkdir()
+    X, Y = np.meshgrid(XC, YC)
+
+    def put(arr, name):
+        da = xr.DataArray(arr, dims=("y", "x"), coords={"x": XC, "y": YC})
+        da.attrs["AREA_OR_POINT"] = "Point"
+        da.rio.to_raster(folder / name, driver="GTiff")
+
+    put(bed(X, Y), "dem.tif")
+    for t in (0, 60, 120):
+        put(depth(X, Y, t), f"depth_{t}.tif")
+        put(u(X, Y, t), f"u_{t}.tif")
+        put(v(X, Y, t), f"v_{t}.tif")
+    f = open_flow_source("raster", folder)
+    assert f.layout == "node" and "AREA_OR_POINT = Point" in f.attrs["import_notes"]
+    assert f.mesh.n_faces == (NX - 1) * (NY - 1)
+    check_linear(f, np.random.default_rng(5), times=(0.0, 45.0, 120.0))
+    s = f.sample(np.array([XC[0] - 1.0, XC[0] + 1.0]), np.array([YC[3], YC[3]]), 30.0)
+    assert s.flag.tolist() == [0, 2]  # outside the points' hull; inside
+    g = open_flow_source("raster", folder, layout="cell")  # the user says otherwise
+    assert g.layout == "cell" and g.mesh.n_faces == NX * NY
