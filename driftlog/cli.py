@@ -83,21 +83,32 @@ def cmd_info(args):
 
                 print(xr.open_dataset(path))
                 return 0
-        from driftlog.flowfile import open_flow
+    from driftlog.adapters import READERS
 
-        field = open_flow(path)
+    for r in READERS:  # flow files and other models' files: through the reader that opens them
+        if not r.can_open(path):
+            continue
+        if hasattr(r, "describe"):
+            print("\n".join(r.describe(path)))
+            return 0
+        try:
+            field = r.open(path)
+        except DriftlogError as exc:  # a mesh without flow data (a UGRID mesh file)
+            from driftlog.mesh import read_mesh
+
+            try:
+                mesh = read_mesh(path)
+            except Exception:  # noqa: BLE001 - the reader's message is the one to give
+                raise exc from None
+            print(mesh)
+            print(f"  no flow: {exc}")
+            return 0
         print(field)
         print(field.mesh)
         for k in ("source", "title", "driftlog_version", "import_notes"):
             if field.attrs.get(k):
                 print(f"  {k}: {field.attrs[k]}")
         return 0
-    from driftlog.adapters import READERS
-
-    for r in READERS:  # other models' files: a few lines from the reader that opens them
-        if hasattr(r, "describe") and r.can_open(path):
-            print("\n".join(r.describe(path)))
-            return 0
     from driftlog.mesh import read_mesh
 
     print(read_mesh(path))
@@ -609,6 +620,7 @@ def cmd_ensemble(args):
 
 # --------------------------------------------------------------------- entry point
 def build_parser() -> argparse.ArgumentParser:
+    """The ``driftlog`` argument parser (one sub-command per ``cmd_<name>``)."""
     parser = argparse.ArgumentParser(
         prog="driftlog", formatter_class=_formatter,
         description="Large floating debris (logs) on flood flows: transport, contacts with "
@@ -624,6 +636,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    """Run the command line; returns the exit code (2 for errors about user input)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if not hasattr(args, "run"):
