@@ -136,8 +136,8 @@ class LazyGridMesh:
     Sampling a grid needs no mesh (the cell of a point is arithmetic), while building the
     topology of 1e6 quadrilaterals takes seconds and hundreds of MB; the mesh is made when
     walls, plots, a flow file or point location ask for it (every attribute of ``Mesh`` is
-    forwarded to it then).  ``n_faces``, ``n_nodes``, ``face_nodes``, ``face_n`` and
-    ``grid_shape`` are answered without it.
+    forwarded to it then).  ``n_faces``, ``n_nodes``, ``face_nodes``, ``face_n``, ``bounds``
+    and ``grid_shape`` are answered without it.
     """
 
     def __init__(self, nx, ny, dx, dy, x0=0.0, y0=0.0):
@@ -169,6 +169,12 @@ class LazyGridMesh:
             fn = np.stack([nid[:-1, :-1], nid[:-1, 1:], nid[1:, 1:], nid[1:, :-1]], axis=-1)
             self._table = (fn.reshape(-1, 4), np.full(self.n_faces, 4, np.int64))
         return self._table
+
+    @property
+    def bounds(self):
+        """(xmin, ymin, xmax, ymax) of the nodes."""
+        nx, ny, dx, dy, x0, y0 = self._args
+        return (x0, y0, x0 + nx * dx, y0 + ny * dy)
 
     face_nodes = property(lambda self: self._face_table()[0], doc="face-node table")
     face_n = property(lambda self: self._face_table()[1], doc="nodes per face (4)")

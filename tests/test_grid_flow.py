@@ -262,6 +262,7 @@ def test_mesh_built_only_when_asked():
     ref = Mesh.regular_grid(NX, NY, DX, DY, x0=X0, y0=Y0)
     assert repr(f.mesh) == repr(ref)
     np.testing.assert_array_equal(f.mesh.face_nodes, ref.face_nodes)
+    np.testing.assert_allclose(f.mesh.bounds, ref.bounds)
     assert not f.mesh.built
     np.testing.assert_allclose(f.mesh.boundary_segments(), ref.boundary_segments())
     assert f.mesh.built
