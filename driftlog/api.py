@@ -1,8 +1,7 @@
 """The Python API: load a scenario, get its flow, track its logs, read the results.
 
-    import driftlog
-    result = driftlog.track("cases/vortex/scenario.toml")
-    ds = result.dataset()          # xarray, CF trajectories
+``result = driftlog.track("cases/vortex/scenario.toml")``, then ``result.dataset()``: the
+trajectories as an xarray Dataset (CF trajectories).
 """
 
 from __future__ import annotations
@@ -148,7 +147,8 @@ def _contact_model(scen, flow):
     try:
         from driftlog.contact import ContactModel
     except ImportError as exc:  # pragma: no cover - until the contact package lands
-        raise DriftlogError(f"contact.enabled = true but contacts are not available ({exc})")
+        raise DriftlogError(f"contact.enabled = true but contacts are not available ({exc})") \
+            from exc
     return ContactModel.from_scenario(scen, mesh=getattr(flow, "mesh", None))
 
 

@@ -28,6 +28,11 @@ OUTSIDE, DRY, WET = 0, 1, 2
 Q_H, Q_U, Q_V, Q_ETA, Q_UX, Q_UY, Q_VX, Q_VY, Q_EX, Q_EY = range(10)
 NQ = 10
 
+# regular-grid point values (n_points, NG) per snapshot (driftlog.gridflow): depth, velocity,
+# water level
+G_H, G_U, G_V, G_ETA = range(4)
+NG = 4
+
 # --------------------------------------------------------------------- per-log parameters
 # (n, NPARAM): length, radius, density, volume, mass, inertia, volume-equivalent diameter,
 # sphericity, Ganser's K2, flotation depth

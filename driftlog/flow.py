@@ -94,6 +94,7 @@ class FlowSample:
 
     @classmethod
     def empty(cls, n):
+        """A sample of n points, zeros, flags 0, no face hints (-1)."""
         return cls(np.zeros((n, NVAR)), np.zeros(n, np.int8), np.full(n, -1, np.int64))
 
     h = property(lambda s: s.values[:, H], doc="water depth (m)")
@@ -115,6 +116,7 @@ class FlowSample:
 
     @property
     def wet(self):
+        """True where the point is wet."""
         return self.flag == WET
 
 
@@ -329,6 +331,7 @@ class InMemorySnapshots:
                 raise FlowFileError(f"{name}: {nm} has {arr.shape[0]} snapshots for {nt} times")
 
     def read(self, i):
+        """Snapshot i: (h, hu, hv)."""
         return self.h[i], self.hu[i], self.hv[i]
 
 
@@ -410,10 +413,12 @@ class MeshFlowField(FlowField):
 
     @property
     def times(self):
+        """Snapshot times (s)."""
         return self._times
 
     @property
     def time_span(self):
+        """(first, last) snapshot time (s); infinite for one snapshot (steady)."""
         return (float(self._times[0]), float(self._times[-1])) if self._times.size > 1 else \
             (-np.inf, np.inf)
 
@@ -521,7 +526,7 @@ class MeshFlowField(FlowField):
             nodes[:, Q_VX], nodes[:, Q_VY] = gx[:, 1], gy[:, 1]
             nodes[:, Q_EX], nodes[:, Q_EY] = gx[:, 2], gy[:, 2]
         else:
-            nodes[:, 4:] = 0.0
+            nodes[:, Q_UX:] = 0.0
         A = self._face_mean
         self._snap[i] = (A @ h, A @ hu, A @ hv, nodes)
         while len(self._snap) > 2:

@@ -41,15 +41,14 @@ import numba as nb
 import numpy as np
 
 from driftlog._numba import kernel
+from driftlog.columns import DRY, G_ETA, G_H, G_U, G_V, NG, NVAR, OUTSIDE, WET
 from driftlog.errors import FlowFileError
-from driftlog.flow import DRY, NVAR, OUTSIDE, WET, InMemorySnapshots, MeshFlowField
+from driftlog.flow import InMemorySnapshots, MeshFlowField
 from driftlog.mesh import Mesh
 
 __all__ = ["GridFlowField", "LazyGridMesh", "sample_grid_kernel", "grid_point"]
 
-# grid point columns of one snapshot: depth, velocity, water level
-G_H, G_U, G_V, G_ETA = range(4)
-NG = 4
+# grid point columns of one snapshot: driftlog.columns G_H, G_U, G_V, G_ETA (NG)
 
 
 @nb.njit(cache=True, inline="always")
@@ -276,6 +275,13 @@ class GridFlowField(MeshFlowField):
         while len(self._snap) > 2:
             self._snap.popitem(last=False)
         return self._snap[i]
+
+    def mesh_kernel(self):
+        """None: no fused mesh kernel (the tracker takes the general path).
+
+        The grid is sampled bilinearly (``sample_grid_kernel``), not P1 on mesh nodes.
+        """
+        return None
 
     def sample_into(self, x, y, t, face, out, flag):
         """Kernel entry: fill ``out`` (n, NVAR) and ``flag`` (n,); ``face`` gets the cells."""

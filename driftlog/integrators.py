@@ -145,7 +145,10 @@ def phi_functions(z):
 
 @nb.njit(cache=True, inline="always")
 def _etd_coeffs(lam, h):
-    """For a relaxation rate lam over step h: e^{z}, e^{z/2}, (h/2) phi1(z/2), f1, f2, f3 (z=-lam h)."""
+    """For a relaxation rate lam over step h (z = -lam h).
+
+    Returns e^{z}, e^{z/2}, (h/2) phi1(z/2), f1, f2, f3.
+    """
     z = -lam * h
     e = np.exp(z)
     e2 = np.exp(0.5 * z)
@@ -158,7 +161,8 @@ def _etd_coeffs(lam, h):
 def _etd_stage(stage, h, S0, Sa, lin, N0, Na, Nb, Nc, out):
     """One ETDRK4 stage; N are the nonlinear parts D + M S_vel (M the linearised drag)."""
     for i in nb.prange(S0.shape[0]):
-        lp, lq, wx, wy, lr = lin[i, L_PAR], lin[i, L_PERP], lin[i, L_WX], lin[i, L_WY], lin[i, L_ROT]
+        lp, lq, lr = lin[i, L_PAR], lin[i, L_PERP], lin[i, L_ROT]
+        wx, wy = lin[i, L_WX], lin[i, L_WY]
         # positions and angle: no linear part (classical RK4 coefficients)
         for k in range(X, THETA + 1):
             if stage == 1:

@@ -85,7 +85,8 @@ def _walk(px, py, f, loc):
             b = face_nodes[f, (k + 1) % n]
             c, s = _edge_side(px, py, node_x[a], node_y[a], node_x[b], node_y[b])
             if c < -1e-12 * s:
-                # normalised distance outside this edge; leave by the edge the point is farthest beyond
+                # normalised distance outside this edge; leave by the edge the point is
+                # farthest beyond
                 d = c / np.sqrt(s)
                 if d < worst:
                     worst = d
@@ -194,7 +195,8 @@ def build_bin_grid(face_xmin, face_ymin, face_xmax, face_ymax, faces_per_bin=1.0
     inv_dx = nbx / (wx + 2 * pad_x)
     inv_dy = nby / (wy + 2 * pad_y)
     counts = np.zeros(nbx * nby, dtype=np.int64)
-    _count_bins(face_xmin, face_ymin, face_xmax, face_ymax, x0, y0, inv_dx, inv_dy, nbx, nby, counts)
+    _count_bins(face_xmin, face_ymin, face_xmax, face_ymax, x0, y0, inv_dx, inv_dy, nbx, nby,
+                counts)
     bin_start = np.zeros(nbx * nby + 1, dtype=np.int64)
     np.cumsum(counts, out=bin_start[1:])
     bin_faces = np.empty(bin_start[-1], dtype=np.int64)

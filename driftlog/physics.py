@@ -116,6 +116,7 @@ class PhysicsOptions:
         return o
 
     def as_dict(self):
+        """The options as a plain dict (for provenance attributes)."""
         return asdict(self)
 
 
@@ -172,7 +173,7 @@ def drag_speed_product(s, dv, psi, k2, s_eff, rho, mu):
 
 @nb.njit(cache=True, inline="always")
 def _drag_coef(s, cos_a, sin_a, h, p, opt):
-    """k such that the drag force is k w (w relative velocity, s = |w|)."""
+    """Drag factor k: the drag force is k w (w relative velocity, s = |w|)."""
     law = opt[O_LAW]
     r, L = p[P_R], p[P_L]
     if law == LINEAR:

@@ -72,6 +72,7 @@ class StepOptions:
 
     @classmethod
     def from_scenario(cls, section):
+        """From a validated [integrator] section."""
         return cls(section["length_fraction"], section["angle_step"], section["drag_fraction"],
                    section["max_step"], section["min_step"])
 
@@ -270,6 +271,7 @@ class Tracker:
                 self._F_valid)
 
     def restore(self, saved):
+        """Back to a ``save()`` (the first stage is computed again)."""
         state, t, face, F, flag, valid = saved
         np.copyto(self.state, state)
         self.t = t

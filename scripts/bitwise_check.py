@@ -70,6 +70,7 @@ def netcdf_hashes(path) -> dict:
 
 
 def run_cases(tmp: Path, only=None) -> dict:
+    """Hashes of every case of cases/ at reduced size (trajectories, stats, flow files)."""
     from driftlog.api import find_case, track
     from driftlog.ensemble import summarize_trajectories
     from driftlog.mesh import read_mesh
@@ -157,6 +158,7 @@ def _tracker_run(flow, level, rotation, method, fused, contact=None, n=120, t_en
 
 
 def run_trackers(only=None) -> dict:
+    """Hashes of direct Tracker runs: each integrator, path, physics level and contact method."""
     from driftlog.analytic import FreeVortex, SolidBodyRotation, UniformFlow
     from driftlog.contact import ContactModel
     from driftlog.contact.obstacles import Obstacles
@@ -220,6 +222,7 @@ def compare(new: dict, old: dict) -> list:
 
 
 def main(argv=None):
+    """Command line: hash the runs, write and/or compare."""
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("-o", "--output", help="write the hashes to this JSON file")
     p.add_argument("--compare", help="compare with a JSON written before; exit 1 on a difference")

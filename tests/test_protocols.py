@@ -7,7 +7,6 @@ import pkgutil
 import numpy as np
 import pytest
 
-import driftlog
 from driftlog.analytic import DriftingEddy, SolidBodyRotation, UniformFlow, on_mesh
 from driftlog.contact import BallisticLogs, ContactModel
 from driftlog.flow import FlowField, MeshFlowField
