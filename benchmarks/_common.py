@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from driftlog.columns import UB
+
 RESULTS = Path(__file__).resolve().parent / "results"
 
 
@@ -45,7 +47,9 @@ def write_table(name, rows, columns, title, notes=""):
 
     def fmt(v):
         if isinstance(v, float):
-            return f"{v:.3g}" if (abs(v) < 1e-2 or abs(v) >= 1e4) and v != 0 else f"{v:.3f}".rstrip("0").rstrip(".")
+            if (abs(v) < 1e-2 or abs(v) >= 1e4) and v != 0:
+                return f"{v:.3g}"
+            return f"{v:.3f}".rstrip("0").rstrip(".")
         return str(v)
 
     lines = [f"### {title}", "", f"Measured on {machine()}.", ""]
@@ -87,7 +91,7 @@ def run_recording_first_log(tracker, t0=None, u0=None):
         advance(dt, have_d0)
         if tracker.state.shape[0]:
             ts.append(tracker.t)
-            us.append(tracker.state[0, 3])
+            us.append(tracker.state[0, UB])
 
     tracker.advance = recording
     try:

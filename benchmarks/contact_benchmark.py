@@ -26,6 +26,7 @@ import numba
 import numpy as np
 from _common import RESULTS, best_time, machine, write_table
 
+from driftlog.columns import NSTATE, OMEGA, POSITION, THETA, UB, VB, VELOCITY, X, Y
 from driftlog.contact import BallisticLogs, ContactModel, Obstacles, run_contacts
 from driftlog.contact.geometry import capsule_gap, log_endpoints
 from driftlog.contact.impulses import resolve_impulses
@@ -39,12 +40,12 @@ def field(n, dense, rng):
     g = int(np.ceil(np.sqrt(n)))
     sp = 1.12 * L if dense else 3.0 * L
     xs = np.arange(g) * sp
-    X, Y = np.meshgrid(xs, xs)
-    S = np.zeros((n, 6))
-    S[:, 0], S[:, 1] = X.ravel()[:n], Y.ravel()[:n]
-    S[:, 2] = rng.uniform(0, np.pi, n)
-    S[:, 3:5] = rng.normal(0, 1.0, (n, 2))
-    S[:, 5] = rng.normal(0, 1.0, n)
+    gx, gy = np.meshgrid(xs, xs)
+    S = np.zeros((n, NSTATE))
+    S[:, X], S[:, Y] = gx.ravel()[:n], gy.ravel()[:n]
+    S[:, THETA] = rng.uniform(0, np.pi, n)
+    S[:, UB:VB + 1] = rng.normal(0, 1.0, (n, 2))
+    S[:, OMEGA] = rng.normal(0, 1.0, n)
     return BallisticLogs(S, L, R)
 
 
@@ -106,7 +107,7 @@ def part_whole_step(quick, rows):
     for n in (1_000, 10_000) if quick else (1_000, 10_000, 100_000):
         b = field(n, True, rng)
         for mode in ("none", "event", "moreau"):
-            logs = Logs(b.state[:, 0], b.state[:, 1], b.state[:, 2], L, R, 700.0)
+            logs = Logs(b.state[:, X], b.state[:, Y], b.state[:, THETA], L, R, 700.0)
             contact = None if mode == "none" else ContactModel(method=mode, restitution=0.5)
             tk = Tracker(flow, logs, PhysicsOptions(), contact=contact, t_end=1e3)
             tk._first_check = True
@@ -135,13 +136,13 @@ def encounters(k, rng):
     """k random oblique encounters of two turning logs that do touch (exact t* by bisection)."""
     out = []
     while len(out) < k:
-        S = np.zeros((2, 6))
-        S[0, 2:] = [rng.uniform(0, np.pi), *rng.normal(0, 0.5, 2), rng.normal(0, 0.5)]
+        S = np.zeros((2, NSTATE))
+        S[0, THETA:] = [rng.uniform(0, np.pi), *rng.normal(0, 0.5, 2), rng.normal(0, 0.5)]
         ang = rng.uniform(0, 2 * np.pi)
-        S[1, :2] = 2.0 * np.array([np.cos(ang), np.sin(ang)])
-        S[1, 2] = rng.uniform(0, np.pi)
-        S[1, 3:5] = -0.8 * S[1, :2] / 2.0 + rng.normal(0, 0.2, 2)
-        S[1, 5] = rng.normal(0, 0.5)
+        S[1, X:Y + 1] = 2.0 * np.array([np.cos(ang), np.sin(ang)])
+        S[1, THETA] = rng.uniform(0, np.pi)
+        S[1, UB:VB + 1] = -0.8 * S[1, X:Y + 1] / 2.0 + rng.normal(0, 0.2, 2)
+        S[1, OMEGA] = rng.normal(0, 0.5)
         t_star = first_contact(S, 4.0)
         if t_star is not None and t_star > 0.2:
             out.append((S, t_star))
@@ -149,7 +150,7 @@ def encounters(k, rng):
 
 
 def gap_at(S, t):
-    P = S[:, :3] + t * S[:, 3:]
+    P = S[:, POSITION] + t * S[:, VELOCITY]
     return capsule_gap(*log_endpoints(*P[0], L), R, *log_endpoints(*P[1], L), R, np.empty(5))
 
 
@@ -177,7 +178,7 @@ def exact_after(S, t_star, eps):
 
     pair_impulse(b.state, 1 / b.mass, 1 / b.inertia, 0, 1, out[1], out[2], out[3], out[4], eps,
                  0.0)
-    return b.state[:, 3:].copy()
+    return b.state[:, VELOCITY].copy()
 
 
 def part_contact_times(quick, rows):
@@ -205,7 +206,7 @@ def part_contact_times(quick, rows):
                     missed += 1
                     continue
                 errs_t.append(abs(hits["time"][0] - t_star))
-                errs_v.append(np.abs(b.state[:, 3:] - ref).max())
+                errs_v.append(np.abs(b.state[:, VELOCITY] - ref).max())
             rows.append(dict(method=toi, tolerance=tol, encounters=len(cases), missed=missed,
                              t_error_median=float(np.median(errs_t)),
                              t_error_max=float(np.max(errs_t)),
@@ -275,8 +276,8 @@ def fcl_note():
     depth_err, ang_err = [], []
     for _ in range(1000):
         S = np.zeros((2, 3))
-        S[:, 2] = rng.uniform(0, np.pi, 2)
-        S[1, :2] = rng.uniform(-0.3, 0.3, 2)
+        S[:, THETA] = rng.uniform(0, np.pi, 2)
+        S[1, X:Y + 1] = rng.uniform(-0.3, 0.3, 2)
         out = np.empty(5)
         gap = capsule_gap(*log_endpoints(*S[0], L), R, *log_endpoints(*S[1], L), R, out)
         res = fcl.CollisionResult()

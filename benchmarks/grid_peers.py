@@ -34,6 +34,7 @@ import numpy as np
 import peers_tracking as pt
 from _common import RESULTS, machine
 
+from driftlog.columns import X, Y
 from driftlog.flow import MeshFlowField
 from driftlog.logs import Logs
 from driftlog.physics import PhysicsOptions
@@ -59,7 +60,7 @@ def run_driftlog(flow, x, y, dt, duration):
     cpu = time.process_time() - c0
     if not np.all(logs.status == 1):
         raise RuntimeError(f"driftlog: {np.sum(logs.status != 1)} particles stopped floating")
-    return logs.state[:, 0].copy(), logs.state[:, 1].copy(), cpu
+    return logs.state[:, X].copy(), logs.state[:, Y].copy(), cpu
 
 
 def sampling_speed(n_cells, n_points, repeat=5):

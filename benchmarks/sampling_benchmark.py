@@ -72,12 +72,15 @@ def run(quick=False):
                     px, py = (x, y) if mode == "cold" else (xw, yw)
                     face = np.empty(n, np.int64)
 
-                    def loc():
-                        face[:] = -1 if mode == "cold" else hint0
+                    start = -1 if mode == "cold" else hint0
+
+                    def loc(px=px, py=py, face=face, start=start, locator=locator):
+                        face[:] = start
                         locate_points.parallel(px, py, face, locator)
 
-                    def samp():
-                        face[:] = -1 if mode == "cold" else hint0
+                    def samp(px=px, py=py, face=face, start=start, locator=locator, out=out,
+                             flag=flag, vals=vals, a=a, inv_dt=inv_dt):
+                        face[:] = start
                         sample_mesh_kernel.parallel(px, py, face, out, flag, a, inv_dt, vals,
                                                     1e-3, True, locator)
 

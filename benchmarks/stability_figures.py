@@ -36,6 +36,7 @@ import numpy as np
 from _common import RESULTS, machine, run_recording_first_log
 
 from driftlog.analytic import UniformFlow
+from driftlog.columns import UB, VB, X
 from driftlog.logs import Logs
 from driftlog.physics import PhysicsOptions
 from driftlog.tracker import StepOptions, Tracker
@@ -68,7 +69,7 @@ def drag_run(method, step):
                  t_end=T_DRAG, output_interval=T_DRAG, hydro_step=T_DRAG,
                  initial_velocity="rest")
     ts, us, err = run_recording_first_log(tr, 0.0, 0.0)
-    x_end = logs.state[0, 0] if err is None else np.nan
+    x_end = logs.state[0, X] if err is None else np.nan
     return ts, us, x_end, err, tr.stats["substeps"]
 
 
@@ -173,7 +174,7 @@ def jam_run(method, tmp):
             E = m.detect(bodies, np.full(S.shape[0], m.tolerance * rmin)) if S.shape[0] else []
             rec["overlap"].append(max(0.0, -float(E.gap.min())) if len(E) else 0.0)
             rec["contacts"].append(len(E))
-            rec["speed"].append(float(np.hypot(S[:, 3], S[:, 4]).max()) if S.shape[0] else 0.0)
+            rec["speed"].append(float(np.hypot(S[:, UB], S[:, VB]).max()) if S.shape[0] else 0.0)
             return bodies.t - t0
 
         m.substep = substep

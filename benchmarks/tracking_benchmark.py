@@ -25,6 +25,7 @@ from _common import malpasset_mesh, write_table
 from sampling_benchmark import points
 
 from driftlog.analytic import FreeVortex, on_mesh
+from driftlog.columns import X, Y
 from driftlog.fused import rk4_mesh_step
 from driftlog.logs import Logs
 from driftlog.physics import PhysicsOptions, rhs_kernel
@@ -97,7 +98,7 @@ def breakdown(flow, x, y, steps=20, dt=0.5):
             S, F, D = tr.state.copy(), tr.F.copy(), np.empty_like(tr.state)
             lin = np.empty((S.shape[0], tr.lin0.shape[1]))
             face, out, flag = tr.face.copy(), np.empty_like(F), np.empty(S.shape[0], np.int8)
-            sx, sy = S[:, 0].copy(), S[:, 1].copy()
+            sx, sy = S[:, X].copy(), S[:, Y].copy()
             t_s = steps * dt * 0.5
             row = dict(level=level, path="fused" if fused else "general", logs=n)
             if not fused:

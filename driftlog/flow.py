@@ -351,6 +351,14 @@ def check_times(times, name):
     return times
 
 
+def _set_gradients(nodes, Gx, Gy, uve):
+    """Node gradient columns Q_UX ... Q_EY from operators Gx, Gy applied to (u, v, eta)."""
+    gx, gy = Gx @ uve, Gy @ uve
+    nodes[:, Q_UX], nodes[:, Q_UY] = gx[:, 0], gy[:, 0]
+    nodes[:, Q_VX], nodes[:, Q_VY] = gx[:, 1], gy[:, 1]
+    nodes[:, Q_EX], nodes[:, Q_EY] = gx[:, 2], gy[:, 2]
+
+
 class MeshFlowField(FlowField):
     """Flow on a mesh: bed on faces and a time series of (h, hu, hv) snapshots on faces.
 
@@ -495,17 +503,17 @@ class MeshFlowField(FlowField):
         nodes[:, Q_H:Q_ETA + 1] = P @ np.column_stack([h, u, v, h + self.bed])
         np.maximum(nodes[:, Q_H], 0.0, out=nodes[:, Q_H])
         if self.gradient == "recovered":
-            uve = np.column_stack([u, v, h + self.bed])
-            gx, gy = Px @ uve, Py @ uve
-            nodes[:, Q_UX], nodes[:, Q_UY] = gx[:, 0], gy[:, 0]
-            nodes[:, Q_VX], nodes[:, Q_VY] = gx[:, 1], gy[:, 1]
-            nodes[:, Q_EX], nodes[:, Q_EY] = gx[:, 2], gy[:, 2]
+            _set_gradients(nodes, Px, Py, np.column_stack([u, v, h + self.bed]))
         else:
             nodes[:, Q_UX:] = 0.0
-        self._snap[i] = (h, hu, hv, nodes)
+        return self._keep(i, (h, hu, hv, nodes))
+
+    def _keep(self, i, entry):
+        """Cache snapshot i's (h, hu, hv, node columns): the two latest are kept."""
+        self._snap[i] = entry
         while len(self._snap) > 2:
             self._snap.popitem(last=False)
-        return self._snap[i]
+        return entry
 
     def _load_nodes(self, i):
         """``_load`` for node-located data: the node columns are the data themselves."""
@@ -519,19 +527,11 @@ class MeshFlowField(FlowField):
                 from driftlog.nodal import node_gradient_operators
 
                 self._node_grad = node_gradient_operators(self.mesh)
-            Gx, Gy = self._node_grad
-            uve = nodes[:, Q_U:Q_ETA + 1]
-            gx, gy = Gx @ uve, Gy @ uve
-            nodes[:, Q_UX], nodes[:, Q_UY] = gx[:, 0], gy[:, 0]
-            nodes[:, Q_VX], nodes[:, Q_VY] = gx[:, 1], gy[:, 1]
-            nodes[:, Q_EX], nodes[:, Q_EY] = gx[:, 2], gy[:, 2]
+            _set_gradients(nodes, *self._node_grad, nodes[:, Q_U:Q_ETA + 1])
         else:
             nodes[:, Q_UX:] = 0.0
         A = self._face_mean
-        self._snap[i] = (A @ h, A @ hu, A @ hv, nodes)
-        while len(self._snap) > 2:
-            self._snap.popitem(last=False)
-        return self._snap[i]
+        return self._keep(i, (A @ h, A @ hu, A @ hv, nodes))
 
     def _interval(self, t):
         """Snapshot pair (i, i+1) around t, and the weight of i+1."""

@@ -137,20 +137,10 @@ def locate_points(px, py, face, loc):
 
 
 @nb.njit(cache=True)
-def _count_bins(fxmin, fymin, fxmax, fymax, x0, y0, inv_dx, inv_dy, nbx, nby, counts):
-    for f in range(fxmin.shape[0]):
-        i0 = max(int((fxmin[f] - x0) * inv_dx), 0)
-        i1 = min(int((fxmax[f] - x0) * inv_dx), nbx - 1)
-        j0 = max(int((fymin[f] - y0) * inv_dy), 0)
-        j1 = min(int((fymax[f] - y0) * inv_dy), nby - 1)
-        for j in range(j0, j1 + 1):
-            for i in range(i0, i1 + 1):
-                counts[j * nbx + i] += 1
-
-
-@nb.njit(cache=True)
-def _fill_bins(fxmin, fymin, fxmax, fymax, x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces):
-    fill = bin_start[:-1].copy()
+def _bins_of_faces(fxmin, fymin, fxmax, fymax, x0, y0, inv_dx, inv_dy, nbx, nby, bin_start,
+                   bin_faces, fill):
+    """Count the faces of each bin (``fill`` False, into ``bin_start[:-1]``), or list them."""
+    pos = bin_start[:-1].copy()
     for f in range(fxmin.shape[0]):
         i0 = max(int((fxmin[f] - x0) * inv_dx), 0)
         i1 = min(int((fxmax[f] - x0) * inv_dx), nbx - 1)
@@ -159,8 +149,11 @@ def _fill_bins(fxmin, fymin, fxmax, fymax, x0, y0, inv_dx, inv_dy, nbx, nby, bin
         for j in range(j0, j1 + 1):
             for i in range(i0, i1 + 1):
                 b = j * nbx + i
-                bin_faces[fill[b]] = f
-                fill[b] += 1
+                if fill:
+                    bin_faces[pos[b]] = f
+                    pos[b] += 1
+                else:
+                    bin_start[b] += 1
 
 
 class BinGrid:
@@ -194,14 +187,13 @@ def build_bin_grid(face_xmin, face_ymin, face_xmax, face_ymax, faces_per_bin=1.0
     x0, y0 = xmin - pad_x, ymin - pad_y
     inv_dx = nbx / (wx + 2 * pad_x)
     inv_dy = nby / (wy + 2 * pad_y)
-    counts = np.zeros(nbx * nby, dtype=np.int64)
-    _count_bins(face_xmin, face_ymin, face_xmax, face_ymax, x0, y0, inv_dx, inv_dy, nbx, nby,
-                counts)
+    box = (face_xmin, face_ymin, face_xmax, face_ymax, x0, y0, inv_dx, inv_dy, nbx, nby)
+    counts = np.zeros(nbx * nby + 1, dtype=np.int64)
+    _bins_of_faces(*box, counts, np.empty(0, np.int64), False)
     bin_start = np.zeros(nbx * nby + 1, dtype=np.int64)
-    np.cumsum(counts, out=bin_start[1:])
+    np.cumsum(counts[:-1], out=bin_start[1:])
     bin_faces = np.empty(bin_start[-1], dtype=np.int64)
-    _fill_bins(face_xmin, face_ymin, face_xmax, face_ymax, x0, y0, inv_dx, inv_dy, nbx, nby,
-               bin_start, bin_faces)
+    _bins_of_faces(*box, bin_start, bin_faces, True)
     return BinGrid(x0, y0, inv_dx, inv_dy, nbx, nby, bin_start, bin_faces)
 
 

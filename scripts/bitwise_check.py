@@ -106,23 +106,11 @@ def run_cases(tmp: Path, only=None) -> dict:
 
 
 def _draining_channel():
-    """Sheared, meandering mesh flow to the east over a bank that dries (tests/test_fused.py)."""
-    from driftlog.flow import MeshFlowField
-    from driftlog.mesh import Mesh
+    """Sheared, meandering mesh flow over a bank that dries (tests/test_fused.py's scene)."""
+    sys.path.insert(0, str(REPO))
+    from tests.test_fused import draining_channel
 
-    mesh = Mesh.regular_grid(30, 10, 1.0)
-    times = np.arange(0.0, 21.0, 4.0)
-    xc, yc = mesh.face_x, mesh.face_y
-    h, hu, hv = [], [], []
-    for t in times:
-        depth = np.where((xc > 12) & (xc < 20) & (yc > 6), max(0.6 - 0.05 * t, 0.0), 0.6)
-        u = 0.8 + 0.3 * np.sin(yc / 2.0) + 0.01 * t
-        v = 0.25 * np.cos(xc / 3.0)
-        h.append(depth)
-        hu.append(depth * u)
-        hv.append(depth * v)
-    return MeshFlowField.from_arrays(mesh, np.zeros(mesh.n_faces), times, np.array(h),
-                                     np.array(hu), np.array(hv))
+    return draining_channel()
 
 
 def _tracker_run(flow, level, rotation, method, fused, contact=None, n=120, t_end=20.0,
