@@ -107,10 +107,12 @@ def run_cases(tmp: Path, only=None) -> dict:
 
 def _draining_channel():
     """Sheared, meandering mesh flow over a bank that dries (tests/test_fused.py's scene)."""
-    sys.path.insert(0, str(REPO))
-    from tests.test_fused import draining_channel
+    import importlib.util
 
-    return draining_channel()
+    spec = importlib.util.spec_from_file_location("_test_fused", REPO / "tests" / "test_fused.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.draining_channel()
 
 
 def _tracker_run(flow, level, rotation, method, fused, contact=None, n=120, t_end=20.0,
