@@ -97,7 +97,7 @@ def check_solver_section(t, prefix, scen):
         as_boundary(spec, f"{prefix}.boundaries.{tag}")
     _check_initial(t["initial"] or {}, f"{prefix}.initial")
     if t.get("sea"):
-        from driftlog.floodsetup import check_sea
+        from driftlog.solver.sea import check_sea
 
         check_sea(t["sea"], f"{prefix}.sea")
 
@@ -194,7 +194,7 @@ def build_solver(sec, mesh=None):
     mesh = build_mesh(sec) if mesh is None else mesh
     boundaries, coast = sec["boundaries"], None
     if sec.get("sea"):  # a sea found from the bed: its coast tagged, its water filled below
-        from driftlog.floodsetup import apply_sea
+        from driftlog.solver.sea import apply_sea
 
         boundaries = dict(boundaries or {})
         coast = apply_sea(mesh, sec["sea"], boundaries)
@@ -221,7 +221,7 @@ def build_solver(sec, mesh=None):
             np.column_stack([mesh.face_x, mesh.face_y]))
         h = np.where(inside, h, 0.0)
     if coast is not None:
-        from driftlog.floodsetup import fill_sea
+        from driftlog.solver.sea import fill_sea
 
         h = fill_sea(mesh, s.bed, h, float(sec["sea"]["level"]), coast)
     s.set_state(h, h * vel[0], h * vel[1], t=sec["start"])
