@@ -1,8 +1,8 @@
 """The Python API: load a scenario, get its flow, track its logs, read the results.
 
-    import driftlog
-    result = driftlog.track("cases/vortex/scenario.toml")
-    ds = result.dataset()          # xarray, CF trajectories
+>>> import driftlog
+>>> result = driftlog.track("cases/vortex/scenario.toml")
+>>> ds = result.dataset()          # xarray, CF trajectories
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from driftlog.contact import ContactModel
 from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.flow import WET
 from driftlog.logs import Logs, logs_from_scenario
@@ -128,11 +129,8 @@ def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool, t_end
 def _contact_model(scen, flow):
     if not scen["contact"]["enabled"]:
         return None
-    try:
-        from driftlog.contact import ContactModel
-    except ImportError as exc:  # pragma: no cover - until the contact package lands
-        raise DriftlogError(f"contact.enabled = true but contacts are not available ({exc})")
-    return ContactModel.from_scenario(scen, mesh=getattr(flow, "mesh", None))
+    return ContactModel.from_sections(scen["contact"], scen["obstacles"],
+                                      mesh=getattr(flow, "mesh", None))
 
 
 def track(scenario, flow=None, output=None, progress=False, overrides=None,
