@@ -36,6 +36,7 @@ class TrackResult:
     physics: dict
     scenario: Scenario
     extra_files: list = field(default_factory=list)
+    writer: object = None  # what received the records (a TrajectoryWriter, or the given one)
 
     def dataset(self):
         """The trajectories as an xarray Dataset (CF contiguous ragged array)."""
@@ -204,7 +205,7 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     if scen["output"]["vtk"]:
         extra.append(write_vtk(path))
     result = TrackResult(path, logs, tracker.stats,
-                         dict(level=level, rotation=rotation, reason=reason), scen, extra)
+                         dict(level=level, rotation=rotation, reason=reason), scen, extra, writer)
     return result
 
 
