@@ -10,7 +10,8 @@ below it.  The flow field *types* (``driftlog.flow``...) are the contract betwee
 sources, which build them, and the tracker, which samples them: they sit below both, as the
 mesh and the base (errors, schema, numba helpers) sit below everything.  The top turns
 scenarios into objects and runs them (api, sources, cli, report, the scenario file itself,
-ensembles, comparisons of runs).
+ensembles, comparisons of runs, and the figures, which rebuild a run's flow from the scenario
+stored in its trajectory file).
 """
 
 from __future__ import annotations
@@ -31,11 +32,10 @@ LAYERS = [
     ("tracker", ["driftlog.logs", "driftlog.physics", "driftlog.integrators", "driftlog.fused",
                  "driftlog.contact", "driftlog.tracker", "driftlog.columns", "driftlog.stepping"]),
     ("trajectories", ["driftlog.trajectory"]),
-    ("analysis", ["driftlog.ensemble.summary", "driftlog.ensemble.aggregate",
-                  "driftlog.ensemble.figures", "driftlog.plots"]),
+    ("analysis", ["driftlog.ensemble.summary", "driftlog.ensemble.aggregate"]),
     ("top", ["driftlog", "driftlog.__main__", "driftlog.api", "driftlog.sources",
              "driftlog.cli", "driftlog.report", "driftlog.scenario", "driftlog.ensemble",
-             "driftlog.compare"]),
+             "driftlog.compare", "driftlog.plots"]),
 ]
 
 

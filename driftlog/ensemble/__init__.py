@@ -20,9 +20,10 @@ __all__ = ["Aggregate", "Ensemble", "EnsembleResult", "MemberRecorder", "MemberS
            "wilson_interval"]
 
 _AGGREGATE = ("Aggregate", "clopper_pearson_interval", "mean_interval", "wilson_interval")
-_RUNNER = ("EnsembleResult", "open_member", "run_ensemble", "run_member")
+_RUNNER = ("EnsembleResult", "open_member", "run_ensemble", "run_member",
+           "summarize_trajectories")
 _SPEC = ("Ensemble", "Parameter", "load_ensemble")
-_SUMMARY = ("MemberRecorder", "MemberSummary", "summarize_trajectories")
+_SUMMARY = ("MemberRecorder", "MemberSummary")
 
 
 def __getattr__(name):

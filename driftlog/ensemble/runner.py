@@ -45,9 +45,12 @@ from driftlog.ensemble.aggregate import Aggregate
 from driftlog.ensemble.spec import Ensemble, describe_parameters, load_ensemble
 from driftlog.ensemble.summary import MemberRecorder, MemberSummary
 from driftlog.errors import DriftlogError, ScenarioError
+from driftlog.logs import logs_from_scenario
+from driftlog.scenario import load_scenario
+from driftlog.schema import merge
 
 __all__ = ["run_ensemble", "run_member", "run_member_task", "EnsembleResult",
-           "aggregation_grid", "open_member"]
+           "aggregation_grid", "open_member", "summarize_trajectories"]
 
 MEMBER_FILE = re.compile(r"^member_(\d+)\.npz$")
 AGGREGATE_NAME = "ensemble.nc"
@@ -99,7 +102,6 @@ def run_member_task(base: dict, member: int, overrides: dict, parameters: dict,
                     options: dict) -> MemberSummary:
     """Run one member and reduce it (the Dask task; also run in-process with workers = 0)."""
     from driftlog.api import track
-    from driftlog.scenario import load_scenario, merge
     from driftlog.trajectory import TrajectoryWriter
 
     wall, cpu = time.perf_counter(), time.process_time()
@@ -466,6 +468,41 @@ def run_ensemble(ensemble, workers=None, scheduler=None, client=None, resume=Fal
         figs = plot_ensemble(agg_path, out)
     return EnsembleResult(agg_path, out, n, agg.done, failures, ran, len(done_before), figs,
                           timings, agg)
+
+
+def summarize_trajectories(path, mesh, member=0, parameters=None) -> MemberSummary:
+    """Summarize a trajectory file as an ensemble member (the same numbers as the recorder).
+
+    The release points are re-seeded from the scenario stored in the file (seeding is
+    reproducible bit for bit); records are replayed in time order.
+    """
+    import netCDF4
+
+    with netCDF4.Dataset(path) as ds:
+        ds.set_auto_mask(False)
+        scen = load_scenario(json.loads(ds.getncattr("scenario_resolved")))
+        names = json.loads(ds.getncattr("obstacle_names")) if "obstacle_names" in ds.ncattrs() \
+            else []
+        t = ds["time"][:]
+        if "trajectory_index" in ds.variables:
+            ti = ds["trajectory_index"][:]
+        else:
+            ti = np.repeat(np.arange(len(ds.dimensions["trajectory"])), ds["rowSize"][:])
+        x, y, status = ds["x"][:], ds["y"][:], ds["status"][:]
+        hits = {}
+        if "hit" in ds.dimensions and len(ds.dimensions["hit"]):
+            hits = {"log_id": ds["hit_log"][:], "other": ds["hit_other"][:]}
+    logs = logs_from_scenario(scen)
+    rec = MemberRecorder(mesh, logs, scen["time"]["start"], obstacle_names=names)
+    order = np.lexsort((ti, t))  # by time, then log: the order the tracker records in
+    t, ti, x, y, status = t[order], ti[order], x[order], y[order], status[order]
+    bounds = np.flatnonzero(np.diff(t)) + 1
+    for a, b in zip(np.r_[0, bounds], np.r_[bounds, t.size], strict=True):
+        if b > a:
+            rec.record(t[a], ti[a:b], {"x": x[a:b], "y": y[a:b], "status": status[a:b]})
+    if hits:
+        rec.hits(hits)
+    return rec.summary(member, parameters)
 
 
 def _stderr(msg):
