@@ -62,6 +62,12 @@ def open_dataset(path):
     try:
         ds = netCDF4.Dataset(path)
     except (OSError, RuntimeError) as exc:
+        with open(path, "rb") as f:
+            head = f.read(8)
+        if head == b"\x89HDF\r\n\x1a\n":  # an HDF5 file netCDF4 cannot open
+            raise FlowFileError(f"{path}: a NetCDF-4 / HDF5 file that cannot be read: "
+                                f"truncated or damaged (an interrupted copy or download?) "
+                                f"({exc})") from None
         raise FlowFileError(f"{path}: not a readable NetCDF file ({exc})") from None
     if ds.data_model.startswith("NETCDF3"):
         try:

@@ -101,7 +101,7 @@ class GridSnapshots(NetCDFSource):
 
 
 def open_cf_grid(path, time_range=None, variables=None, dry_depth=1e-3, fill="error",
-                 units=None):
+                 units=None, layout="auto"):
     """Open a CF regular-grid NetCDF file as a GridFlowField (snapshots read lazily).
 
     Parameters
@@ -112,17 +112,20 @@ def open_cf_grid(path, time_range=None, variables=None, dry_depth=1e-3, fill="er
         Fill values / NaN (cells outside the flood extent): an error, or dry cells.
     units : dict, optional
         Units for variables without a units attribute, e.g. ``{"hu": "m3 s-1"}``.
+    layout : 'auto', 'cell' or 'node'
+        Values at the cell centres (auto: CF coordinates are) or at the cell corners.
     """
     path = Path(path)
     ds = open_dataset(path)
     try:
-        return _open(ds, path, time_range, variables or {}, dry_depth, fill, units or {})
+        return _open(ds, path, time_range, variables or {}, dry_depth, fill, units or {},
+                     layout)
     except BaseException:
         ds.close()
         raise
 
 
-def _open(ds, path, time_range, mapping, dry_depth, fill, units_override):
+def _open(ds, path, time_range, mapping, dry_depth, fill, units_override, layout="auto"):
     xn, yn = _axis(ds, "x"), _axis(ds, "y")
     if xn is None or yn is None:
         raise FlowFileError(f"{path}: unknown layout: no 1-D x and y coordinate variables "
@@ -225,8 +228,17 @@ def _open(ds, path, time_range, mapping, dry_depth, fill, units_override):
                             f"'altitude' or names like {ROLES['bed'][2][:4]}); map it with "
                             "[flow] variables = {bed = \"NAME\"}")
     src.bed = bed
-    x0 = min(x[0], x[-1]) - dx / 2
-    y0 = min(y[0], y[-1]) - dy / 2
+    layout = "cell" if layout in (None, "auto") else layout
+    if layout == "node":  # the values are at the corners of the cells: the domain ends there
+        if nx < 2 or ny < 2:
+            raise FlowFileError(f"{path}: layout = 'node' needs 2 or more points each way, "
+                                f"the grid has {ny} x {nx}")
+        x0, y0 = min(x[0], x[-1]), min(y[0], y[-1])
+        src.location = "node"
+        notes.append("node layout: values at the cell corners, the domain is their hull")
+    else:
+        x0 = min(x[0], x[-1]) - dx / 2
+        y0 = min(y[0], y[-1]) - dy / 2
     idx = select_times(times, time_range, str(path))
     source = SubsetSnapshots(src, idx) if idx.size != times.size else src
     attrs = {"source": "cf_grid" + (f" ({ds.source})" if hasattr(ds, "source") else ""),
@@ -234,7 +246,7 @@ def _open(ds, path, time_range, mapping, dry_depth, fill, units_override):
              "variables": ", ".join(f"{k}={v[0]}" for k, v in spec.items()),
              "import_notes": "; ".join(notes), "grid_shape": f"{ny} {nx}"}
     return GridFlowField(nx, ny, dx, dy, x0, y0, bed, source, dry_depth=dry_depth,
-                         name=str(path), attrs=attrs)
+                         name=str(path), attrs=attrs, layout=layout)
 
 
 def _find_bed(ds, yn, xn, lead, mapping, path):
@@ -272,6 +284,10 @@ OPTIONS = [
         "or dry cells", choices=("error", "dry")),
     Key("units", "table", None, "units for variables without a units attribute "
         "({hu = 'm3 s-1'})"),
+    Key("layout", "str", "auto", "where the values sit: at the cell centres (the cells extend "
+        "half a cell beyond the outermost values), or at the cell corners (the domain ends at "
+        "the outermost values); auto: the centres (CF coordinates)",
+        choices=("auto", "cell", "node")),
 ]
 
 

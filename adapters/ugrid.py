@@ -117,6 +117,10 @@ def _open(ds, path, time_range, mapping, dry_depth, topology, fill, units_overri
                                 f"{mesh.n_faces})")
     roles = find_roles(fvars, mapping, where, need_bed=True)
     notes = []
+    merged, tol = getattr(mesh, "merged_nodes", (0, 0.0))
+    if merged:
+        notes.append(f"{merged} coincident nodes merged (closer than {tol:g} x the local edge "
+                     "length: the seams of a partitioned mesh are not walls)")
     spec3 = factors(ds, roles, where, notes, units_override)
     bed = _bed(ds, path, mesh, face_dim, mapping, notes, units_override)
     if bed is None:

@@ -65,7 +65,8 @@ def cmd_scenario(args):
 def add_info(sub):
     p = _sub(sub, "info", "describe a flow file, a mesh, or a trajectory file",
              "driftlog info flow.nc")
-    p.add_argument("file", help="NetCDF flow or trajectory file, or a mesh file")
+    p.add_argument("file", help="NetCDF flow or trajectory file, another model's result file "
+                   "(TELEMAC Selafin, MIKE dfsu...), or a mesh file")
     p.set_defaults(run=cmd_info)
 
 
@@ -87,10 +88,16 @@ def cmd_info(args):
         field = open_flow(path)
         print(field)
         print(field.mesh)
-        for k in ("source", "title", "driftlog_version"):
-            if k in field.attrs:
+        for k in ("source", "title", "driftlog_version", "import_notes"):
+            if field.attrs.get(k):
                 print(f"  {k}: {field.attrs[k]}")
         return 0
+    from driftlog.adapters import READERS
+
+    for r in READERS:  # other models' files: a few lines from the reader that opens them
+        if hasattr(r, "describe") and r.can_open(path):
+            print("\n".join(r.describe(path)))
+            return 0
     from driftlog.mesh import read_mesh
 
     print(read_mesh(path))
@@ -332,14 +339,15 @@ def add_import(sub):
              "  driftlog import FlowFM_map.nc -o flow.nc --var depth=mesh2d_waterdepth\n"
              "  driftlog import damBreak3d -o flow.nc --option raster=0,0,0.1,6,2",
              description="Read a hydro source (OpenFOAM case, UGRID / D-Flow FM map file, "
-                         "ANUGA .sww, CF grid NetCDF such as LISFLOOD-FP's) and write it as a "
+                         "ANUGA .sww, CF grid NetCDF such as LISFLOOD-FP's, TELEMAC Selafin, "
+                         "MIKE 21 FM dfsu) and write it as a "
                          "driftlog flow file (UGRID-1.0 + CF), snapshot by snapshot.  The "
                          "format is detected from the source unless --format is given.")
     p.add_argument("source", help="file, or OpenFOAM case directory")
     p.add_argument("-o", "--output", required=True, help="flow file to write (.nc)")
     p.add_argument("--format", "--kind", dest="format", default="auto",
                    help="the source's format: auto (detected), or the kind of a reader of "
-                   "driftlog.adapters (file, openfoam, ugrid, anuga, cf_grid...)")
+                   "driftlog.adapters (file, openfoam, ugrid, anuga, cf_grid, selafin, dfsu...)")
     p.add_argument("--time-range", nargs=2, type=float, metavar=("START", "END"),
                    help="only the snapshots in [START, END] (s)")
     p.add_argument("--var", action="append", default=[], metavar="NAME=VARIABLE",

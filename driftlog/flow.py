@@ -354,6 +354,16 @@ class MeshFlowField(FlowField):
         u, v = self._velocity(h, hu, hv)
         return {"h": h, "hu": hu, "hv": hv, "u": u, "v": v, "eta": h + self.bed}
 
+    def node_snapshot(self, i):
+        """Node arrays of snapshot i as the sampler interpolates them: dict of h, u, v, eta.
+
+        For node-located data, the data themselves; for face-located data, the nodes'
+        least-squares fits of the face values.
+        """
+        nodes = self._load(i)[3]
+        return {"h": nodes[:, Q_H].copy(), "u": nodes[:, Q_U].copy(),
+                "v": nodes[:, Q_V].copy(), "eta": nodes[:, Q_ETA].copy()}
+
     def _velocity(self, h, hu, hv):
         wet = h > self.dry_depth
         safe = np.where(wet, h, 1.0)

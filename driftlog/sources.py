@@ -54,16 +54,19 @@ def flow_from_scenario(scenario, progress=False):
 
 
 # --------------------------------------------------------------------- the scenario section
-FLOW_SOURCES = (adapters.KINDS[0], "solver", "analytic") + adapters.KINDS[1:]
+# driftlog's own flow file, then what is built here, 'auto' (a reader chosen by the file's
+# contents), then the other readers (the registry)
+FLOW_SOURCES = (adapters.KINDS[0], "solver", "analytic", "auto") + adapters.KINDS[1:]
 ANALYTIC_KINDS = ("uniform", "solid_body_rotation", "free_vortex")
 
 
 def _check_flow(t, prefix, scen):
     src = t["source"]
-    if src in adapters.KINDS and not t["path"]:
+    read = src in adapters.KINDS or src == "auto"
+    if read and not t["path"]:
         raise ScenarioError(f"{prefix}.path", None,
                             f"is required when source = {src!r}: the flow file or case to read")
-    if src in adapters.KINDS and not Path(t["path"]).exists():
+    if read and not Path(t["path"]).exists():
         raise ScenarioError(f"{prefix}.path", t["path"], "file not found")
     t["options"] = adapters.check_flow_options(t, prefix, scen.base_dir)
     if src == "analytic" and t["kind"] not in ANALYTIC_KINDS:
@@ -96,6 +99,7 @@ FLOW_SECTION = Section("flow", [
     Key("time_range", "floats", None, "import only snapshots in [start, end]", "s", length=2),
     Key("options", "table", {}, "options of the importer (driftlog.adapters): openfoam "
         "decomposed, mode ('shallow_water' | 'vof'), raster ([x0, y0, dx, nx, ny]); ugrid and "
-        "cf_grid fill ('error' | 'dry'), units ({hu = 'm3 s-1'}); anuga use_centroids",
-        when="source = openfoam, ugrid, anuga, cf_grid"),
+        "cf_grid fill ('error' | 'dry'), units ({hu = 'm3 s-1'}); anuga use_centroids; "
+        "selafin depth_average",
+        when="source = auto, openfoam, ugrid, anuga, cf_grid, selafin"),
 ], doc="the hydro source", check=_check_flow)

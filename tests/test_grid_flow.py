@@ -146,3 +146,104 @@ def test_bad_grid():
     with pytest.raises(FlowFileError, match="nx, ny >= 1"):
         GridFlowField.from_arrays(0, 3, 1.0, 1.0, 0, 0, np.zeros(0), [0.0], np.zeros((1, 0)),
                                   np.zeros((1, 0)), np.zeros((1, 0)))
+
+
+def test_node_layout_bilinear_on_the_hull_of_the_points():
+    """Node-based values (the points are the cells' corners): exact for a bilinear field on
+    the whole domain, which ends at the outermost points; the mesh's nodes are the points."""
+    nx, ny, x0, y0 = 6, 4, 10.0, 20.0
+    X, Y = np.meshgrid(x0 + DX * np.arange(nx), y0 + DY * np.arange(ny))
+    px, py = X.ravel(), Y.ravel()
+    h = np.stack([np.full(px.size, 1.5) for _ in TIMES])
+    u = np.stack([bilinear_u(px, py, t) for t in TIMES])
+    v = np.stack([bilinear_v(px, py, t) for t in TIMES])
+    f = GridFlowField.from_arrays(nx, ny, DX, DY, x0, y0, 0.01 * px, TIMES, h, h * u, h * v,
+                                  layout="node")
+    np.testing.assert_allclose(f.mesh.node_x, px)
+    np.testing.assert_allclose(f.mesh.node_y, py)
+    assert f.mesh.n_faces == (nx - 1) * (ny - 1)
+    np.testing.assert_allclose(f.point_coordinates()[0], px)
+    rng = np.random.default_rng(4)
+    x = x0 + (nx - 1) * DX * rng.random(300)
+    y = y0 + (ny - 1) * DY * rng.random(300)
+    for t in (0.0, 5.0, 10.0):
+        s = f.sample(x, y, t)
+        assert np.all(s.flag == WET)
+        np.testing.assert_allclose(s.u, bilinear_u(x, y, t), atol=1e-12)
+        np.testing.assert_allclose(s.v, bilinear_v(x, y, t), atol=1e-12)
+        np.testing.assert_allclose(s.jacobian[:, 0, 1], -0.02 + 2e-4 * x, atol=1e-12)
+        np.testing.assert_allclose(s.eta, 1.5 + 0.01 * x, atol=1e-12)
+        np.testing.assert_array_equal(s.face, f.mesh.locate(x, y))
+    out = f.sample(np.array([x0 - 0.01, x0 + 5.0]), np.array([y0 + 5.0, y0 - 0.01]), 1.0)
+    np.testing.assert_array_equal(out.flag, [OUTSIDE, OUTSIDE])
+    # face arrays: the mean of each cell's four corners; freeze keeps the layout
+    np.testing.assert_allclose(f.snapshot(1)["h"], 1.5)
+    g = f.freeze(7.0)
+    assert g.layout == "node"
+    np.testing.assert_allclose(g.sample(x, y, 0.0).u, f.sample(x, y, 7.0).u, atol=1e-12)
+
+
+def test_cf_grid_node_layout_option(tmp_path):
+    """cf_grid with [flow.options] layout = 'node': the domain is the coordinates' hull."""
+    import netCDF4
+    from driftlog.adapters import open_flow_source
+
+    path = tmp_path / "g.nc"
+    xs, ys = 100.0 + DX * np.arange(5), 50.0 + DY * np.arange(4)
+    with netCDF4.Dataset(path, "w") as ds:
+        for name, c in (("x", xs), ("y", ys)):
+            ds.createDimension(name, c.size)
+            var = ds.createVariable(name, "f8", (name,))
+            var[:] = c
+            var.units = "m"
+        X, Y = np.meshgrid(xs, ys)
+        for name, val in (("bed", 0.0 * X), ("depth", 1.0 + 0 * X), ("u", bilinear_u(X, Y, 0)),
+                          ("v", bilinear_v(X, Y, 0))):
+            ds.createVariable(name, "f8", ("y", "x"))[:] = val
+    cell = open_flow_source("cf_grid", path)
+    node = open_flow_source("cf_grid", path, layout="node")
+    assert cell.grid[2:4] == (100.0 - DX / 2, 50.0 - DY / 2) and cell.layout == "cell"
+    assert node.grid[2:4] == (100.0, 50.0) and node.mesh.n_nodes == 20
+    x, y = np.array([101.0, 99.0]), np.array([51.0, 51.0])
+    assert node.sample(x, y, 0.0).flag.tolist() == [WET, OUTSIDE]
+    assert cell.sample(x, y, 0.0).flag.tolist() == [WET, WET]
+    np.testing.assert_allclose(node.sample(x[:1], y[:1], 0.0).u, bilinear_u(x[:1], y[:1], 0),
+                               atol=1e-12)
+
+
+def test_contacts_and_land_on_a_grid():
+    """Walls on a grid are its outer edges (the mesh's boundary, tags as on any mesh): a log
+    pushed north bounces on y = 8 and leaves through the open east end.  Land (dry cells
+    inside the grid) is not a wall: a log drifting into it grounds at the shore."""
+    from driftlog.contact import ContactModel
+    from driftlog.logs import LEFT, RESTING, STRANDED, Logs
+    from driftlog.physics import PhysicsOptions
+    from driftlog.scenario import load_scenario
+    from driftlog.tracker import Tracker
+
+    nx, ny = 30, 8
+    n = nx * ny
+
+    def grid(depth):
+        h = np.tile(depth, (2, 1))
+        return GridFlowField.from_arrays(nx, ny, 1.0, 1.0, 0.0, 0.0, np.zeros(n), [0.0, 100.0],
+                                         h, h * 1.0, h * 0.3)
+
+    open_water = grid(np.ones(n))
+    mesh = open_water.mesh
+    assert mesh.boundary_edges.size == 2 * (nx + ny)
+    mesh.tag_boundary("outflow", (nx - 0.5, -1, nx + 1, ny + 1))
+    scen = load_scenario({"contact": {"enabled": True, "walls": True, "restitution": 0.5}})
+    model = ContactModel.from_scenario(scen, mesh=mesh)
+    logs = Logs([3.0], [4.0], [0.0], length=1.0, radius=0.1, density=700.0)
+    Tracker(open_water, logs, PhysicsOptions(), contact=model, t_end=60.0).run()
+    hits = model.drain_hits()
+    assert len(hits["time"]) >= 1 and np.all(np.abs(hits["y"] - ny) < 1e-3)
+    assert logs.status[0] == LEFT
+    # land: the cells east of x = 15 are dry (depth 0)
+    px = np.tile(np.arange(nx) + 0.5, ny)
+    land = grid(np.where(px > 15.0, 0.0, 1.0))
+    logs = Logs([3.0], [2.0], [0.0], length=1.0, radius=0.1, density=700.0)
+    Tracker(land, logs, PhysicsOptions(), t_end=60.0).run()
+    assert logs.status[0] in (RESTING, STRANDED)  # grounded in the shallows
+    assert 13.0 < logs.state[0, 0] < 16.0, logs.state[0, 0]  # at the shore, not on the land
