@@ -257,18 +257,22 @@ def _read_edge_tags(ds, mesh: Mesh) -> None:
             mesh.edge_tag = tags
 
 
+def _read_mesh(path: Path) -> Mesh:
+    if not path.is_file():
+        raise FlowFileError(f"{path}: flow file not found")
+    try:
+        return read_ugrid_mesh(path)
+    except MeshError as exc:
+        raise FlowFileError(f"{path}: not a driftlog flow file: {exc}") from None
+
+
 def read_flow_mesh(path) -> Mesh:
     """The mesh of a driftlog flow file, with its boundary tags, as ``open_flow`` gives it.
 
     Only the mesh is read (no snapshot source is opened).
     """
     path = Path(path)
-    if not path.is_file():
-        raise FlowFileError(f"{path}: flow file not found")
-    try:
-        mesh = read_ugrid_mesh(path)
-    except MeshError as exc:
-        raise FlowFileError(f"{path}: not a driftlog flow file: {exc}") from None
+    mesh = _read_mesh(path)
     try:
         with netCDF4.Dataset(path) as ds:
             _read_edge_tags(ds, mesh)
@@ -280,12 +284,7 @@ def read_flow_mesh(path) -> Mesh:
 def open_flow(path, dry_depth=None) -> MeshFlowField:
     """Open a driftlog flow file as a MeshFlowField (snapshots read lazily, two at a time)."""
     path = Path(path)
-    if not path.is_file():
-        raise FlowFileError(f"{path}: flow file not found")
-    try:
-        mesh = read_ugrid_mesh(path)
-    except MeshError as exc:
-        raise FlowFileError(f"{path}: not a driftlog flow file: {exc}") from None
+    mesh = _read_mesh(path)
     try:
         src = NetCDFSnapshots(path)
     except OSError as exc:
