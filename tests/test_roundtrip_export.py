@@ -226,3 +226,21 @@ def test_scenario_sources(flows, rng):
         flow_from_scenario(load_scenario({"flow": {"source": "auto",
                                                    "path": str(d / "flow.dfsu.bin"),
                                                    "options": {"fill": "dry"}}}))
+
+
+def test_cli_export(flows, capsys, rng):
+    d = flows["dir"]
+    src = str(d / "flow.nc")
+    assert main(["export", src, "-o", str(d / "cli.slf"), "--precision", "double"]) == 0
+    assert main(["export", src, "-o", str(d / "cli.dfsu")]) == 0
+    x, y = rng.uniform(1, 15, 50), rng.uniform(0.5, 3.5, 50)
+    ref = flows["orig"].sample(x, y, 20.5)
+    np.testing.assert_allclose(selafin.open(d / "cli.slf").sample(x, y, 20.5).u, ref.u,
+                               atol=1e-12)
+    np.testing.assert_allclose(mike.open(d / "cli.dfsu").sample(x, y, 10.5).u, ref.u,
+                               atol=1e-6)
+    capsys.readouterr()
+    assert main(["export", src, "-o", str(d / "cli.xyz")]) == 2
+    assert "give --format selafin or --format dfsu" in capsys.readouterr().err
+    assert main(["export", src, "-o", str(d / "nodir" / "a.slf")]) == 2
+    assert "cannot write the selafin file" in capsys.readouterr().err

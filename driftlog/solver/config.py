@@ -101,6 +101,10 @@ def check_solver_section(t, prefix, scen):
         from driftlog.solver.sea import check_sea
 
         check_sea(t["sea"], f"{prefix}.sea")
+    if t.get("engine", "driftlog") != "driftlog":
+        from driftlog.adapters.openfoam_engine import check_engine_section
+
+        check_engine_section(t, prefix)
 
 
 def _check_outline(t, prefix):
@@ -148,6 +152,9 @@ def _check_initial(ini, key):
 
 def solver_hash(section) -> str:
     """A hash of the validated [solver] section (what decides whether a stored flow is current)."""
+    if section.get("engine", "driftlog") == "driftlog":  # keys of OpenFOAM runs only
+        section = {k: v for k, v in section.items()
+                   if k not in ("engine", "n_procs", "openfoam_friction")}
     text = json.dumps(section, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -229,9 +236,17 @@ def build_solver(sec, mesh=None):
     return s
 
 
-def _default_path(scenario):
+def _default_path(scenario, engine=None):
+    """The flow file of the section's engine.
+
+    [flow] path (or solver_flow.nc beside the scenario) for driftlog, with ``_<engine>``
+    added to its stem for another engine.
+    """
+    from driftlog.adapters.openfoam_engine import engine_flow_path
+
     p = scenario["flow"].get("path") or ""
-    return Path(p) if p else scenario.base_dir / "solver_flow.nc"
+    path = Path(p) if p else scenario.base_dir / "solver_flow.nc"
+    return engine_flow_path(path, engine or scenario["solver"].get("engine", "driftlog"))
 
 
 def _stored(path, digest):
@@ -260,6 +275,11 @@ def solve_scenario(scenario, output=None, resume=False, progress=False):
     attrs = dict(scenario.attrs())
     attrs["solver_hash"] = digest
     attrs["title"] = scenario["title"] or "driftlog solver flow"
+    if sec.get("engine", "driftlog") != "driftlog":
+        from driftlog.adapters.openfoam_engine import solve_with_shallow_water_foam
+
+        return solve_with_shallow_water_foam(scenario, path, attrs, build_solver,
+                                             progress=progress), path
     resume = resume and path.exists()
     if resume and _stored(path, digest)[0] is None:
         from driftlog.errors import FlowFileError
@@ -283,6 +303,10 @@ def flow_from_scenario(scenario, progress=False):
     sec = scenario["solver"]
     path = _default_path(scenario)
     state, t_last = _stored(path, solver_hash(sec))
+    if sec.get("engine", "driftlog") != "driftlog":  # no resuming an OpenFOAM run
+        if state is None or t_last is None or t_last < sec["end"] - 1e-9 * abs(sec["end"]):
+            solve_scenario(scenario, output=path, progress=progress)
+        return open_flow(path, dry_depth=scenario["flow"]["dry_depth"])
     if state is None or t_last is None or t_last < sec["end"]:
         solve_scenario(scenario, output=path, resume=state is not None and t_last is not None,
                        progress=progress)
@@ -291,6 +315,15 @@ def flow_from_scenario(scenario, progress=False):
 
 # --------------------------------------------------------------------- the scenario section
 SOLVER_SECTION = Section("solver", [
+    Key("engine", "str", "driftlog", "what computes the flow: driftlog's solver, or "
+        "OpenFOAM's shallowWaterFoam on the same mesh, bed, initial state and boundaries "
+        "(flow file [flow] path + '_shallowWaterFoam', case folder beside it)",
+        choices=("driftlog", "shallowWaterFoam")),
+    Key("n_procs", "int", 1, "processes of an OpenFOAM engine run (decomposePar + mpirun when "
+        "> 1)", min=1),
+    Key("openfoam_friction", "str", "refuse", "shallowWaterFoam has no bed friction: refuse a "
+        "section with manning/strickler, or omit the friction in the OpenFOAM run (recorded in "
+        "the flow's attributes)", choices=("refuse", "omit")),
     Key("mesh", "str", "channel", "the mesh: a channel built here, a polygon (outline with "
         "tagged sides) built here, or a mesh file", choices=("channel", "polygon", "file")),
     Key("outline", "points", None, "outer boundary [[x, y], ...] of mesh = 'polygon'; side i "
