@@ -247,3 +247,23 @@ def test_contacts_and_land_on_a_grid():
     Tracker(land, logs, PhysicsOptions(), t_end=60.0).run()
     assert logs.status[0] in (RESTING, STRANDED)  # grounded in the shallows
     assert 13.0 < logs.state[0, 0] < 16.0, logs.state[0, 0]  # at the shore, not on the land
+
+
+def test_mesh_built_only_when_asked():
+    """Sampling needs no mesh; walls, location and repr get the same mesh as regular_grid."""
+    from driftlog.mesh import Mesh
+
+    f = make_field()
+    x, y = inner_points(20, np.random.default_rng(6))
+    f.sample(x, y, 3.0)
+    f.snapshot(2)
+    assert not f.mesh.built
+    assert f.mesh.n_faces == NX * NY and f.mesh.n_nodes == (NX + 1) * (NY + 1)
+    ref = Mesh.regular_grid(NX, NY, DX, DY, x0=X0, y0=Y0)
+    assert repr(f.mesh) == repr(ref)
+    np.testing.assert_array_equal(f.mesh.face_nodes, ref.face_nodes)
+    np.testing.assert_allclose(f.mesh.bounds, ref.bounds)
+    assert not f.mesh.built
+    np.testing.assert_allclose(f.mesh.boundary_segments(), ref.boundary_segments())
+    assert f.mesh.built
+    np.testing.assert_array_equal(f.mesh.locate(x, y), f.sample(x, y, 3.0).face)
