@@ -1,8 +1,8 @@
 """The Python API: load a scenario, get its flow, track its logs, read the results.
 
-    import driftlog
-    result = driftlog.track("cases/vortex/scenario.toml")
-    ds = result.dataset()          # xarray, CF trajectories
+>>> import driftlog
+>>> result = driftlog.track("cases/vortex/scenario.toml")
+>>> ds = result.dataset()          # xarray, CF trajectories
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from driftlog.contact import ContactModel
 from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.flow import WET
 from driftlog.logs import Logs, logs_from_scenario
@@ -35,6 +36,7 @@ class TrackResult:
     physics: dict
     scenario: Scenario
     extra_files: list = field(default_factory=list)
+    writer: object = None  # what received the records (a TrajectoryWriter, or the given one)
 
     def dataset(self):
         """The trajectories as an xarray Dataset (CF contiguous ragged array)."""
@@ -145,11 +147,8 @@ def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool, t_end
 def _contact_model(scen, flow):
     if not scen["contact"]["enabled"]:
         return None
-    try:
-        from driftlog.contact import ContactModel
-    except ImportError as exc:  # pragma: no cover - until the contact package lands
-        raise DriftlogError(f"contact.enabled = true but contacts are not available ({exc})")
-    return ContactModel.from_scenario(scen, mesh=getattr(flow, "mesh", None))
+    return ContactModel.from_sections(scen["contact"], scen["obstacles"],
+                                      mesh=getattr(flow, "mesh", None))
 
 
 def track(scenario, flow=None, output=None, progress=False, overrides=None,
@@ -234,7 +233,7 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     if scen["output"]["vtk"]:
         extra.append(write_vtk(path))
     result = TrackResult(path, logs, tracker.stats,
-                         dict(level=level, rotation=rotation, reason=reason), scen, extra)
+                         dict(level=level, rotation=rotation, reason=reason), scen, extra, writer)
     return result
 
 
