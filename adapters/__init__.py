@@ -28,6 +28,7 @@ cf_grid     CF regular grid NetCDF (LISFLOOD-FP...)           cfgrid
 selafin     TELEMAC-2D Selafin results (node-located data)    selafin (xarray-selafin)
 dfsu        MIKE 21 FM 2D dfsu results (element values)       mike (mikeio)
 raster      LISFLOOD-FP ASCII results, GeoTIFF series         raster (rioxarray)
+hecras      HEC-RAS 2D plan output (HDF5)                     hecras
 =========  ===============================================  ===========================
 
 ``open_flow_source(kind, path, **options)`` opens any of them ('auto' detects the kind);
@@ -43,13 +44,13 @@ from pathlib import Path
 from driftlog.errors import FlowFileError
 from driftlog.schema import Section, check_table
 
-from . import anuga, cfgrid, file, mike, openfoam, raster, selafin, ugrid
+from . import anuga, cfgrid, file, hecras, mike, openfoam, raster, selafin, ugrid
 from ._netcdf import open_dataset
 
 __all__ = ["READERS", "KINDS", "reader", "options_section", "open_flow_source",
            "detect_format", "flow_from_scenario", "import_flow", "checked_snapshot"]
 
-READERS = [file, openfoam, ugrid, anuga, cfgrid, selafin, mike, raster]
+READERS = [file, hecras, openfoam, ugrid, anuga, cfgrid, selafin, mike, raster]
 """The reader modules, in the order 'auto' tries them."""
 
 KINDS = tuple(r.KIND for r in READERS)

@@ -8,10 +8,10 @@ import numpy as np
 
 from driftlog.errors import FlowFileError
 
-from ._common import check_values, time_in_seconds, unit_factor
+from ._common import check_values, time_in_seconds, time_reference_attrs, unit_factor
 
-__all__ = ["open_dataset", "check_netcdf3_size", "netcdf3_expected_size", "variable_attrs",
-           "read_times", "NetCDFSource", "FaceSnapshots",
+__all__ = ["open_dataset", "netcdf_matches", "check_netcdf3_size", "netcdf3_expected_size",
+           "variable_attrs", "read_times", "time_attrs", "NetCDFSource", "FaceSnapshots",
            "ROLES"]
 
 # role -> (kind of units, standard names, aliases), most specific first
@@ -178,6 +178,21 @@ def check_netcdf3_size(path):
                             "again")
 
 
+def netcdf_matches(path, test) -> bool:
+    """Whether ``path`` is a readable NetCDF file for which ``test(dataset)`` is true.
+
+    The content sniff of the NetCDF readers' ``can_open``: never raises.
+    """
+    try:
+        p = Path(path)
+        if not p.is_file():
+            return False
+        with open_dataset(p) as ds:
+            return bool(test(ds))
+    except Exception:
+        return False
+
+
 def variable_attrs(ds, dims=None):
     """Name -> attrs of the variables (only those with exactly these dims, if given)."""
     out = {}
@@ -188,20 +203,38 @@ def variable_attrs(ds, dims=None):
     return out
 
 
-def read_times(ds, path, time_dim):
-    """Snapshot times (s) of a time dimension, and the time origin if the units give one."""
-    tvar = None
+def _time_variable(ds, path, time_dim):
     if time_dim in ds.variables:
-        tvar = ds.variables[time_dim]
-    else:
-        for var in ds.variables.values():
-            if var.dimensions == (time_dim,) and (
-                    getattr(var, "standard_name", "") == "time" or getattr(var, "axis", "") == "T"):
-                tvar = var
-                break
-    if tvar is None:
-        raise FlowFileError(f"{path}: no time variable for the dimension {time_dim!r}")
-    return time_in_seconds(tvar[:], getattr(tvar, "units", None), f"{path}: {tvar.name}")
+        return ds.variables[time_dim]
+    for var in ds.variables.values():
+        if var.dimensions == (time_dim,) and (
+                getattr(var, "standard_name", "") == "time" or getattr(var, "axis", "") == "T"):
+            return var
+    raise FlowFileError(f"{path}: no time variable for the dimension {time_dim!r}")
+
+
+def read_times(ds, path, time_dim):
+    """Snapshot times (s) of a time dimension, and the time origin if the units give one.
+
+    Any CF calendar (the reference date is checked against the variable's ``calendar``);
+    character date stamps are read as seconds since the first one.
+    """
+    tvar = _time_variable(ds, path, time_dim)
+    values = tvar[:]
+    if tvar.dtype.kind == "S" and values.ndim == 2:  # char array of date stamps
+        import netCDF4
+
+        values = netCDF4.chartostring(values)
+    return time_in_seconds(values, getattr(tvar, "units", None), f"{path}: {tvar.name}",
+                           calendar=getattr(tvar, "calendar", None))
+
+
+def time_attrs(ds, path, time_dim, origin) -> dict:
+    """Flow attributes keeping the absolute time reference: ``time_reference``, ``calendar``."""
+    if not origin:
+        return {}
+    tvar = _time_variable(ds, path, time_dim)
+    return time_reference_attrs(origin, getattr(tvar, "calendar", None))
 
 
 def fill_value(var):

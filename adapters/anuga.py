@@ -21,11 +21,11 @@ import numpy as np
 
 from driftlog.errors import FlowFileError, MeshError
 from driftlog.flow import MeshFlowField, check_times
-from driftlog.mesh import Mesh
+from driftlog.mesh import mesh_merging_seams
 from driftlog.schema import Key
 
 from ._common import SubsetSnapshots, select_times
-from ._netcdf import NetCDFSource, open_dataset
+from ._netcdf import NetCDFSource, netcdf_matches, open_dataset
 
 __all__ = ["open_anuga", "is_sww", "AnugaSnapshots"]
 
@@ -97,14 +97,13 @@ def _open(ds, path, time_range, dry_depth, use_centroids, mapping):
     notes = []
     if xll or yll:
         notes.append(f"coordinates shifted by (xllcorner, yllcorner) = ({xll:g}, {yll:g})")
-    # merge vertices stored once per triangle, so that neighbours share their nodes
-    xy = np.column_stack([x, y])
-    uniq, inverse = np.unique(xy, axis=0, return_inverse=True)
-    inverse = inverse.ravel()
-    if uniq.shape[0] < x.size:
-        notes.append(f"{x.size - uniq.shape[0]} duplicate vertices merged")
+    # merge vertices stored once per triangle (and the seams of parallel runs' merged files),
+    # so that neighbours share their nodes: within 1e-6 of the local edge length
     try:
-        mesh = Mesh(uniq[:, 0], uniq[:, 1], inverse[vols])
+        mesh = mesh_merging_seams(x, y, vols)
+        if mesh.merged_nodes[0]:
+            notes.append(f"{mesh.merged_nodes[0]} duplicate vertices merged (closer than "
+                         f"{mesh.merged_nodes[1]:g} x the local edge length)")
     except MeshError as exc:
         raise FlowFileError(f"{path}: the triangles do not make a valid mesh: {exc}") from None
     times = np.asarray(ds.variables["time"][:], np.float64) + float(getattr(ds, "starttime", 0))
@@ -154,16 +153,10 @@ OPTIONS = [
 
 def can_open(path) -> bool:
     """Whether ``path`` is an ANUGA sww file (by suffix or layout; never raises)."""
-    try:
-        p = Path(path)
-        if not p.is_file():
-            return False
-        if p.suffix.lower() == ".sww":
-            return True
-        with open_dataset(p) as ds:
-            return is_sww(ds)
-    except Exception:
-        return False
+    p = Path(path)
+    if p.suffix.lower() == ".sww" and p.is_file():
+        return True
+    return netcdf_matches(p, is_sww)
 
 
 def open(path, *, time_range=None, variables=None, dry_depth=1e-3, **options):

@@ -26,8 +26,10 @@ from ._netcdf import (
     ROLES,
     NetCDFSource,
     find_roles,
+    netcdf_matches,
     open_dataset,
     read_times,
+    time_attrs,
     variable_attrs,
 )
 
@@ -245,6 +247,8 @@ def _open(ds, path, time_range, mapping, dry_depth, fill, units_override, layout
              "source_path": str(path.resolve()), "time_origin": origin or "",
              "variables": ", ".join(f"{k}={v[0]}" for k, v in spec.items()),
              "import_notes": "; ".join(notes), "grid_shape": f"{ny} {nx}"}
+    if has_time:
+        attrs.update(time_attrs(ds, path, tdim, origin))
     return GridFlowField(nx, ny, dx, dy, x0, y0, bed, source, dry_depth=dry_depth,
                          name=str(path), attrs=attrs, layout=layout)
 
@@ -293,14 +297,7 @@ OPTIONS = [
 
 def can_open(path) -> bool:
     """Whether ``path`` is a NetCDF file with 1-D x and y coordinates (a regular grid)."""
-    try:
-        p = Path(path)
-        if not p.is_file():
-            return False
-        with open_dataset(p) as ds:
-            return is_cf_grid(ds)
-    except Exception:
-        return False
+    return netcdf_matches(path, is_cf_grid)
 
 
 def open(path, *, time_range=None, variables=None, dry_depth=1e-3, **options):

@@ -30,8 +30,10 @@ from ._netcdf import (
     factors,
     fill_value,
     find_roles,
+    netcdf_matches,
     open_dataset,
     read_times,
+    time_attrs,
     variable_attrs,
 )
 
@@ -150,6 +152,7 @@ def _open(ds, path, time_range, mapping, dry_depth, topology, fill, units_overri
              "source_path": str(path.resolve()), "time_origin": origin or "",
              "variables": ", ".join(f"{k}={v[0]}" for k, v in spec.items()),
              "import_notes": "; ".join(notes)}
+    attrs.update(time_attrs(ds, path, tdim, origin))
     return MeshFlowField(mesh, bed, source, dry_depth=dry_depth, name=str(path), attrs=attrs)
 
 
@@ -204,14 +207,7 @@ OPTIONS = [
 
 def can_open(path) -> bool:
     """Whether ``path`` is a NetCDF file with a 2D UGRID mesh topology (never raises)."""
-    try:
-        p = Path(path)
-        if not p.is_file():
-            return False
-        with open_dataset(p) as ds:
-            return is_ugrid(ds)
-    except Exception:
-        return False
+    return netcdf_matches(path, is_ugrid)
 
 
 def open(path, *, time_range=None, variables=None, dry_depth=1e-3, **options):

@@ -1,8 +1,8 @@
 """The Python API: load a scenario, get its flow, track its logs, read the results.
 
-    import driftlog
-    result = driftlog.track("cases/vortex/scenario.toml")
-    ds = result.dataset()          # xarray, CF trajectories
+>>> import driftlog
+>>> result = driftlog.track("cases/vortex/scenario.toml")
+>>> ds = result.dataset()          # xarray, CF trajectories
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from driftlog.contact import ContactModel
 from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.flow import WET
 from driftlog.logs import Logs, logs_from_scenario
@@ -35,6 +36,7 @@ class TrackResult:
     physics: dict
     scenario: Scenario
     extra_files: list = field(default_factory=list)
+    writer: object = None  # what received the records (a TrajectoryWriter, or the given one)
 
     def dataset(self):
         """The trajectories as an xarray Dataset (CF contiguous ragged array)."""
@@ -50,6 +52,23 @@ def as_scenario(scenario, overrides=None) -> Scenario:
             return load_scenario(merge(json.loads(scenario.to_json()), overrides))
         return scenario
     return load_scenario(scenario, overrides)
+
+
+def run_clock_origin(flow, start, end) -> float:
+    """Where the tracker's clock starts: 0, or ``start`` for a run far from the time axis' zero.
+
+    A run whose absolute times carry float64 round-off above 1e-12 of its span (absolute
+    epochs such as 1.7e9 s since 1970, ``time.start = 1e17``) is computed on a clock that
+    starts at ``start`` (the flow shifted, ``FlowField.shifted``), so no precision is lost;
+    its outputs store times on that clock with the origin as CF ``add_offset``.
+    """
+    start = float(start)
+    if end is None:
+        end = flow.time_span[1]
+    end = float(end)
+    if not (np.isfinite(end) and np.isfinite(start) and end > start):
+        return 0.0
+    return start if np.spacing(max(abs(start), abs(end))) > 1e-12 * (end - start) else 0.0
 
 
 def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool, t_end=None):
@@ -128,11 +147,8 @@ def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool, t_end
 def _contact_model(scen, flow):
     if not scen["contact"]["enabled"]:
         return None
-    try:
-        from driftlog.contact import ContactModel
-    except ImportError as exc:  # pragma: no cover - until the contact package lands
-        raise DriftlogError(f"contact.enabled = true but contacts are not available ({exc})")
-    return ContactModel.from_scenario(scen, mesh=getattr(flow, "mesh", None))
+    return ContactModel.from_sections(scen["contact"], scen["obstacles"],
+                                      mesh=getattr(flow, "mesh", None))
 
 
 def track(scenario, flow=None, output=None, progress=False, overrides=None,
@@ -159,13 +175,24 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     if flow is None:
         flow = flow_from_scenario(scen, progress=progress)
     logs = logs_from_scenario(scen)
+    tm = scen["time"]
+    origin = run_clock_origin(flow, tm["start"], tm["end"])
+    t_start = tm["start"] - origin
+    t_end = None if tm["end"] is None else tm["end"] - origin
+    if origin:  # the run far from the time axis' zero: computed on a clock starting at origin
+        flow = flow.shifted(origin)
+        logs.release_time = logs.release_time - origin
     contact = _contact_model(scen, flow)
     level, rotation, reason = choose_physics(flow, logs, scen["physics"], contact is not None,
-                                             t_end=scen["time"]["end"])
+                                             t_end=t_end)
     physics = PhysicsOptions.from_scenario(scen["physics"], level=level, rotation=rotation)
     out = Path(output or scen["output"]["path"])
-    tm = scen["time"]
     attrs = dict(scen.attrs())
+    reference = (getattr(flow, "attrs", None) or {}).get("time_reference")
+    if reference:
+        attrs["time_units"] = str(reference)
+    if origin:
+        attrs["time_offset"] = origin
     attrs.update(title=scen["title"] or "driftlog trajectories",
                  physics_level=physics.level, physics_rotation=int(physics.rotation),
                  physics_auto_reason=reason or "not auto: as set in the scenario",
@@ -182,7 +209,7 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     initial = np.array([scen["logs"][g]["velocity"] for g in logs.group])
     tracker = Tracker(flow, logs, physics, method=scen["integrator"]["method"],
                       step=StepOptions.from_scenario(scen["integrator"]), contact=contact,
-                      t_start=tm["start"], t_end=tm["end"], output_interval=tm["output_interval"],
+                      t_start=t_start, t_end=t_end, output_interval=tm["output_interval"],
                       hydro_step=tm["hydro_step"], writer=writer, progress=progress,
                       initial_velocity=initial)
     if resume:
@@ -206,7 +233,7 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     if scen["output"]["vtk"]:
         extra.append(write_vtk(path))
     result = TrackResult(path, logs, tracker.stats,
-                         dict(level=level, rotation=rotation, reason=reason), scen, extra)
+                         dict(level=level, rotation=rotation, reason=reason), scen, extra, writer)
     return result
 
 

@@ -75,29 +75,40 @@ def cmd_info(args):
     if not path.exists():
         raise DriftlogError(f"{path}: file not found")
     if path.suffix == ".nc":
-        import netCDF4
+        from driftlog.adapters._netcdf import open_dataset
 
-        with netCDF4.Dataset(path) as ds:
+        with open_dataset(path) as ds:  # unreadable or truncated files refused here
             if getattr(ds, "featureType", "") == "trajectory":
                 import xarray as xr
 
                 print(xr.open_dataset(path))
                 return 0
-        from driftlog.flowfile import open_flow
+    from driftlog.adapters import READERS
 
-        field = open_flow(path)
+    for r in READERS:  # flow files and other models' files: through the reader that opens them
+        if not r.can_open(path):
+            continue
+        if hasattr(r, "describe"):
+            print("\n".join(r.describe(path)))
+            return 0
+        try:
+            field = r.open(path)
+        except DriftlogError as exc:  # a mesh without flow data (a UGRID mesh file)
+            from driftlog.mesh import read_mesh
+
+            try:
+                mesh = read_mesh(path)
+            except Exception:  # noqa: BLE001 - the reader's message is the one to give
+                raise exc from None
+            print(mesh)
+            print(f"  no flow: {exc}")
+            return 0
         print(field)
         print(field.mesh)
         for k in ("source", "title", "driftlog_version", "import_notes"):
             if field.attrs.get(k):
                 print(f"  {k}: {field.attrs[k]}")
         return 0
-    from driftlog.adapters import READERS
-
-    for r in READERS:  # other models' files: a few lines from the reader that opens them
-        if hasattr(r, "describe") and r.can_open(path):
-            print("\n".join(r.describe(path)))
-            return 0
     from driftlog.mesh import read_mesh
 
     print(read_mesh(path))
@@ -472,11 +483,18 @@ def add_compare(sub):
     p = _sub(sub, "compare", "run the same debris scenario on two or more flows (hydro sources) "
              "and compare flows at the logs and trajectories; or compare two trajectory files",
              "driftlog compare scenario.toml --flow solver=flow.nc --flow foam=foam_case/ "
-             "--out cmp/\n  driftlog compare run_a.nc run_b.nc")
+             "--out cmp/\n  driftlog compare scenario.toml --engines driftlog,shallowWaterFoam "
+             "--gate bridge=600,0,600,170\n  driftlog compare run_a.nc run_b.nc")
     p.add_argument("inputs", nargs="+", help="a scenario (with --flow), or two trajectory files")
     p.add_argument("--flow", action="append", metavar="NAME=SOURCE",
                    help="a flow: flow file, model output (OpenFOAM case, UGRID, sww, CF grid) "
                    "or 'scenario' (the scenario's own); the first is the reference")
+    p.add_argument("--engines", metavar="E1,E2",
+                   help="compute the scenario's [solver] section with each engine (driftlog, "
+                   "shallowWaterFoam; each flow stored and reused) and compare them; the "
+                   "first is the reference")
+    p.add_argument("--gate", action="append", metavar="NAME=X0,Y0,X1,Y1",
+                   help="a named line: arrival times of each log at it, per log")
     p.add_argument("--line", type=float, nargs=4, metavar=("X0", "Y0", "X1", "Y1"),
                    help="arrival line (default: arrival = leaving the domain)")
     p.add_argument("--out", default="driftlog-compare", help="output folder")
@@ -486,7 +504,13 @@ def add_compare(sub):
 def cmd_compare(args):
     import json
 
-    from driftlog.compare import compare_runs, compare_trajectories, parse_flow_spec
+    from driftlog.compare import (
+        compare_runs,
+        compare_trajectories,
+        engine_flows,
+        parse_flow_spec,
+        parse_line_spec,
+    )
 
     if len(args.inputs) == 2 and all(i.endswith(".nc") for i in args.inputs) and not args.flow:
         r = compare_trajectories(args.inputs[0], args.inputs[1], args.line)
@@ -495,12 +519,24 @@ def cmd_compare(args):
         print(f"final statuses: {r['final_status_reference']} vs {r['final_status_other']}")
         print(f"hits: {json.dumps(r['hits_reference'])} vs {json.dumps(r['hits_other'])}")
         return 0
+    lines = dict(parse_line_spec(g) for g in args.gate or [])
+    if len(args.inputs) == 1 and args.engines:
+        if args.flow:
+            raise DriftlogError("driftlog compare: give --engines or --flow, not both")
+        path, _ = _scenario_path(args.inputs[0])
+        flows = engine_flows(path, args.engines, progress=True)
+        compare_runs(path, flows, args.out, args.line, progress=True, lines=lines)
+        out = Path(args.out)
+        print((out / "compare.md").read_text())
+        print(f"report: {out / 'compare.md'}, {out / 'compare.json'}; figure: "
+              f"{out / 'compare.png'}")
+        return 0
     if len(args.inputs) != 1 or not args.flow:
         raise DriftlogError("driftlog compare: give one scenario and two --flow NAME=SOURCE or "
-                            "more, or two trajectory files")
+                            "more (or --engines E1,E2), or two trajectory files")
     path, _ = _scenario_path(args.inputs[0])
     compare_runs(path, [parse_flow_spec(f) for f in args.flow], args.out, args.line,
-                 progress=True)
+                 progress=True, lines=lines)
     out = Path(args.out)
     print((out / "compare.md").read_text())
     print(f"report: {out / 'compare.md'}, {out / 'compare.json'}; figure: {out / 'compare.png'}")
@@ -584,6 +620,7 @@ def cmd_ensemble(args):
 
 # --------------------------------------------------------------------- entry point
 def build_parser() -> argparse.ArgumentParser:
+    """The ``driftlog`` argument parser (one sub-command per ``cmd_<name>``)."""
     parser = argparse.ArgumentParser(
         prog="driftlog", formatter_class=_formatter,
         description="Large floating debris (logs) on flood flows: transport, contacts with "
@@ -599,6 +636,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    """Run the command line; returns the exit code (2 for errors about user input)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if not hasattr(args, "run"):

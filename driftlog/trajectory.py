@@ -25,6 +25,7 @@ import numpy as np
 from driftlog._version import __version__
 from driftlog.flowfile import TIME_UNITS, _attrs_for_netcdf
 from driftlog.logs import STATUS_MEANINGS
+from driftlog.schema import Key, Section
 
 __all__ = ["TrajectoryWriter", "open_trajectories", "write_vtk", "last_states"]
 
@@ -88,6 +89,7 @@ class TrajectoryWriter:
         self._buf = []
         if resume:
             self.ds = netCDF4.Dataset(self.partial, "a")
+            self.ds.set_auto_maskandscale(False)  # times are written on the run's clock
             self.nobs = len(self.ds.dimensions["obs"])
             self.nhit = len(self.ds.dimensions["hit"])
             return
@@ -109,9 +111,18 @@ class TrajectoryWriter:
         tv = ds.createVariable("trajectory", "i8", ("trajectory",))
         tv.setncatts(dict(cf_role="trajectory_id", long_name="log id"))
         tv[:] = logs.id
+        # times: CF units with the flow's own reference (attrs time_units); a run far from the
+        # axis' zero is computed on a clock starting at time_offset, and its times are stored
+        # on that clock with add_offset = time_offset (CF packing: stored + add_offset is the
+        # time on the flow's axis), so the file keeps every digit
+        time_attrs = dict(units=str((attrs or {}).get("time_units") or TIME_UNITS))
+        offset = float((attrs or {}).get("time_offset") or 0.0)
+        shift = dict(add_offset=offset) if offset else {}
+        time_attrs.update(shift)
         for name, (dt, a) in TRAJ_VARS.items():
             v = ds.createVariable(name, dt, ("trajectory",))
-            v.setncatts(a)
+            v.setncatts(dict(a, **shift) if name == "release_time" else a)
+            v.set_auto_maskandscale(False)
             v[:] = {"length": logs.length, "radius": logs.radius, "density": logs.density,
                     "release_time": logs.release_time, "group": logs.group,
                     "flotation_depth": np.where(np.isfinite(logs.float_depth), logs.float_depth,
@@ -120,14 +131,15 @@ class TrajectoryWriter:
         ti.setncatts(dict(long_name="which trajectory this observation is for",
                           instance_dimension="trajectory"))
         t = ds.createVariable("time", "f8", ("obs",))
-        t.setncatts(dict(standard_name="time", long_name="time", units=TIME_UNITS, axis="T"))
+        t.setncatts(dict(standard_name="time", long_name="time", axis="T", **time_attrs))
         for name, (dt, a) in OBS_VARS.items():
             v = ds.createVariable(name, dt, ("obs",), zlib=True, complevel=1)
             v.setncatts(a)
             v.coordinates = "time x y"
         for name, (dt, a) in HIT_VARS.items():
             v = ds.createVariable(name, dt, ("hit",))
-            v.setncatts(a)
+            v.setncatts(dict(a, **shift) if name == "hit_time" else a)
+        ds.set_auto_maskandscale(False)  # times are written on the run's clock (add_offset)
         ds.sync()
 
     def record(self, t, index, columns: dict):
@@ -192,7 +204,7 @@ def _to_contiguous(src, dst):
     """Rewrite an indexed ragged trajectory file as a contiguous ragged one (stable by time)."""
     tmp = Path(str(dst) + ".tmp")
     with netCDF4.Dataset(src) as a, netCDF4.Dataset(tmp, "w", format="NETCDF4") as b:
-        a.set_auto_mask(False)
+        a.set_auto_maskandscale(False)  # copied as stored (times on the run's clock)
         idx = a["trajectory_index"][:]
         order = np.argsort(idx, kind="stable")
         ntraj = len(a.dimensions["trajectory"])
@@ -207,6 +219,7 @@ def _to_contiguous(src, dst):
             kw = dict(zlib=True, complevel=1) if var.dimensions == ("obs",) else {}
             v = b.createVariable(name, var.dtype, var.dimensions, **kw)
             v.setncatts(attrs)
+            v.set_auto_maskandscale(False)
             data = var[:]
             v[:] = data[order] if var.dimensions == ("obs",) else data
         rs = b.createVariable("rowSize", "i8", ("trajectory",))
@@ -245,7 +258,7 @@ def last_states(path):
     file holds no record.
     """
     with netCDF4.Dataset(path) as ds:
-        ds.set_auto_mask(False)
+        ds.set_auto_maskandscale(False)  # times on the run's clock (as the tracker counts)
         t = ds["time"][:]
         if t.size == 0:
             return None
@@ -292,3 +305,13 @@ def write_vtk(path, out_dir=None, every=1):
     pvd.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
                    "  <Collection>\n" + "\n".join(entries) + "\n  </Collection>\n</VTKFile>\n")
     return pvd
+
+
+# --------------------------------------------------------------------- the scenario section
+OUTPUT_SECTION = Section("output", [
+    Key("path", "path", "trajectories.nc", "trajectory file (CF-1.11 trajectory NetCDF)"),
+    Key("vtk", "bool", False, "also write VTK (ParaView) files beside the trajectory file"),
+    Key("figure", "bool", False, "draw a figure of the trajectories"),
+    Key("animation", "bool", False, "write an animation (MP4 if ffmpeg is there, else GIF)"),
+    Key("flush_interval", "int", 10, "records between flushes to disk", min=1),
+], doc="what is written")

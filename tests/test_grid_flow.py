@@ -234,7 +234,7 @@ def test_contacts_and_land_on_a_grid():
     assert mesh.boundary_edges.size == 2 * (nx + ny)
     mesh.tag_boundary("outflow", (nx - 0.5, -1, nx + 1, ny + 1))
     scen = load_scenario({"contact": {"enabled": True, "walls": True, "restitution": 0.5}})
-    model = ContactModel.from_scenario(scen, mesh=mesh)
+    model = ContactModel.from_sections(scen["contact"], scen["obstacles"], mesh=mesh)
     logs = Logs([3.0], [4.0], [0.0], length=1.0, radius=0.1, density=700.0)
     Tracker(open_water, logs, PhysicsOptions(), contact=model, t_end=60.0).run()
     hits = model.drain_hits()
@@ -247,3 +247,23 @@ def test_contacts_and_land_on_a_grid():
     Tracker(land, logs, PhysicsOptions(), t_end=60.0).run()
     assert logs.status[0] in (RESTING, STRANDED)  # grounded in the shallows
     assert 13.0 < logs.state[0, 0] < 16.0, logs.state[0, 0]  # at the shore, not on the land
+
+
+def test_mesh_built_only_when_asked():
+    """Sampling needs no mesh; walls, location and repr get the same mesh as regular_grid."""
+    from driftlog.mesh import Mesh
+
+    f = make_field()
+    x, y = inner_points(20, np.random.default_rng(6))
+    f.sample(x, y, 3.0)
+    f.snapshot(2)
+    assert not f.mesh.built
+    assert f.mesh.n_faces == NX * NY and f.mesh.n_nodes == (NX + 1) * (NY + 1)
+    ref = Mesh.regular_grid(NX, NY, DX, DY, x0=X0, y0=Y0)
+    assert repr(f.mesh) == repr(ref)
+    np.testing.assert_array_equal(f.mesh.face_nodes, ref.face_nodes)
+    np.testing.assert_allclose(f.mesh.bounds, ref.bounds)
+    assert not f.mesh.built
+    np.testing.assert_allclose(f.mesh.boundary_segments(), ref.boundary_segments())
+    assert f.mesh.built
+    np.testing.assert_array_equal(f.mesh.locate(x, y), f.sample(x, y, 3.0).face)
