@@ -227,17 +227,28 @@ def _ear_clip(start, ids, x, y, tri, owner):
     return t
 
 
+@nb.njit(cache=True)
+def _turn_kernel(start, ids, x, y, out):
+    for p in range(start.size - 1):
+        s, e = start[p], start[p + 1]
+        n = e - s
+        for k in range(n):
+            a = ids[s + (k - 1) % n]
+            b = ids[s + k]
+            c = ids[s + (k + 1) % n]
+            ax, ay = x[b] - x[a], y[b] - y[a]
+            bx, by = x[c] - x[b], y[c] - y[b]
+            norm = max(np.sqrt((ax * ax + ay * ay) * (bx * bx + by * by)), 1e-300)
+            out[s + k] = (ax * by - ay * bx) / norm
+
+
 def _turns(start, ids, x, y):
     """Sine of the turn at each polygon node (left > 0), flat like ``ids``, and its polygon."""
-    n = np.diff(start)
-    poly = np.repeat(np.arange(n.size), n)
-    local = np.arange(ids.size) - start[poly]
-    prv = ids[start[poly] + (local - 1) % n[poly]]
-    nxt = ids[start[poly] + (local + 1) % n[poly]]
-    ax, ay = x[ids] - x[prv], y[ids] - y[prv]
-    bx, by = x[nxt] - x[ids], y[nxt] - y[ids]
-    norm = np.maximum(np.hypot(ax, ay) * np.hypot(bx, by), 1e-300)
-    return (ax * by - ay * bx) / norm, poly
+    start = np.ascontiguousarray(start, np.int64)
+    out = np.empty(ids.size)
+    _turn_kernel(start, np.ascontiguousarray(ids, np.int64), np.ascontiguousarray(x, float),
+                 np.ascontiguousarray(y, float), out)
+    return out, np.repeat(np.arange(start.size - 1), np.diff(start))
 
 
 def _slices(start, sel):
@@ -388,8 +399,10 @@ def read_geometry(path, areas=None, f=None) -> HecrasGeometry:
             ay = np.r_[fp[:, 1], pv[:, 1]]
             cstart = np.r_[0, np.cumsum(np.bincount(e_cell, weights=n_e, minlength=ncell))]
             cstart = cstart.astype(np.int64)
-            turn, poly = _turns(cstart, node, ax, ay)
-            flat = (loc > 0) & (np.abs(turn) <= 1e-9)
+            flat = np.zeros(node.size, bool)
+            if pc.any():
+                turn, poly = _turns(cstart, node, ax, ay)
+                flat = (loc > 0) & (np.abs(turn) <= 1e-9)
             if np.any(flat):
                 node = node[~flat]
                 cstart = np.r_[0, np.cumsum(np.bincount(poly[~flat], minlength=ncell))]
@@ -430,8 +443,10 @@ def read_geometry(path, areas=None, f=None) -> HecrasGeometry:
         pstart = np.concatenate([[0], *polys_start]).astype(np.int64)
         pids = np.concatenate(polys_ids).astype(np.int64)
         # compact: only the nodes used by a polygon
-        used, inverse = np.unique(pids, return_inverse=True)
-        node_x, node_y, pids = node_x[used], node_y[used], inverse.astype(np.int64)
+        used = np.zeros(node_x.size, bool)
+        used[pids] = True
+        remap = np.cumsum(used) - 1
+        node_x, node_y, pids = node_x[used], node_y[used], remap[pids].astype(np.int64)
         nc = int(cell_start[-1])
         nnode = np.diff(pstart)
         turn, poly = _turns(pstart, pids, node_x, node_y)
