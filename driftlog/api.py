@@ -1,8 +1,8 @@
 """The Python API: load a scenario, get its flow, track its logs, read the results.
 
-    import driftlog
-    result = driftlog.track("cases/vortex/scenario.toml")
-    ds = result.dataset()          # xarray, CF trajectories
+>>> import driftlog
+>>> result = driftlog.track("cases/vortex/scenario.toml")
+>>> ds = result.dataset()          # xarray, CF trajectories
 """
 
 from __future__ import annotations
@@ -13,16 +13,18 @@ from pathlib import Path
 
 import numpy as np
 
+from driftlog.contact import ContactModel
 from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.flow import WET
-from driftlog.logs import Logs, logs_from_scenario
+from driftlog.logs import Logs, logs_from_groups
 from driftlog.physics import NLIN, PhysicsOptions, log_parameters, rhs_kernel
 from driftlog.scenario import Scenario, load_scenario
 from driftlog.sources import flow_from_scenario
 from driftlog.tracker import StepOptions, Tracker
 from driftlog.trajectory import TrajectoryWriter, open_trajectories, write_vtk
 
-__all__ = ["track", "TrackResult", "choose_physics", "as_scenario", "cases_dir", "find_case"]
+__all__ = ["track", "TrackResult", "choose_physics", "as_scenario", "logs_from_scenario",
+           "cases_dir", "find_case"]
 
 
 @dataclass
@@ -35,6 +37,7 @@ class TrackResult:
     physics: dict
     scenario: Scenario
     extra_files: list = field(default_factory=list)
+    writer: object = None  # what received the records (a TrajectoryWriter, or the given one)
 
     def dataset(self):
         """The trajectories as an xarray Dataset (CF contiguous ragged array)."""
@@ -67,6 +70,13 @@ def run_clock_origin(flow, start, end) -> float:
     if not (np.isfinite(end) and np.isfinite(start) and end > start):
         return 0.0
     return start if np.spacing(max(abs(start), abs(end))) > 1e-12 * (end - start) else 0.0
+
+
+def logs_from_scenario(scenario, water_density=None) -> Logs:
+    """All [[logs]] groups of a validated scenario as one Logs (``logs.logs_from_groups``)."""
+    return logs_from_groups(scenario["logs"],
+                            water_density or scenario["physics"]["water_density"],
+                            scenario["time"]["start"])
 
 
 def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool, t_end=None):
@@ -145,11 +155,8 @@ def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool, t_end
 def _contact_model(scen, flow):
     if not scen["contact"]["enabled"]:
         return None
-    try:
-        from driftlog.contact import ContactModel
-    except ImportError as exc:  # pragma: no cover - until the contact package lands
-        raise DriftlogError(f"contact.enabled = true but contacts are not available ({exc})")
-    return ContactModel.from_scenario(scen, mesh=getattr(flow, "mesh", None))
+    return ContactModel.from_sections(scen["contact"], scen["obstacles"],
+                                      mesh=getattr(flow, "mesh", None))
 
 
 def track(scenario, flow=None, output=None, progress=False, overrides=None,
@@ -234,7 +241,7 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     if scen["output"]["vtk"]:
         extra.append(write_vtk(path))
     result = TrackResult(path, logs, tracker.stats,
-                         dict(level=level, rotation=rotation, reason=reason), scen, extra)
+                         dict(level=level, rotation=rotation, reason=reason), scen, extra, writer)
     return result
 
 

@@ -75,9 +75,9 @@ def cmd_info(args):
     if not path.exists():
         raise DriftlogError(f"{path}: file not found")
     if path.suffix == ".nc":
-        import netCDF4
+        from driftlog.adapters._netcdf import open_dataset
 
-        with netCDF4.Dataset(path) as ds:
+        with open_dataset(path) as ds:  # unreadable or truncated files refused here
             if getattr(ds, "featureType", "") == "trajectory":
                 import xarray as xr
 
