@@ -261,6 +261,7 @@ def test_describe():
     assert "37 outputs" in hecras.describe(SERIES)[-1]
 
 
+@pytest.mark.filterwarnings("ignore::PendingDeprecationWarning")  # rasterio's own affine use
 def test_terrain_bed_is_the_lowest_pixel_in_each_cell(tmp_path, muncie):
     rasterio = pytest.importorskip("rasterio")
     from rasterio.transform import from_origin
