@@ -16,14 +16,15 @@ import numpy as np
 from driftlog.contact import ContactModel
 from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.flow import WET
-from driftlog.logs import Logs, logs_from_scenario
+from driftlog.logs import Logs, logs_from_groups
 from driftlog.physics import NLIN, PhysicsOptions, log_parameters, rhs_kernel
 from driftlog.scenario import Scenario, load_scenario
 from driftlog.sources import flow_from_scenario
 from driftlog.tracker import StepOptions, Tracker
 from driftlog.trajectory import TrajectoryWriter, open_trajectories, write_vtk
 
-__all__ = ["track", "TrackResult", "choose_physics", "as_scenario", "cases_dir", "find_case"]
+__all__ = ["track", "TrackResult", "choose_physics", "as_scenario", "logs_from_scenario",
+           "cases_dir", "find_case"]
 
 
 @dataclass
@@ -69,6 +70,13 @@ def run_clock_origin(flow, start, end) -> float:
     if not (np.isfinite(end) and np.isfinite(start) and end > start):
         return 0.0
     return start if np.spacing(max(abs(start), abs(end))) > 1e-12 * (end - start) else 0.0
+
+
+def logs_from_scenario(scenario, water_density=None) -> Logs:
+    """All [[logs]] groups of a validated scenario as one Logs (``logs.logs_from_groups``)."""
+    return logs_from_groups(scenario["logs"],
+                            water_density or scenario["physics"]["water_density"],
+                            scenario["time"]["start"])
 
 
 def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool, t_end=None):
