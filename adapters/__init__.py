@@ -167,15 +167,20 @@ def import_flow(source, output, kind="auto", compress=True, progress=None, keep_
     Returns (the written path, the field that was read); the field's source file is closed
     unless ``keep_open``.
     """
+    import os
+
+    from driftlog.files import check_output, temporary_name
     from driftlog.flowfile import FlowFileWriter
 
+    output = check_output(output, "flow file", inputs=[source], suffixes=(".nc", ".nc4"))
     field = open_flow_source(kind, source, **options)
     attrs = dict(field.attrs)
     attrs.setdefault("source", field.name)
     attrs["dry_depth"] = field.dry_depth
     attrs["imported_from"] = str(Path(source).resolve())
+    tmp = temporary_name(output)  # renamed when complete: never a truncated flow file
     try:
-        writer = FlowFileWriter(output, field.mesh, field.bed, attrs=attrs, compress=compress)
+        writer = FlowFileWriter(tmp, field.mesh, field.bed, attrs=attrs, compress=compress)
     except OSError as exc:
         raise FlowFileError(f"{output}: cannot write the flow file ({exc})") from None
     try:
@@ -185,7 +190,9 @@ def import_flow(source, output, kind="auto", compress=True, progress=None, keep_
                 w.write(float(t), h, hu=hu, hv=hv, dry_depth=field.dry_depth)
                 if progress is not None:
                     progress(i + 1, field.times.size)
+        os.replace(tmp, output)
     finally:
+        tmp.unlink(missing_ok=True)
         if not keep_open and hasattr(field.source, "close"):
             field.source.close()
     return Path(output), field

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from driftlog.errors import DriftlogError, ScenarioError
+from driftlog.files import check_output
 from driftlog.flow import WET
 from driftlog.logs import Logs, logs_from_scenario
 from driftlog.physics import NLIN, PhysicsOptions, log_parameters, rhs_kernel
@@ -22,7 +23,8 @@ from driftlog.sources import flow_from_scenario
 from driftlog.tracker import StepOptions, Tracker
 from driftlog.trajectory import TrajectoryWriter, open_trajectories, write_vtk
 
-__all__ = ["track", "TrackResult", "choose_physics", "as_scenario", "cases_dir", "find_case"]
+__all__ = ["track", "TrackResult", "choose_physics", "as_scenario", "cases_dir", "find_case",
+           "count_logs", "estimate_run"]
 
 
 @dataclass
@@ -35,6 +37,7 @@ class TrackResult:
     physics: dict
     scenario: Scenario
     extra_files: list = field(default_factory=list)
+    flow_name: str = ""
 
     def dataset(self):
         """The trajectories as an xarray Dataset (CF contiguous ragged array)."""
@@ -42,13 +45,27 @@ class TrackResult:
 
 
 def as_scenario(scenario, overrides=None) -> Scenario:
-    """A validated Scenario from a path, TOML text, dict or Scenario."""
+    """A validated Scenario from a path, a case name (``"vortex"``), TOML text, dict or Scenario.
+
+    A folder holding a ``scenario.toml`` stands for that file.
+    """
     if isinstance(scenario, Scenario):
         if overrides:
             from driftlog.scenario import merge
 
             return load_scenario(merge(json.loads(scenario.to_json()), overrides))
         return scenario
+    name = str(scenario) if isinstance(scenario, (str, Path)) else ""
+    if name and "\n" not in name and len(name) < 1024:  # a path or a name, not TOML text
+        looks_like_name = "=" not in name and "/" not in name and not name.endswith(".toml")
+        if looks_like_name and not Path(name).exists():
+            try:
+                scenario = find_case(name)  # a case by name, as on the command line
+            except ScenarioError as exc:
+                raise ScenarioError("scenario", name, "neither a file (not found), a case name "
+                                    f"({exc.allowed.split('; ')[-1]}) nor TOML text") from None
+        elif Path(name).is_dir() and (Path(name) / "scenario.toml").is_file():
+            scenario = Path(name) / "scenario.toml"
     return load_scenario(scenario, overrides)
 
 
@@ -156,14 +173,24 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         records as they come instead of (or beside) writing them.
     """
     scen = as_scenario(scenario, overrides)
+    out = Path(output or scen["output"]["path"])
+    if writer is None:
+        check_output(out, "trajectory file", suffixes=(".nc", ".nc4"))
+        estimate_run(scen, out)
     if flow is None:
         flow = flow_from_scenario(scen, progress=progress)
     logs = logs_from_scenario(scen)
+    from driftlog.preflight import check_start
+
+    check_start(scen, flow, logs, warn=writer is None)  # outside the mesh, in an obstacle
+    if writer is None and not resume:  # every snapshot the run reads: finite, sized, >= 0
+        from driftlog.preflight import check_flow_values
+
+        check_flow_values(flow, scen["time"]["start"], scen["time"]["end"])
     contact = _contact_model(scen, flow)
     level, rotation, reason = choose_physics(flow, logs, scen["physics"], contact is not None,
                                              t_end=scen["time"]["end"])
     physics = PhysicsOptions.from_scenario(scen["physics"], level=level, rotation=rotation)
-    out = Path(output or scen["output"]["path"])
     tm = scen["time"]
     attrs = dict(scen.attrs())
     attrs.update(title=scen["title"] or "driftlog trajectories",
@@ -185,6 +212,10 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
                       t_start=tm["start"], t_end=tm["end"], output_interval=tm["output_interval"],
                       hydro_step=tm["hydro_step"], writer=writer, progress=progress,
                       initial_velocity=initial)
+    if progress:
+        from driftlog._numba import announce_compile
+
+        announce_compile(["tracking"] + (["contacts"] if contact is not None else []))
     if resume:
         from driftlog.trajectory import last_states
 
@@ -193,9 +224,14 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
             tracker.resume_from(*state)
     try:
         tracker.run()
-    except BaseException:
+    except BaseException as exc:
         writer.flush()
-        writer.close(finalize=False)  # keep the partial file: what was computed is not lost
+        kept = writer.close(finalize=False)  # keep the partial file: nothing computed is lost
+        if isinstance(kept, Path) and kept.exists():
+            exc.add_note(f"kept {kept}: {getattr(writer, 'nobs', '?')} observations and "
+                         f"{getattr(writer, 'nhit', '?')} contact hits up to t = "
+                         f"{tracker.t:.6g} s of {tm['end']:g} s; driftlog track SCENARIO -o "
+                         f"{out} --resume continues it")
         raise
     writer.set_attrs(**{f"stats_{k}": v for k, v in tracker.stats.items()})
     if contact is not None:  # events, rejected steps, deepest overlap, Gauss-Seidel sweeps
@@ -206,8 +242,57 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     if scen["output"]["vtk"]:
         extra.append(write_vtk(path))
     result = TrackResult(path, logs, tracker.stats,
-                         dict(level=level, rotation=rotation, reason=reason), scen, extra)
+                         dict(level=level, rotation=rotation, reason=reason), scen, extra,
+                         flow_name=getattr(flow, "name", str(flow)))
     return result
+
+
+def count_logs(scen) -> int:
+    """The number of logs a validated scenario seeds, without seeding them."""
+    n = 0
+    for g in scen["logs"]:
+        if g.get("seeding", "list") == "list":
+            x = g.get("x")
+            n += len(x) if isinstance(x, (list, tuple)) else 1
+        else:
+            n += int(g.get("count") or 0)
+    return n
+
+
+def estimate_run(scen, output=None):
+    """Refuse (``SizeError``) a run too large for this machine, before anything is allocated.
+
+    Memory: about 2 kB per log for the tracker (state, integrator stages, flow samples,
+    contacts) and the buffered records (``flush_interval`` records of 85 bytes per log), and
+    the final rewrite of the trajectory file, 32 bytes per observation (one variable at a
+    time, with its sort order).  Disk: 85 bytes per observation, twice (the ``.partial`` file
+    and the final file).  Returns (logs, observations, bytes of memory).
+    """
+    import shutil
+
+    from driftlog.resources import check_fits
+
+    n = count_logs(scen)
+    tm = scen["time"]
+    records = int((tm["end"] - tm["start"]) / tm["output_interval"]) + 2
+    nobs = float(n) * records
+    mem = n * (2000.0 + 85.0 * scen["output"]["flush_interval"]) + 32.0 * nobs
+    advice = ("fewer logs (count), a longer [time] output_interval, or an ensemble "
+              "(driftlog ensemble) that runs the logs in members")
+    check_fits(mem, f"tracking {n:.3g} logs over {records} records ({nobs:.3g} observations)",
+               advice)
+    out = Path(output or scen["output"]["path"])
+    try:
+        free = shutil.disk_usage(out.parent if out.parent.exists() else Path.cwd()).free
+    except OSError:
+        free = None
+    if free is not None and 2 * 85.0 * nobs > 0.9 * free:
+        from driftlog.errors import SizeError
+
+        raise SizeError(f"tracking {n:.3g} logs over {records} records writes about "
+                        f"{2 * 85 * nobs / 2**30:.3g} GiB, more than the {free / 2**30:.3g} GiB "
+                        f"free on the disk of {out.parent}; {advice}")
+    return n, nobs, mem
 
 
 def cases_dir() -> Path:

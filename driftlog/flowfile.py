@@ -241,9 +241,12 @@ class NetCDFSnapshots:
 
 def open_flow(path, dry_depth=None) -> MeshFlowField:
     """Open a driftlog flow file as a MeshFlowField (snapshots read lazily, two at a time)."""
+    from driftlog.files import require
+
     path = Path(path)
-    if not path.is_file():
+    if not path.is_file() and not path.is_dir():
         raise FlowFileError(f"{path}: flow file not found")
+    require(path, ("flow", "model_output", "netcdf"), "flow file", error=FlowFileError)
     try:
         mesh = read_ugrid_mesh(path)
     except MeshError as exc:

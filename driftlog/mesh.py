@@ -517,9 +517,15 @@ def read_mesh(path, **kwargs) -> Mesh:
     ``elevation``, ``bed`` or ``bed_level``, or from a non-zero third coordinate.  Line cells with
     gmsh physical names tag the boundary edges they cover.
     """
+    from driftlog.files import require
+
     path = Path(path)
     if not path.is_file():
         raise MeshError(f"{path}: mesh file not found")
+    fk = require(path, ("mesh", "flow", "model_output", "netcdf", "ensemble", "mesh_file",
+                        "text"), "mesh file", error=MeshError)
+    if fk.kind != "mesh_file" and fk.kind != "text":
+        return read_ugrid_mesh(path, **kwargs)
     if path.suffix.lower() in (".nc", ".nc4", ".cdf"):
         return read_ugrid_mesh(path, **kwargs)
     import meshio

@@ -194,7 +194,10 @@ def plot_trajectories(path, flow=None, background="speed", show_mesh=False, out=
         f"{ds.attrs.get('title', '')}: t = {t_show:.4g} s ({summary})", 90)), fontsize=10)
     ax.legend(loc="upper right", fontsize=8)
     if out is not None:
-        fig.savefig(out, dpi=130, bbox_inches="tight")
+        from driftlog.files import atomic_output
+
+        with atomic_output(out) as tmp:  # complete or absent: never a truncated figure
+            fig.savefig(tmp, dpi=130, bbox_inches="tight")
         plt.close(fig)
     return fig
 
@@ -278,7 +281,12 @@ class _FrameSink:
     """RGBA frames to an MP4 (an ffmpeg process reading raw video) or a GIF (Pillow)."""
 
     def __init__(self, out, width, height, fps, mp4):
-        self.out, self.fps, self.mp4 = Path(out), fps, mp4
+        from driftlog.files import temporary_name
+
+        # frames go to a temporary file, renamed when the animation is complete: an
+        # interrupted animation leaves no truncated file under the final name
+        self.final, self.fps, self.mp4 = Path(out), fps, mp4
+        self.out = temporary_name(self.final)
         self.frames = []
         self.proc = None
         if mp4:
@@ -300,17 +308,29 @@ class _FrameSink:
             self.frames.append(Image.fromarray(rgba[..., :3].copy()).quantize(colors=128))
 
     def abort(self):
+        """Stop and remove the temporary file (an interrupted or failed animation)."""
         if self.proc is not None:
             self.proc.kill()
             self.proc.wait()
+        self.out.unlink(missing_ok=True)
 
     def close(self):
-        if self.proc is not None:
-            _, err = self.proc.communicate()
-            if self.proc.returncode != 0:
-                from driftlog.errors import DriftlogError
+        """Finish the file and give it its final name."""
+        import os
 
-                raise DriftlogError(f"ffmpeg failed writing {self.out}: {err.decode()[-500:]}")
-        elif self.frames:
-            self.frames[0].save(self.out, save_all=True, append_images=self.frames[1:],
-                                duration=int(1000 / self.fps), loop=0)
+        try:
+            if self.proc is not None:
+                _, err = self.proc.communicate()
+                if self.proc.returncode != 0:
+                    from driftlog.errors import DriftlogError
+
+                    raise DriftlogError(f"ffmpeg failed writing {self.final}: "
+                                        f"{err.decode()[-500:]}")
+            elif self.frames:
+                self.frames[0].save(self.out, save_all=True, append_images=self.frames[1:],
+                                    duration=int(1000 / self.fps), loop=0, format="GIF")
+        except BaseException:
+            self.abort()
+            raise
+        if self.out.exists():
+            os.replace(self.out, self.final)

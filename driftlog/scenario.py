@@ -231,14 +231,19 @@ def read_toml(source, what: str = "scenario"):
     src = str(source)
     p = Path(src) if ("\n" not in src and len(src) < 4096) else None
     if p is not None and (p.suffix == ".toml" or p.exists()):
-        if not p.is_file():
+        if not p.exists():
             raise ScenarioError(what, str(p), "file not found")
-        path, text = p.resolve(), p.read_text()
+        from driftlog.files import read_text
+
+        path, text = p.resolve(), read_text(p, f"{what} file")
     else:
         text = src
     try:
         return tomllib.loads(text), path, text
     except tomllib.TOMLDecodeError as exc:
+        if path is None and p is not None and "=" not in src and "[" not in src:
+            raise ScenarioError(what, src, "neither a file (not found), a case name (driftlog "
+                                "cases list) nor TOML text") from None
         raise ScenarioError(what, str(path or "<text>"), f"is not valid TOML: {exc}") from None
 
 
@@ -248,6 +253,16 @@ def load_scenario(source, overrides: dict | None = None) -> Scenario:
     ``overrides`` is a nested dict merged over the file (used by ensembles and the CLI's --set).
     """
     raw, path, text = read_toml(source)
+    try:
+        return _validate(raw, path, text, overrides)
+    except ScenarioError as exc:
+        if exc.source is None and path is not None:  # name the file in the message
+            shown = source if isinstance(source, (str, Path)) else path
+            raise ScenarioError(exc.key, exc.value, exc.allowed, source=str(shown)) from None
+        raise
+
+
+def _validate(raw, path, text, overrides):
     if overrides:
         raw = merge(raw, overrides)
     base = path.parent if path else Path.cwd()
@@ -297,6 +312,11 @@ def merge(base: dict, over: dict) -> dict:
 
 def describe_keys(section: str | None = None) -> str:
     """A text table of every key: name, type, default, units, rule, description."""
+    if section and section not in SECTIONS:
+        close = difflib.get_close_matches(section, list(SECTIONS), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ScenarioError("--section", section, f"unknown section{hint}; the sections are: "
+                            + ", ".join(SECTIONS))
     lines = []
     for name, sec in SECTIONS.items():
         if section and name != section:
