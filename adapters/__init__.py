@@ -1,15 +1,33 @@
-"""Readers of other models' flow outputs, each returning a driftlog ``FlowField``.
+"""Readers of flow outputs (driftlog's own and other models'), each returning a ``FlowField``.
 
 Imported as ``driftlog.adapters`` (the folder sits at the top of the repository, DESIGN.md).
+
+Every reader is one module that declares (the reader contract):
+
+``KIND``
+    the name used in ``[flow] source = "..."`` and ``driftlog import --format``;
+``SUFFIXES``
+    typical file suffixes (documentation only);
+``OPTIONS``
+    its own keys (``driftlog.schema.Key``), validated under ``[flow.options]``;
+``can_open(path) -> bool``
+    a cheap look at the contents for ``source = "auto"`` (never raises);
+``open(path, *, time_range=None, variables=None, dry_depth=1e-3, **options) -> FlowField``.
+
+``READERS`` is the ordered registry ('auto' takes the first reader whose ``can_open`` is true);
+a new reader is added by writing its module and adding it to that list, nothing else.
 
 =========  ===============================================  ===========================
 kind        what                                             module
 =========  ===============================================  ===========================
-file        driftlog's own flow file                         driftlog.flowfile
+file        driftlog's own flow file                         file (driftlog.flowfile)
 openfoam    shallowWaterFoam case; interFoam depth-averaged   openfoam, openfoam_vof
 ugrid       UGRID NetCDF (D-Flow FM map files...)             ugrid
 anuga       ANUGA .sww                                        anuga
 cf_grid     CF regular grid NetCDF (LISFLOOD-FP...)           cfgrid
+selafin     TELEMAC-2D Selafin results (node-located data)    selafin (xarray-selafin)
+dfsu        MIKE 21 FM 2D dfsu results (element values)       mike (mikeio)
+raster      LISFLOOD-FP ASCII results, GeoTIFF series         raster (rioxarray)
 =========  ===============================================  ===========================
 
 ``open_flow_source(kind, path, **options)`` opens any of them ('auto' detects the kind);
@@ -23,56 +41,61 @@ from __future__ import annotations
 from pathlib import Path
 
 from driftlog.errors import FlowFileError
+from driftlog.schema import Section, check_table
 
-__all__ = ["KINDS", "open_flow_source", "detect_format", "flow_from_scenario", "import_flow",
-           "checked_snapshot"]
+from . import anuga, cfgrid, file, mike, openfoam, raster, selafin, ugrid
+from ._netcdf import open_dataset
 
-KINDS = ("file", "openfoam", "ugrid", "anuga", "cf_grid")
+__all__ = ["READERS", "KINDS", "reader", "options_section", "open_flow_source",
+           "detect_format", "flow_from_scenario", "import_flow", "checked_snapshot"]
 
-# options each kind accepts (beyond time_range, variables, dry_depth)
-_OPTIONS = {
-    "file": set(),
-    "openfoam": {"decomposed", "mode", "mesh2d", "raster", "include_initial",
-                 "allow_initial_only"},
-    "ugrid": {"topology", "fill", "units"},
-    "anuga": {"use_centroids"},
-    "cf_grid": {"fill", "units"},
-}
+READERS = [file, openfoam, ugrid, anuga, cfgrid, selafin, mike, raster]
+"""The reader modules, in the order 'auto' tries them."""
+
+KINDS = tuple(r.KIND for r in READERS)
+
+
+def reader(kind):
+    """The reader module of a kind (FlowFileError naming the known kinds if none)."""
+    for r in READERS:
+        if r.KIND == kind:
+            return r
+    raise FlowFileError(f"format {kind!r} unknown; one of {', '.join(KINDS)} or 'auto'")
+
+
+def options_section(kind) -> Section:
+    """The ``[flow.options]`` section of a reader (its ``OPTIONS`` keys)."""
+    return Section("flow.options", list(reader(kind).OPTIONS), doc=f"options of {kind!r}")
 
 
 def detect_format(path) -> str:
-    """The kind of a hydro source from its layout (directory or NetCDF contents)."""
+    """The kind of a hydro source: the first reader of ``READERS`` that can open it."""
     p = Path(path)
-    if p.is_dir():
-        from driftlog.adapters.openfoam import is_openfoam_case
-
-        if is_openfoam_case(p):
-            return "openfoam"
-        raise FlowFileError(f"{p}: unknown layout: a directory that is not an OpenFOAM case "
-                            "(no system/controlDict, constant/polyMesh or processor*)")
     if not p.exists():
         raise FlowFileError(f"{p}: file or directory not found")
-    if p.name == "controlDict" and p.parent.name == "system":
-        return "openfoam"
-    from driftlog.adapters._netcdf import open_dataset
-
+    for r in READERS:
+        if r.can_open(p):
+            return r.KIND
+    if p.is_dir():
+        raise FlowFileError(f"{p}: unknown layout: a directory that is not an OpenFOAM case "
+                            "(no system/controlDict, constant/polyMesh or processor*)")
     with open_dataset(p) as ds:
-        from driftlog.adapters.anuga import is_sww
-        from driftlog.adapters.cfgrid import is_cf_grid
-        from driftlog.adapters.ugrid import is_ugrid
-
-        if p.suffix.lower() == ".sww" or is_sww(ds):
-            return "anuga"
-        if is_ugrid(ds):
-            own = all(v in ds.variables for v in ("water_depth", "velocity_x", "velocity_y",
-                                                  "bed_level"))
-            return "file" if own and "driftlog_version" in ds.ncattrs() else "ugrid"
-        if is_cf_grid(ds):
-            return "cf_grid"
         names = sorted(ds.variables)[:12]
     raise FlowFileError(f"{p}: unknown layout: not a UGRID mesh (no cf_role = mesh_topology), "
                         f"not an ANUGA sww (x, y, volumes, stage), not a CF grid (1-D x, y "
                         f"coordinates); variables: {names}")
+
+
+def check_options(kind, options: dict, path) -> dict:
+    """Options checked against the reader's ``OPTIONS`` (unknown ones refused)."""
+    r = reader(kind)
+    allowed = sorted(k.name for k in r.OPTIONS)
+    unknown = set(options) - set(allowed)
+    if unknown:
+        raise FlowFileError(f"{path}: options {sorted(unknown)} do not apply to {kind!r} "
+                            f"(allowed: {allowed or 'none'})")
+    base = Path(path).parent
+    return check_table(options_section(kind), options, "options", base, fill=False)
 
 
 def open_flow_source(kind, path, time_range=None, variables=None, dry_depth=1e-3, **options):
@@ -80,7 +103,9 @@ def open_flow_source(kind, path, time_range=None, variables=None, dry_depth=1e-3
 
     Parameters
     ----------
-    kind : 'auto', 'file', 'openfoam', 'ugrid', 'anuga' or 'cf_grid'
+    kind : str
+        'auto' or a reader's KIND (``KINDS``: 'file', 'openfoam', 'ugrid', 'anuga',
+        'cf_grid'...).
     path : path
         File, or OpenFOAM case directory.
     time_range : (start, end), optional
@@ -90,9 +115,9 @@ def open_flow_source(kind, path, time_range=None, variables=None, dry_depth=1e-3
     dry_depth : float
         Depth below which a face is dry (m).
     **options
-        Kind-specific: openfoam ``decomposed``, ``mode`` ('shallow_water' | 'vof'), ``mesh2d``,
-        ``raster``; ugrid / cf_grid ``fill`` ('error' | 'dry'), ``units``; anuga
-        ``use_centroids``.
+        The reader's own ``OPTIONS``: openfoam ``decomposed``, ``mode`` ('shallow_water' |
+        'vof'), ``mesh2d``, ``raster``; ugrid / cf_grid ``fill`` ('error' | 'dry'), ``units``;
+        anuga ``use_centroids``.
     """
     path = Path(path)
     if kind in (None, "auto"):
@@ -100,48 +125,29 @@ def open_flow_source(kind, path, time_range=None, variables=None, dry_depth=1e-3
     if kind not in KINDS:
         raise FlowFileError(f"{path}: format {kind!r} unknown; one of {', '.join(KINDS)} "
                             "or 'auto'")
-    unknown = set(options) - _OPTIONS[kind]
-    if unknown:
-        raise FlowFileError(f"{path}: options {sorted(unknown)} do not apply to {kind!r} "
-                            f"(allowed: {sorted(_OPTIONS[kind]) or 'none'})")
-    variables = dict(variables or {})
-    if kind == "file":
-        from driftlog.adapters._common import SubsetSnapshots, select_times
-
-        from driftlog.flow import MeshFlowField
-        from driftlog.flowfile import open_flow
-
-        field = open_flow(path, dry_depth=dry_depth)
-        if time_range is not None:
-            idx = select_times(field.times, time_range, str(path))
-            field = MeshFlowField(field.mesh, field.bed, SubsetSnapshots(field.source, idx),
-                                  field.dry_depth, field.name, field.attrs)
-        return field
-    if kind == "openfoam":
-        from driftlog.adapters.openfoam import open_openfoam
-
-        return open_openfoam(path, time_range=time_range, variables=variables,
+    options = check_options(kind, options, path)
+    return reader(kind).open(path, time_range=time_range, variables=dict(variables or {}),
                              dry_depth=dry_depth, **options)
-    if kind == "ugrid":
-        from driftlog.adapters.ugrid import open_ugrid
 
-        return open_ugrid(path, time_range=time_range, variables=variables,
-                          dry_depth=dry_depth, **options)
-    if kind == "anuga":
-        from driftlog.adapters.anuga import open_anuga
 
-        return open_anuga(path, time_range=time_range, variables=variables,
-                          dry_depth=dry_depth, **options)
-    from driftlog.adapters.cfgrid import open_cf_grid
+def check_flow_options(section: dict, prefix: str, base_dir: Path) -> dict:
+    """Check the ``[flow.options]`` of a validated ``[flow]`` table.
 
-    return open_cf_grid(path, time_range=time_range, variables=variables, dry_depth=dry_depth,
-                        **options)
+    Checked against its reader's ``OPTIONS`` (ScenarioError naming ``flow.options.<key>``);
+    sources that are not readers take them unchecked.
+    """
+    kind = section["source"]
+    if kind not in KINDS:
+        return section["options"]
+    return check_table(options_section(kind), section["options"], f"{prefix}.options", base_dir,
+                       fill=False)
 
 
 def flow_from_scenario(scenario):
     """The FlowField of a validated scenario's ``[flow]`` section.
 
-    For the sources file, openfoam, ugrid, anuga and cf_grid; frozen at ``steady_at`` if set.
+    For the sources of ``KINDS`` (file, openfoam, ugrid, anuga, cf_grid...); frozen at
+    ``steady_at`` if set.
 
     ``scenario``: a ``driftlog.scenario.Scenario`` or its ``[flow]`` table (a dict).
     """
@@ -199,6 +205,10 @@ def import_flow(source, output, kind="auto", compress=True, progress=None, keep_
 
 
 def checked_snapshot(field, i):
-    """Snapshot i of a field's source as face arrays (h, hu, hv), checked as the sampler checks
-    them (sizes, finite values, no negative depth), without the node interpolation."""
+    """Snapshot i of a field's source as face arrays (h, hu, hv).
+
+    Checked as the sampler checks them (sizes, finite values, no negative depth), without the
+    node interpolation.
+    """
     return field.read_snapshot(i)
+

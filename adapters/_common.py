@@ -14,7 +14,7 @@ import numpy as np
 from driftlog.errors import FlowFileError
 
 __all__ = ["select_times", "unit_factor", "SubsetSnapshots", "find_variable",
-           "time_in_seconds", "check_values", "DRIFTLOG_NAMES"]
+           "time_in_seconds", "check_values", "DRIFTLOG_NAMES", "reference_epoch"]
 
 #: driftlog's names for the quantities an adapter looks for (keys of ``[flow] variables``)
 DRIFTLOG_NAMES = ("depth", "level", "bed", "u", "v", "hu", "hv", "alpha")
@@ -110,6 +110,7 @@ class SubsetSnapshots:
         self.index = np.asarray(index, dtype=np.int64)
         self.times = np.asarray(source.times)[self.index]
         self.name = getattr(source, "name", "flow")
+        self.location = getattr(source, "location", "face")
 
     def read(self, i):
         return self.source.read(int(self.index[i]))
@@ -165,3 +166,25 @@ def check_values(arr, fill, where):
                             f"{idx[:5].tolist()}); driftlog needs a value on every face (pass "
                             "fill='dry' to treat them as dry)")
     return arr
+
+
+def reference_epoch(attrs, where="flow"):
+    """The epoch of a field's ``time_reference`` attribute, or None when it has none.
+
+    ``attrs["time_reference"]``: 'seconds since 2024-01-01 00:00:00' (CF style); the epoch is
+    returned as a numpy datetime64[us].
+    """
+    ref = (attrs or {}).get("time_reference")
+    if not ref:
+        return None
+    unit, _, origin = str(ref).partition(" since ")
+    if unit.strip().lower() not in ("s", "sec", "second", "seconds") or not origin.strip():
+        raise FlowFileError(f"{where}: time_reference {ref!r} is not 'seconds since DATE'")
+    text = origin.strip().replace(" ", "T", 1).rstrip("Z")
+    for tz in ("+00:00", "+0000", "UTC"):
+        text = text.replace(tz, "")
+    try:
+        return np.datetime64(text.strip("T "), "us")
+    except ValueError:
+        raise FlowFileError(f"{where}: time_reference {ref!r}: date {origin!r} not "
+                            "understood (expected ISO 8601, e.g. 2024-01-01 00:00:00)") from None

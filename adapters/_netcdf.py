@@ -5,11 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters._common import check_values, time_in_seconds, unit_factor
 
 from driftlog.errors import FlowFileError
 
-__all__ = ["open_dataset", "variable_attrs", "read_times", "NetCDFSource", "FaceSnapshots",
+from ._common import check_values, time_in_seconds, unit_factor
+
+__all__ = ["open_dataset", "check_netcdf3_size", "netcdf3_expected_size", "variable_attrs",
+           "read_times", "NetCDFSource", "FaceSnapshots",
            "ROLES"]
 
 # role -> (kind of units, standard names, aliases), most specific first
@@ -46,6 +48,12 @@ _BED_DOWN = ("sea_floor_depth_below_geoid", "sea_floor_depth_below_mean_sea_leve
 
 
 def open_dataset(path):
+    """Open a NetCDF file with netCDF4 (no masking, scaling on), refusing truncated files.
+
+    A NetCDF-3 file cut short (an interrupted copy or download) opens without complaint and
+    netCDF4 then reads the missing bytes as fill values or garbage; its size is checked against
+    what its header declares (``netcdf3_expected_size``).
+    """
     import netCDF4
 
     path = Path(path)
@@ -55,9 +63,113 @@ def open_dataset(path):
         ds = netCDF4.Dataset(path)
     except (OSError, RuntimeError) as exc:
         raise FlowFileError(f"{path}: not a readable NetCDF file ({exc})") from None
+    if ds.data_model.startswith("NETCDF3"):
+        try:
+            check_netcdf3_size(path)
+        except BaseException:
+            ds.close()
+            raise
     ds.set_auto_mask(False)
     ds.set_auto_scale(True)
     return ds
+
+
+_NC_SIZES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 4, 6: 8, 7: 1, 8: 2, 9: 4, 10: 8, 11: 8}
+
+
+def netcdf3_expected_size(path):
+    """Bytes a NetCDF-3 file (classic, 64-bit offset or CDF-5) must hold by its header.
+
+    Returns (expected size, number of records), or None when the header does not say (a
+    streaming file with an unknown record count, or a variable too large for its vsize field).
+    """
+    import struct
+
+    with open(path, "rb") as f:
+        head = f.read(4)
+        if head[:3] != b"CDF" or head[3] not in (1, 2, 5):
+            return None
+        version = head[3]
+        data = head + f.read(1 << 20)
+        pos = 4
+
+        def more(n):
+            nonlocal data
+            while pos + n > len(data):
+                chunk = f.read(1 << 20)
+                if not chunk:
+                    raise FlowFileError(f"{path}: truncated NetCDF file: the header itself is "
+                                        f"cut short ({len(data)} bytes)")
+                data += chunk
+
+        def read_int(size):
+            nonlocal pos
+            more(size)
+            fmt = {4: ">i", 8: ">q"}[size]
+            v = struct.unpack_from(fmt, data, pos)[0]
+            pos += size
+            return v
+
+        isz = 8 if version == 5 else 4
+
+        def name():
+            nonlocal pos
+            n = read_int(isz)
+            more(n + 3)
+            pos += (n + 3) // 4 * 4
+
+        def skip_atts():
+            nonlocal pos
+            tag, n = read_int(4), read_int(isz)
+            for _ in range(n if tag else 0):
+                name()
+                typ, count = read_int(4), read_int(isz)
+                nbytes = count * _NC_SIZES.get(typ, 1)
+                more(nbytes + 3)
+                pos += (nbytes + 3) // 4 * 4
+
+        numrecs = read_int(isz) if version == 5 else read_int(4) & 0xFFFFFFFF
+        if numrecs in (0xFFFFFFFF, -1):  # streaming: the count is not in the header
+            return None
+        tag, ndims = read_int(4), read_int(isz)
+        dims = []
+        for _ in range(ndims if tag else 0):
+            name()
+            dims.append(read_int(isz))
+        skip_atts()
+        tag, nvars = read_int(4), read_int(isz)
+        fixed_end, rec = 0, []
+        for _ in range(nvars if tag else 0):
+            name()
+            nd = read_int(isz)
+            ids = [read_int(isz) for _ in range(nd)]
+            skip_atts()
+            typ = read_int(4)
+            read_int(isz)  # vsize: saturates over 4 GiB, so the size is computed below
+            begin = read_int(4 if version == 1 else 8)
+            is_rec = bool(ids) and dims[ids[0]] == 0
+            shape = [dims[i] for i in ids[1:]] if is_rec else [dims[i] for i in ids]
+            size = int(np.prod(shape, dtype=np.int64)) * _NC_SIZES.get(typ, 1)
+            if is_rec:
+                rec.append((begin, size, (size + 3) // 4 * 4))
+            else:
+                fixed_end = max(fixed_end, begin + size)
+    end = fixed_end
+    if rec and numrecs:
+        recsize = rec[0][1] if len(rec) == 1 else sum(r[2] for r in rec)
+        end = max(end, max(b + (numrecs - 1) * recsize + sz for b, sz, _ in rec))
+    return end, numrecs
+
+
+def check_netcdf3_size(path):
+    """Refuse a NetCDF-3 file shorter than its header declares (a truncated file)."""
+    got = Path(path).stat().st_size
+    exp = netcdf3_expected_size(path)
+    if exp is not None and got < exp[0]:
+        raise FlowFileError(f"{path}: truncated NetCDF file: {got} bytes, but its header "
+                            f"declares {exp[0]} ({exp[1]} records); the data past byte {got} "
+                            "are missing (an interrupted copy or download?): copy the file "
+                            "again")
 
 
 def variable_attrs(ds, dims=None):
@@ -93,8 +205,16 @@ def fill_value(var):
     return None
 
 
+#: negative depths down to this (m) are round-off (a float32 water level equal to the bed, a
+#: model's wetting tolerance) and clipped to 0; deeper ones are refused (``NetCDFSource.read``)
+NEGATIVE_DEPTH_TOLERANCE = 1e-3
+
+
 class NetCDFSource:
     """Base of the lazy NetCDF sources: one file kept open, ``read(i)`` builds (h, hu, hv).
+
+    Negative depths: those down to ``-NEGATIVE_DEPTH_TOLERANCE`` (1 mm) are clipped to 0; a
+    deeper one is an error naming the variable, the value, the snapshot and the face.
 
     Subclasses give ``_get(role, i)``: the face array of a role ('depth' or 'level', 'hu' and
     'hv' or 'u' and 'v') at snapshot i in SI units, NaN where a fill value was accepted as dry;
@@ -121,14 +241,38 @@ class NetCDFSource:
         else:
             h = self._get("level", i) - self.bed
         dry = ~np.isfinite(h)
-        # depths a hair below zero (float32 level = bed) are dry faces, not errors
-        h = np.where(dry, 0.0, np.maximum(h, 0.0))
+        h = np.where(dry, 0.0, h)
+        self._check_negative_depth(h, i)
+        h = np.maximum(h, 0.0)
         if "hu" in self.spec:
             hu, hv = self._get("hu", i), self._get("hv", i)
         else:
             hu, hv = h * self._get("u", i), h * self._get("v", i)
         return (h, np.where(np.isfinite(hu) & ~dry, hu, 0.0),
                 np.where(np.isfinite(hv) & ~dry, hv, 0.0))
+
+    def _var_name(self, role):
+        """The file's variable playing ``role`` (for messages)."""
+        spec = self.spec.get(role)
+        if isinstance(spec, tuple) and spec and isinstance(spec[0], str):
+            return spec[0]
+        return getattr(self, "names", {}).get(role, role)
+
+    def _check_negative_depth(self, h, i):
+        """Refuse depths below ``-NEGATIVE_DEPTH_TOLERANCE`` (the caller clips the rest).
+
+        The message names the variable, the value, the snapshot and the face.
+        """
+        k = int(np.argmin(h)) if h.size else 0
+        if h.size and h[k] < -NEGATIVE_DEPTH_TOLERANCE:
+            what = (repr(self._var_name("depth")) if "depth" in self.spec
+                    else f"{self._var_name('level')!r} - bed")
+            n = int(np.count_nonzero(h < -NEGATIVE_DEPTH_TOLERANCE))
+            raise FlowFileError(f"{self.path}: negative water depth {h[k]:g} m from {what} at "
+                                f"snapshot {i} (t = {self.times[i]:g} s), face {k} ({n} faces "
+                                f"below -{NEGATIVE_DEPTH_TOLERANCE:g} m); a depth must be >= 0 "
+                                f"(values down to -{NEGATIVE_DEPTH_TOLERANCE:g} m are taken as "
+                                "round-off and clipped to 0): wrong variable, sign or bed?")
 
     def close(self):
         """Close the file."""
@@ -150,7 +294,7 @@ class FaceSnapshots(NetCDFSource):
 
 def find_roles(variables, mapping, where, need_bed):
     """Pick variables for depth/level, bed, velocity or unit discharge; returns role -> name."""
-    from driftlog.adapters._common import find_variable
+    from ._common import find_variable
 
     roles = {}
     for role in ("depth", "level", "u", "v", "hu", "hv"):

@@ -18,12 +18,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters._common import SubsetSnapshots, select_times
-from driftlog.adapters._netcdf import NetCDFSource, open_dataset
 
 from driftlog.errors import FlowFileError, MeshError
 from driftlog.flow import MeshFlowField, check_times
 from driftlog.mesh import Mesh
+from driftlog.schema import Key
+
+from ._common import SubsetSnapshots, select_times
+from ._netcdf import NetCDFSource, open_dataset
 
 __all__ = ["open_anuga", "is_sww", "AnugaSnapshots"]
 
@@ -139,3 +141,32 @@ def _open(ds, path, time_range, dry_depth, use_centroids, mapping):
              "source_path": str(path.resolve()), "import_notes": "; ".join(notes),
              "xllcorner": xll, "yllcorner": yll}
     return MeshFlowField(mesh, bed, source, dry_depth=dry_depth, name=str(path), attrs=attrs)
+
+
+# --------------------------------------------------------------------- the reader contract
+KIND = "anuga"
+SUFFIXES = (".sww",)
+OPTIONS = [
+    Key("use_centroids", "bool", None, "true/false forces centroid or vertex values (default: "
+        "centroids when the file has them)"),
+]
+
+
+def can_open(path) -> bool:
+    """Whether ``path`` is an ANUGA sww file (by suffix or layout; never raises)."""
+    try:
+        p = Path(path)
+        if not p.is_file():
+            return False
+        if p.suffix.lower() == ".sww":
+            return True
+        with open_dataset(p) as ds:
+            return is_sww(ds)
+    except Exception:
+        return False
+
+
+def open(path, *, time_range=None, variables=None, dry_depth=1e-3, **options):
+    """``open_anuga`` under the reader contract (``options``: ``OPTIONS``)."""
+    return open_anuga(path, time_range=time_range, variables=variables, dry_depth=dry_depth,
+                      **options)

@@ -5,7 +5,8 @@ either direction) and fields on (time, y, x), or (y, x) for one steady snapshot:
 depth or water level (with a bed), and velocities or unit discharges.  Staggered fields as
 LISFLOOD-FP writes them, ``Qx`` / ``Vx`` on the nx + 1 cell edges along x and ``Qy`` / ``Vy``
 on the ny + 1 edges along y, are averaged to the cells (Q in m3/s is divided by the edge
-length to give a unit discharge).  The raster becomes ``Mesh.regular_grid`` (face
+length to give a unit discharge).  The raster becomes a ``GridFlowField``: sampled
+bilinearly between the cell centres (``driftlog.gridflow``), on ``Mesh.regular_grid`` (face
 ``j * nx + i`` is cell (row j, column i), rows from south to north).
 """
 
@@ -14,8 +15,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters._common import SubsetSnapshots, select_times, unit_factor
-from driftlog.adapters._netcdf import (
+
+from driftlog.errors import FlowFileError
+from driftlog.flow import check_times
+from driftlog.gridflow import GridFlowField
+from driftlog.schema import Key
+
+from ._common import SubsetSnapshots, select_times, unit_factor
+from ._netcdf import (
     ROLES,
     NetCDFSource,
     find_roles,
@@ -23,10 +30,6 @@ from driftlog.adapters._netcdf import (
     read_times,
     variable_attrs,
 )
-
-from driftlog.errors import FlowFileError
-from driftlog.flow import MeshFlowField, check_times
-from driftlog.mesh import Mesh
 
 __all__ = ["open_cf_grid", "is_cf_grid", "GridSnapshots"]
 
@@ -98,8 +101,8 @@ class GridSnapshots(NetCDFSource):
 
 
 def open_cf_grid(path, time_range=None, variables=None, dry_depth=1e-3, fill="error",
-                 units=None):
-    """Open a CF regular-grid NetCDF file as a MeshFlowField (snapshots read lazily).
+                 units=None, layout="auto"):
+    """Open a CF regular-grid NetCDF file as a GridFlowField (snapshots read lazily).
 
     Parameters
     ----------
@@ -109,17 +112,20 @@ def open_cf_grid(path, time_range=None, variables=None, dry_depth=1e-3, fill="er
         Fill values / NaN (cells outside the flood extent): an error, or dry cells.
     units : dict, optional
         Units for variables without a units attribute, e.g. ``{"hu": "m3 s-1"}``.
+    layout : 'auto', 'cell' or 'node'
+        Values at the cell centres (auto: CF coordinates are) or at the cell corners.
     """
     path = Path(path)
     ds = open_dataset(path)
     try:
-        return _open(ds, path, time_range, variables or {}, dry_depth, fill, units or {})
+        return _open(ds, path, time_range, variables or {}, dry_depth, fill, units or {},
+                     layout)
     except BaseException:
         ds.close()
         raise
 
 
-def _open(ds, path, time_range, mapping, dry_depth, fill, units_override):
+def _open(ds, path, time_range, mapping, dry_depth, fill, units_override, layout="auto"):
     xn, yn = _axis(ds, "x"), _axis(ds, "y")
     if xn is None or yn is None:
         raise FlowFileError(f"{path}: unknown layout: no 1-D x and y coordinate variables "
@@ -222,20 +228,29 @@ def _open(ds, path, time_range, mapping, dry_depth, fill, units_override):
                             f"'altitude' or names like {ROLES['bed'][2][:4]}); map it with "
                             "[flow] variables = {bed = \"NAME\"}")
     src.bed = bed
-    x0 = min(x[0], x[-1]) - dx / 2
-    y0 = min(y[0], y[-1]) - dy / 2
-    mesh = Mesh.regular_grid(nx, ny, dx, dy, x0=x0, y0=y0)
+    layout = "cell" if layout in (None, "auto") else layout
+    if layout == "node":  # the values are at the corners of the cells: the domain ends there
+        if nx < 2 or ny < 2:
+            raise FlowFileError(f"{path}: layout = 'node' needs 2 or more points each way, "
+                                f"the grid has {ny} x {nx}")
+        x0, y0 = min(x[0], x[-1]), min(y[0], y[-1])
+        src.location = "node"
+        notes.append("node layout: values at the cell corners, the domain is their hull")
+    else:
+        x0 = min(x[0], x[-1]) - dx / 2
+        y0 = min(y[0], y[-1]) - dy / 2
     idx = select_times(times, time_range, str(path))
     source = SubsetSnapshots(src, idx) if idx.size != times.size else src
     attrs = {"source": "cf_grid" + (f" ({ds.source})" if hasattr(ds, "source") else ""),
              "source_path": str(path.resolve()), "time_origin": origin or "",
              "variables": ", ".join(f"{k}={v[0]}" for k, v in spec.items()),
              "import_notes": "; ".join(notes), "grid_shape": f"{ny} {nx}"}
-    return MeshFlowField(mesh, bed, source, dry_depth=dry_depth, name=str(path), attrs=attrs)
+    return GridFlowField(nx, ny, dx, dy, x0, y0, bed, source, dry_depth=dry_depth,
+                         name=str(path), attrs=attrs, layout=layout)
 
 
 def _find_bed(ds, yn, xn, lead, mapping, path):
-    from driftlog.adapters._common import find_variable
+    from ._common import find_variable
 
     static = variable_attrs(ds, (yn, xn))
     timed = variable_attrs(ds, lead + (yn, xn)) if lead else {}
@@ -255,7 +270,40 @@ def _find_bed(ds, yn, xn, lead, mapping, path):
 
 
 def _has_level(allvars, mapping, where):
-    from driftlog.adapters._common import find_variable
+    from ._common import find_variable
 
     _, std, alias = ROLES["level"]
     return find_variable(allvars, alias, "level", mapping, std, where, required=False)
+
+
+# --------------------------------------------------------------------- the reader contract
+KIND = "cf_grid"
+SUFFIXES = (".nc",)
+OPTIONS = [
+    Key("fill", "str", "error", "fill values / NaN (cells outside the flood extent): an error, "
+        "or dry cells", choices=("error", "dry")),
+    Key("units", "table", None, "units for variables without a units attribute "
+        "({hu = 'm3 s-1'})"),
+    Key("layout", "str", "auto", "where the values sit: at the cell centres (the cells extend "
+        "half a cell beyond the outermost values), or at the cell corners (the domain ends at "
+        "the outermost values); auto: the centres (CF coordinates)",
+        choices=("auto", "cell", "node")),
+]
+
+
+def can_open(path) -> bool:
+    """Whether ``path`` is a NetCDF file with 1-D x and y coordinates (a regular grid)."""
+    try:
+        p = Path(path)
+        if not p.is_file():
+            return False
+        with open_dataset(p) as ds:
+            return is_cf_grid(ds)
+    except Exception:
+        return False
+
+
+def open(path, *, time_range=None, variables=None, dry_depth=1e-3, **options):
+    """``open_cf_grid`` under the reader contract (``options``: ``OPTIONS``)."""
+    return open_cf_grid(path, time_range=time_range, variables=variables, dry_depth=dry_depth,
+                        **options)

@@ -26,12 +26,14 @@ import re
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters import foam_io
-from driftlog.adapters._common import select_times
 
 from driftlog.errors import FlowFileError, MeshError
 from driftlog.flow import MeshFlowField
 from driftlog.mesh import Mesh
+from driftlog.schema import Key
+
+from . import foam_io
+from ._common import select_times
 
 __all__ = ["open_openfoam", "FoamCase", "FoamSnapshots", "depth_average_columns",
            "is_openfoam_case"]
@@ -395,7 +397,7 @@ def open_openfoam(path, time_range=None, decomposed=None, variables=None, dry_de
     if mode == "auto":
         mode = _detect_mode(path, names, vof)
     if mode == "vof":
-        from driftlog.adapters.openfoam_vof import open_vof
+        from .openfoam_vof import open_vof
 
         return open_vof(path, time_range=time_range, decomposed=decomposed, names=vof,
                         dry_depth=dry_depth, mesh2d=mesh2d, raster=raster)
@@ -413,7 +415,7 @@ def open_openfoam(path, time_range=None, decomposed=None, variables=None, dry_de
         idx = idx[1:]
     if case.times.size == 1 and time_range is None:
         notes.append(f"only one written time ({case.times[0]:g} s): a steady flow")
-    from driftlog.adapters._common import SubsetSnapshots
+    from ._common import SubsetSnapshots
 
     source = SubsetSnapshots(snaps, idx) if idx.size != case.times.size else snaps
     attrs = {"source": "openfoam shallowWaterFoam", "source_path": str(path.resolve()),
@@ -454,6 +456,39 @@ def _detect_mode(path, names, vof):
 
 def depth_average_columns(*args, **kwargs):
     """See ``driftlog.adapters.openfoam_vof.depth_average_columns``."""
-    from driftlog.adapters.openfoam_vof import depth_average_columns as f
+    from .openfoam_vof import depth_average_columns as f
 
     return f(*args, **kwargs)
+
+
+# --------------------------------------------------------------------- the reader contract
+KIND = "openfoam"
+SUFFIXES = ()
+OPTIONS = [
+    Key("decomposed", "bool", None, "read the processor* directories (true), the root (false), "
+        "or decide (default)"),
+    Key("mode", "str", "auto", "shallowWaterFoam fields, or interFoam's 3D fields "
+        "depth-averaged; 'auto' picks the one whose fields are there",
+        choices=("auto", "shallow_water", "vof")),
+    Key("mesh2d", "any", None, "vof: depth-average onto this 2D mesh (a driftlog Mesh) instead "
+        "of the columns of an extruded mesh"),
+    Key("raster", "any", None, "vof: depth-average onto a raster [x0, y0, dx, nx, ny]"),
+    Key("include_initial", "bool", True, "keep the initial time as the first snapshot"),
+    Key("allow_initial_only", "bool", False, "accept a case that never ran (only its initial "
+        "fields), as a steady flow"),
+]
+
+
+def can_open(path) -> bool:
+    """Whether ``path`` is an OpenFOAM case directory or its system/controlDict."""
+    try:
+        p = Path(path)
+        return is_openfoam_case(p) or (p.name == "controlDict" and p.parent.name == "system")
+    except Exception:
+        return False
+
+
+def open(path, *, time_range=None, variables=None, dry_depth=1e-3, **options):
+    """``open_openfoam`` under the reader contract (``options``: ``OPTIONS``)."""
+    return open_openfoam(path, time_range=time_range, variables=variables, dry_depth=dry_depth,
+                         **options)

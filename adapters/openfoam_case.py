@@ -34,10 +34,11 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters.foam_io import format_list, write_foam_file
 
 from driftlog.errors import DriftlogError, FlowFileError
 from driftlog.mesh import Mesh
+
+from .foam_io import format_list, write_foam_file
 
 __all__ = ["foam_available", "foam_env", "write_polymesh", "write_shallow_water_case",
            "run_case", "run_shallow_water", "OpenFOAMError", "BASHRC"]
@@ -364,7 +365,7 @@ def _clean(case: Path):
     """Remove the results of an earlier run: time and processor directories, logs."""
     if not case.is_dir():
         return
-    from driftlog.adapters.openfoam import _NUMBER
+    from .openfoam import _NUMBER
 
     for d in case.iterdir():
         if d.is_dir() and (_NUMBER.match(d.name) or d.name.startswith("processor")):
@@ -434,7 +435,7 @@ def run_shallow_water(case_dir, mesh: Mesh, n_procs=1, timeout=600, dry_depth=1e
 
     ``case_options`` are those of ``write_shallow_water_case``.
     """
-    from driftlog.adapters.openfoam import open_openfoam
+    from .openfoam import open_openfoam
 
     info = write_shallow_water_case(case_dir, mesh, n_procs=n_procs, **case_options)
     run_case(case_dir, n_procs=n_procs, timeout=timeout, reconstruct=reconstruct)

@@ -17,14 +17,15 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from driftlog.adapters import foam_io
-from driftlog.adapters._common import SubsetSnapshots, select_times
-from driftlog.adapters.openfoam import FoamCase, _check_ran, _PolyMesh
 from scipy.sparse.csgraph import connected_components
 
 from driftlog.errors import FlowFileError, MeshError
 from driftlog.flow import MeshFlowField
 from driftlog.mesh import Mesh
+
+from . import foam_io
+from ._common import SubsetSnapshots, select_times
+from .openfoam import FoamCase, _check_ran, _PolyMesh
 
 __all__ = ["open_vof", "cell_geometry", "depth_average_columns", "VofSnapshots"]
 

@@ -16,8 +16,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters._common import SubsetSnapshots, check_values, select_times
-from driftlog.adapters._netcdf import (
+
+from driftlog.errors import FlowFileError, MeshError
+from driftlog.flow import MeshFlowField
+from driftlog.mesh import read_ugrid_mesh
+from driftlog.schema import Key
+
+from ._common import SubsetSnapshots, check_values, select_times
+from ._netcdf import (
     ROLES,
     FaceSnapshots,
     bed_down,
@@ -28,10 +34,6 @@ from driftlog.adapters._netcdf import (
     read_times,
     variable_attrs,
 )
-
-from driftlog.errors import FlowFileError, MeshError
-from driftlog.flow import MeshFlowField
-from driftlog.mesh import read_ugrid_mesh
 
 __all__ = ["open_ugrid", "is_ugrid"]
 
@@ -115,6 +117,10 @@ def _open(ds, path, time_range, mapping, dry_depth, topology, fill, units_overri
                                 f"{mesh.n_faces})")
     roles = find_roles(fvars, mapping, where, need_bed=True)
     notes = []
+    merged, tol = getattr(mesh, "merged_nodes", (0, 0.0))
+    if merged:
+        notes.append(f"{merged} coincident nodes merged (closer than {tol:g} x the local edge "
+                     "length: the seams of a partitioned mesh are not walls)")
     spec3 = factors(ds, roles, where, notes, units_override)
     bed = _bed(ds, path, mesh, face_dim, mapping, notes, units_override)
     if bed is None:
@@ -149,7 +155,7 @@ def _open(ds, path, time_range, mapping, dry_depth, topology, fill, units_overri
 
 def _bed(ds, path, mesh, face_dim, mapping, notes, units_override):
     """Bed on faces: a face variable (flowelem_bl...), else node values averaged to faces."""
-    from driftlog.adapters._common import find_variable, unit_factor
+    from ._common import find_variable, unit_factor
 
     kind, std, alias = ROLES["bed"]
     face_vars = variable_attrs(ds, (face_dim,))
@@ -177,7 +183,38 @@ def _bed(ds, path, mesh, face_dim, mapping, notes, units_override):
 
 
 def find_roles_single(fvars, role, mapping, where):
-    from driftlog.adapters._common import find_variable
+    from ._common import find_variable
 
     _, std, alias = ROLES[role]
     return find_variable(fvars, alias, role, mapping, std, where, required=False)
+
+
+# --------------------------------------------------------------------- the reader contract
+KIND = "ugrid"
+SUFFIXES = (".nc",)
+OPTIONS = [
+    Key("topology", "str", None, "name of the mesh topology variable (default: the file's 2D "
+        "topology)"),
+    Key("fill", "str", "error", "fill values and NaN in the fields: an error naming the "
+        "variable and time, or dry faces", choices=("error", "dry")),
+    Key("units", "table", None, "units for variables that lack a units attribute "
+        "({hu = 'm3 s-1'})"),
+]
+
+
+def can_open(path) -> bool:
+    """Whether ``path`` is a NetCDF file with a 2D UGRID mesh topology (never raises)."""
+    try:
+        p = Path(path)
+        if not p.is_file():
+            return False
+        with open_dataset(p) as ds:
+            return is_ugrid(ds)
+    except Exception:
+        return False
+
+
+def open(path, *, time_range=None, variables=None, dry_depth=1e-3, **options):
+    """``open_ugrid`` under the reader contract (``options``: ``OPTIONS``)."""
+    return open_ugrid(path, time_range=time_range, variables=variables, dry_depth=dry_depth,
+                      **options)

@@ -89,20 +89,22 @@ def seed(n, rng):
     return CENTER[0] + r * np.cos(a), CENTER[1] + r * np.sin(a)
 
 
-def write_grid(path):
-    """The flow as a CF-1.8 regular grid NetCDF (cell centres, time in seconds since ORIGIN)."""
+def write_grid(path, dx=DX):
+    """The flow as a CF-1.8 regular grid NetCDF (cell centres, time in seconds since ORIGIN);
+    ``dx``: the cell size (the domain stays NX DX by NY DX)."""
     import netCDF4
 
-    x = DX * (np.arange(NX) + 0.5)
-    y = DX * (np.arange(NY) + 0.5)
+    nx, ny = int(round(NX * DX / dx)), int(round(NY * DX / dx))
+    x = dx * (np.arange(nx) + 0.5)
+    y = dx * (np.arange(ny) + 0.5)
     times = np.arange(0.0, DURATION + SNAPSHOT / 2, SNAPSHOT)
     X, Y = np.meshgrid(x, y)
     with netCDF4.Dataset(path, "w") as ds:
         ds.Conventions = "CF-1.8"
         ds.title = "Gaussian eddy drifting east (driftlog benchmarks/peers_tracking.py)"
         ds.createDimension("time", None)
-        ds.createDimension("y", NY)
-        ds.createDimension("x", NX)
+        ds.createDimension("y", ny)
+        ds.createDimension("x", nx)
         crs = ds.createVariable("crs", "i4")
         crs.grid_mapping_name = "transverse_mercator"
         crs.latitude_of_projection_origin = 44.0

@@ -382,14 +382,15 @@ def add_import(sub):
              "  driftlog import FlowFM_map.nc -o flow.nc --var depth=mesh2d_waterdepth\n"
              "  driftlog import damBreak3d -o flow.nc --option raster=0,0,0.1,6,2",
              description="Read a hydro source (OpenFOAM case, UGRID / D-Flow FM map file, "
-                         "ANUGA .sww, CF grid NetCDF such as LISFLOOD-FP's) and write it as a "
+                         "ANUGA .sww, CF grid NetCDF such as LISFLOOD-FP's, TELEMAC Selafin, "
+                         "MIKE 21 FM dfsu) and write it as a "
                          "driftlog flow file (UGRID-1.0 + CF), snapshot by snapshot.  The "
                          "format is detected from the source unless --format is given.")
     p.add_argument("source", help="file, or OpenFOAM case directory")
     p.add_argument("-o", "--output", required=True, help="flow file to write (.nc)")
-    p.add_argument("--format", default="auto",
-                   choices=("auto", "openfoam", "ugrid", "anuga", "cf_grid", "file"),
-                   help="the source's format (default: detected)")
+    p.add_argument("--format", "--kind", dest="format", default="auto",
+                   help="the source's format: auto (detected), or the kind of a reader of "
+                   "driftlog.adapters (file, openfoam, ugrid, anuga, cf_grid, selafin, dfsu...)")
     p.add_argument("--time-range", nargs=2, type=float, metavar=("START", "END"),
                    help="only the snapshots in [START, END] (s)")
     p.add_argument("--var", action="append", default=[], metavar="NAME=VARIABLE",

@@ -149,6 +149,26 @@ def _netcdf_kind(path: Path) -> FileKind:
         return FileKind("netcdf", path, f"variables: {sorted(names)[:10]}", info=info)
 
 
+def _reader_of(path) -> str:
+    """The first non-NetCDF reader of ``driftlog.adapters.READERS`` that can open ``path``.
+
+    Selafin, dfsu, rasters, OpenFOAM...: its kind, or '' when none can.
+    """
+    try:
+        from driftlog.adapters import READERS
+    except ImportError:  # pragma: no cover
+        return ""
+    for r in READERS:
+        if r.KIND in ("file", "ugrid", "cf_grid", "anuga"):
+            continue  # NetCDF layouts: told apart by _netcdf_kind
+        try:
+            if r.can_open(path):
+                return r.KIND
+        except Exception:  # noqa: BLE001 - a reader's probe must not break sniffing
+            continue
+    return ""
+
+
 def sniff(path) -> FileKind:
     """What the file at ``path`` is (see the module's table of kinds); never raises."""
     p = Path(path)
@@ -158,7 +178,11 @@ def sniff(path) -> FileKind:
         if p.is_dir():
             from driftlog.adapters.openfoam import is_openfoam_case
 
-            return FileKind("openfoam" if is_openfoam_case(p) else "directory", p)
+            if is_openfoam_case(p):
+                return FileKind("openfoam", p)
+            reader = _reader_of(p)
+            return FileKind("model_output", p, reader, info={"reader": reader}) if reader \
+                else FileKind("directory", p)
         size = p.stat().st_size
         if size == 0:
             return FileKind("empty", p)
@@ -169,6 +193,9 @@ def sniff(path) -> FileKind:
                         exc.strerror or str(exc))
     if head.startswith(NETCDF_MAGIC):
         return _netcdf_kind(p)
+    reader = _reader_of(p)
+    if reader:
+        return FileKind("model_output", p, reader, info={"reader": reader})
     if p.suffix.lower() in MESH_SUFFIXES:
         return FileKind("mesh_file", p)
     if p.name == "controlDict":

@@ -17,6 +17,12 @@ gradient of the P1 interpolant itself (``gradient = "p1"``) is constant per tria
 at every edge; the full model's pressure-gradient force uses J, so its acceleration jumps too,
 and RK4 then stops converging (measured in benchmarks/integrator_convergence.py).
 
+Node-located data (TELEMAC and other node-based models: a snapshot source whose ``location``
+is ``"node"``) are sampled P1 on their own node values, used as they are (no averaging onto
+faces and back); their recovered gradients are area-weighted means of the faces' Green-Gauss
+gradients (``driftlog.nodal``), and their face values, where a face array is needed (flow file,
+plots, solver initial state), are the means of each face's node values.
+
 Time: linear between the two snapshots around t; only those two are held in memory, so a flow
 file larger than memory works.  Depth, velocity and free surface are each interpolated on
 their own; velocity on a face is hu/h where h > ``dry_depth`` and 0 elsewhere (no division by
@@ -234,9 +240,10 @@ def sample_mesh_kernel(px, py, face, out, flag, a, inv_dt, nodevals, dry_depth, 
 
 # --------------------------------------------------------------------- snapshot sources
 class InMemorySnapshots:
-    """Snapshots held as arrays (n_times, n_faces) of h, hu, hv."""
+    """Snapshots held as arrays (n_times, n_faces) of h, hu, hv (n_nodes with location='node')."""
 
-    def __init__(self, times, h, hu, hv, name="in-memory flow"):
+    def __init__(self, times, h, hu, hv, name="in-memory flow", location="face"):
+        self.location = location
         self.times = np.asarray(times, dtype=np.float64).ravel()
         self.h = np.atleast_2d(np.asarray(h, dtype=np.float64))
         self.hu = np.atleast_2d(np.asarray(hu, dtype=np.float64))
@@ -272,10 +279,13 @@ class MeshFlowField(FlowField):
     Parameters
     ----------
     mesh : Mesh
-    bed : array (n_faces,)
-        Bed elevation on faces (m).
+    bed : array (n_faces,), or (n_nodes,) for a node-located source
+        Bed elevation where the source's data are (m).
     source : object with ``times`` and ``read(i) -> (h, hu, hv)``
         Where snapshots come from (``InMemorySnapshots``, a flow file, another model's output).
+        Its optional ``location`` attribute says where its arrays are: ``"face"`` (default) or
+        ``"node"`` (sampled P1 on those node values as they are; ``bed`` then on nodes too,
+        ``self.bed`` the faces' mean and ``self.node_bed`` the given one).
     dry_depth : float
         Depth (m) below which a face is dry: velocity 0 there, and samples flagged dry.
     attrs : dict
@@ -285,10 +295,22 @@ class MeshFlowField(FlowField):
     def __init__(self, mesh, bed, source, dry_depth=1e-3, name=None, attrs=None,
                  gradient="recovered"):
         self.mesh = mesh
+        self.location = getattr(source, "location", "face")
+        if self.location not in ("face", "node"):
+            raise FlowFileError(f"{name or 'flow'}: snapshot location {self.location!r}: must "
+                                "be 'face' or 'node'")
         self.bed = np.ascontiguousarray(bed, dtype=np.float64)
-        if self.bed.shape != (mesh.n_faces,):
+        self.node_bed = None
+        n_loc = mesh.n_faces if self.location == "face" else mesh.n_nodes
+        if self.bed.shape != (n_loc,):
             raise FlowFileError(f"{name or 'flow'}: bed has shape {self.bed.shape}, the mesh "
-                                f"has {mesh.n_faces} faces")
+                                f"has {n_loc} {self.location}s")
+        if self.location == "node":
+            from driftlog.nodal import face_mean_operator
+
+            self._face_mean = face_mean_operator(mesh)
+            self.node_bed = self.bed
+            self.bed = self._face_mean @ self.node_bed
         self.source = source
         self.name = name or getattr(source, "name", "flow")
         self._times = check_times(source.times, self.name)
@@ -303,10 +325,13 @@ class MeshFlowField(FlowField):
         self._pair_vals = None
 
     @classmethod
-    def from_arrays(cls, mesh, bed, times, h, hu, hv, **kwargs):
-        """A field from arrays (n_times, n_faces) held in memory."""
-        return cls(mesh, bed, InMemorySnapshots(times, h, hu, hv, kwargs.get("name", "flow")),
-                   **kwargs)
+    def from_arrays(cls, mesh, bed, times, h, hu, hv, location="face", **kwargs):
+        """A field from arrays (n_times, n_faces) held in memory.
+
+        With ``location="node"``: arrays (n_times, n_nodes) and a node bed.
+        """
+        return cls(mesh, bed, InMemorySnapshots(times, h, hu, hv, kwargs.get("name", "flow"),
+                                                location=location), **kwargs)
 
     @property
     def times(self):
@@ -329,28 +354,50 @@ class MeshFlowField(FlowField):
         u, v = self._velocity(h, hu, hv)
         return {"h": h, "hu": hu, "hv": hv, "u": u, "v": v, "eta": h + self.bed}
 
+    def node_snapshot(self, i):
+        """Node arrays of snapshot i as the sampler interpolates them: dict of h, u, v, eta.
+
+        For node-located data, the data themselves; for face-located data, the nodes'
+        least-squares fits of the face values.
+        """
+        nodes = self._load(i)[3]
+        return {"h": nodes[:, Q_H].copy(), "u": nodes[:, Q_U].copy(),
+                "v": nodes[:, Q_V].copy(), "eta": nodes[:, Q_ETA].copy()}
+
     def _velocity(self, h, hu, hv):
         wet = h > self.dry_depth
         safe = np.where(wet, h, 1.0)
         return np.where(wet, hu / safe, 0.0), np.where(wet, hv / safe, 0.0)
 
     def read_snapshot(self, i):
-        """Snapshot i from the source as face arrays (h, hu, hv), checked: sizes, finite values,
-        no negative depth (no node interpolation, no caching)."""
+        """Snapshot i from the source as face arrays (h, hu, hv), checked.
+
+        Checked: sizes, finite values, no negative depth (no node interpolation, no caching).
+        A node-located source's arrays are averaged on each face (``read_source`` gives them
+        as they are).
+        """
+        h, hu, hv = self.read_source(i)
+        if self.location == "node":
+            return self._face_mean @ h, self._face_mean @ hu, self._face_mean @ hv
+        return h, hu, hv
+
+    def read_source(self, i):
+        """Snapshot i as the source holds it (on faces, or on nodes), checked (sizes, values)."""
         h, hu, hv = (np.ascontiguousarray(a, dtype=np.float64) for a in self.source.read(i))
-        nf = self.mesh.n_faces
+        where = self.location
+        nf = self.mesh.n_faces if where == "face" else self.mesh.n_nodes
         for arr, nm in ((h, "h"), (hu, "hu"), (hv, "hv")):
             if arr.shape != (nf,):
                 raise FlowFileError(f"{self.name}: snapshot {i} {nm} has shape {arr.shape}, "
-                                    f"the mesh has {nf} faces")
+                                    f"the mesh has {nf} {where}s")
             if not np.all(np.isfinite(arr)):
                 bad = np.flatnonzero(~np.isfinite(arr))
                 raise FlowFileError(f"{self.name}: snapshot {i} (t = {self._times[i]} s): "
-                                    f"{bad.size} non-finite {nm} values, first at faces "
+                                    f"{bad.size} non-finite {nm} values, first at {where}s "
                                     f"{bad[:5].tolist()}")
         if np.any(h < 0):
             bad = np.flatnonzero(h < 0)
-            raise FlowFileError(f"{self.name}: snapshot {i}: negative depth at faces "
+            raise FlowFileError(f"{self.name}: snapshot {i}: negative depth at {where}s "
                                 f"{bad[:5].tolist()} (min {h.min()})")
         return h, hu, hv
 
@@ -358,6 +405,8 @@ class MeshFlowField(FlowField):
         if i in self._snap:
             self._snap.move_to_end(i)
             return self._snap[i]
+        if self.location == "node":
+            return self._load_nodes(i)
         h, hu, hv = self.read_snapshot(i)
         P, Px, Py = self.mesh.node_operators()
         u, v = self._velocity(h, hu, hv)
@@ -373,6 +422,32 @@ class MeshFlowField(FlowField):
         else:
             nodes[:, 4:] = 0.0
         self._snap[i] = (h, hu, hv, nodes)
+        while len(self._snap) > 2:
+            self._snap.popitem(last=False)
+        return self._snap[i]
+
+    def _load_nodes(self, i):
+        """``_load`` for node-located data: the node columns are the data themselves."""
+        h, hu, hv = self.read_source(i)
+        u, v = self._velocity(h, hu, hv)
+        nodes = np.empty((self.mesh.n_nodes, NQ))
+        nodes[:, Q_H], nodes[:, Q_U], nodes[:, Q_V] = h, u, v
+        nodes[:, Q_ETA] = h + self.node_bed
+        if self.gradient == "recovered":
+            if getattr(self, "_node_grad", None) is None:
+                from driftlog.nodal import node_gradient_operators
+
+                self._node_grad = node_gradient_operators(self.mesh)
+            Gx, Gy = self._node_grad
+            uve = nodes[:, Q_U:Q_ETA + 1]
+            gx, gy = Gx @ uve, Gy @ uve
+            nodes[:, Q_UX], nodes[:, Q_UY] = gx[:, 0], gy[:, 0]
+            nodes[:, Q_VX], nodes[:, Q_VY] = gx[:, 1], gy[:, 1]
+            nodes[:, Q_EX], nodes[:, Q_EY] = gx[:, 2], gy[:, 2]
+        else:
+            nodes[:, 4:] = 0.0
+        A = self._face_mean
+        self._snap[i] = (A @ h, A @ hu, A @ hv, nodes)
         while len(self._snap) > 2:
             self._snap.popitem(last=False)
         return self._snap[i]
@@ -412,7 +487,15 @@ class MeshFlowField(FlowField):
         return {k: (1 - a) * si[k] + a * sj[k] for k in ("h", "u", "v", "hu", "hv", "eta")}
 
     def freeze(self, t) -> MeshFlowField:
-        """The flow at time t as a steady field (one snapshot)."""
+        """The flow at time t as a steady field (one snapshot; on nodes for node data)."""
+        if self.location == "node":
+            i, j, a, _ = self._interval(t)
+            si, sj = self.read_source(i), self.read_source(j)
+            h, hu, hv = ((1 - a) * p + a * q for p, q in zip(si, sj, strict=True))
+            src = InMemorySnapshots([t], h, hu, hv, name=f"{self.name} at t={t}",
+                                    location="node")
+            return MeshFlowField(self.mesh, self.node_bed, src, self.dry_depth, attrs=self.attrs,
+                                 gradient=self.gradient)
         fv = self.face_values(t)
         src = InMemorySnapshots([t], fv["h"], fv["hu"], fv["hv"], name=f"{self.name} at t={t}")
         return MeshFlowField(self.mesh, self.bed, src, self.dry_depth, attrs=self.attrs,

@@ -130,9 +130,12 @@ def describe(path) -> str:
         field = open_flow(p)
         return "\n".join(_flow_lines(field, f"{p}: driftlog flow file (UGRID-1.0 + CF)"))
     if fk.kind in ("model_output", "openfoam"):
-        from driftlog.adapters import detect_format, open_flow_source
+        from driftlog.adapters import detect_format, open_flow_source, reader
 
         fmt = detect_format(p)
+        r = reader(fmt)
+        if hasattr(r, "describe"):  # the reader's own few lines (header only)
+            return "\n".join(r.describe(p))
         field = open_flow_source(fmt, p)
         return "\n".join(_flow_lines(field, f"{p}: {fmt} model output (a hydro source; "
                                             "driftlog import converts it)"))

@@ -18,7 +18,8 @@ import scipy.sparse as sp
 from driftlog.errors import MeshError
 from driftlog.locate import build_bin_grid, locate_points
 
-__all__ = ["Mesh", "read_mesh", "read_ugrid_mesh"]
+__all__ = ["Mesh", "read_mesh", "read_ugrid_mesh", "merge_coincident_nodes", "mesh_merging_seams",
+           "SEAM_TOLERANCE"]
 
 FILL = -1
 DEFAULT_TAG = "wall"
@@ -251,18 +252,22 @@ class Mesh:
     # ----------------------------------------------------------------- properties
     @property
     def n_nodes(self) -> int:
+        """Number of nodes."""
         return self.node_x.shape[0]
 
     @property
     def n_faces(self) -> int:
+        """Number of faces."""
         return self.face_nodes.shape[0]
 
     @property
     def n_edges(self) -> int:
+        """Number of edges."""
         return self.edge_nodes.shape[0]
 
     @property
     def max_face_nodes(self) -> int:
+        """Columns of the face-node table (3 or 4)."""
         return self.face_nodes.shape[1]
 
     @property
@@ -284,9 +289,12 @@ class Mesh:
 
     def __repr__(self):
         kinds = np.bincount(self.face_n, minlength=5)
+        merged = getattr(self, "merged_nodes", (0, 0.0))
+        seam = (f", {merged[0]} coincident nodes merged (closer than {merged[1]:g} x the local "
+                "edge length)" if merged[0] else "")
         return (f"<Mesh {self.n_faces} faces ({kinds[3]} triangles, {kinds[4]} quads), "
                 f"{self.n_nodes} nodes, {self.n_edges} edges, {self.boundary_edges.size} boundary "
-                f"edges, tags {self.tag_names}>")
+                f"edges, tags {self.tag_names}{seam}>")
 
     # ----------------------------------------------------------------- boundary tags
     def tag_boundary(self, name: str, where) -> int:
@@ -344,6 +352,7 @@ class Mesh:
     # ----------------------------------------------------------------- point location
     @property
     def bins(self):
+        """The point-location bin grid (built on first use)."""
         if self._bins is None:
             self._bins = build_bin_grid(self.face_xmin, self.face_ymin,
                                         self.face_xmax, self.face_ymax)
@@ -493,8 +502,96 @@ def read_ugrid_mesh(path, topology: str | None = None) -> Mesh:
                         ("node_z", "node_bed_level")):
                     z = var[:].astype(float)
                     break
-        return Mesh(ds.variables[xname][:], ds.variables[yname][:], face_nodes,
-                    fill_value=int(fill), start_index=start, node_z=z)
+        node_x = np.asarray(ds.variables[xname][:], np.float64)
+        node_y = np.asarray(ds.variables[yname][:], np.float64)
+    return mesh_merging_seams(node_x, node_y, face_nodes, fill_value=int(fill),
+                              start_index=start, node_z=z)
+
+
+#: nodes closer than this fraction of their shortest edge are one node (``merge_coincident``)
+SEAM_TOLERANCE = 1e-6
+
+
+def merge_coincident_nodes(node_x, node_y, face_nodes, fill_value=FILL, start_index=0,
+                           rel_tol=SEAM_TOLERANCE):
+    """Merge nodes that coincide: the seams of partitioned meshes (D-Flow FM, ANUGA, HEC-RAS).
+
+    Two nodes are one when their distance is at most ``rel_tol`` times the shortest edge
+    touching either of them (a tolerance relative to the local edge length, so a fine mesh in
+    millimetres and a coarse one in kilometres are treated alike; two real nodes are never
+    that close on a valid mesh).  Faces keep their node order; each merged group keeps the
+    coordinates of its lowest-numbered node.
+
+    Returns
+    -------
+    keep : int array
+        The original index of each node of the merged mesh.
+    face_nodes : int array
+        The faces on the merged nodes (0-based, padding ``FILL``).
+    n_merged : int
+        Nodes removed (0 when there was no seam).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    x = np.asarray(node_x, np.float64)
+    y = np.asarray(node_y, np.float64)
+    fn = np.asarray(face_nodes, np.int64)
+    pad = (fn == fill_value) | (fn < start_index)
+    fn = np.where(pad, FILL, fn - start_index)
+    n = x.size
+    if n < 2 or fn.size == 0 or fn.max() >= n:
+        return np.arange(n), fn, 0
+    # shortest edge at each node (over the faces' consecutive node pairs)
+    nxt = np.roll(fn, -1, axis=1)
+    first = fn[:, :1]
+    nxt = np.where(nxt < 0, first, nxt)  # the last real node closes on the first
+    valid = fn >= 0
+    a, b = fn[valid], nxt[valid]
+    length = np.hypot(x[a] - x[b], y[a] - y[b])
+    local = np.full(n, np.inf)
+    np.minimum.at(local, a, length)
+    np.minimum.at(local, b, length)
+    finite = np.isfinite(local)
+    if not finite.any():
+        return np.arange(n), fn, 0
+    local[~finite] = local[finite].max()
+    tree = cKDTree(np.column_stack([x, y]))
+    pairs = tree.query_pairs(rel_tol * float(local.max()), output_type="ndarray")
+    if pairs.size:
+        d = np.hypot(x[pairs[:, 0]] - x[pairs[:, 1]], y[pairs[:, 0]] - y[pairs[:, 1]])
+        lim = rel_tol * np.minimum(local[pairs[:, 0]], local[pairs[:, 1]])
+        pairs = pairs[d <= lim]
+    if pairs.size == 0:
+        return np.arange(n), fn, 0
+    g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(g, directed=False)
+    # representative: the lowest node of each group, numbered in the order of the nodes
+    rep = np.full(label.max() + 1, n, np.int64)
+    np.minimum.at(rep, label, np.arange(n))
+    keep = np.sort(rep)
+    new_of_old = np.searchsorted(keep, rep[label])
+    out = np.where(fn >= 0, new_of_old[np.maximum(fn, 0)], FILL)
+    return keep, out, int(n - keep.size)
+
+
+def mesh_merging_seams(node_x, node_y, face_nodes, fill_value=FILL, start_index=0,
+                       node_z=None, rel_tol=SEAM_TOLERANCE) -> Mesh:
+    """A ``Mesh`` with coincident nodes merged (``merge_coincident_nodes``).
+
+    The mesh's ``merged_nodes`` = (nodes removed, rel_tol) is shown by its repr (``driftlog
+    info``); ``node_index`` maps its nodes to the given ones (for node-located data).
+    """
+    keep, fn, n_merged = merge_coincident_nodes(node_x, node_y, face_nodes, fill_value,
+                                                start_index, rel_tol)
+    x = np.asarray(node_x, np.float64)[keep]
+    y = np.asarray(node_y, np.float64)[keep]
+    z = None if node_z is None else np.asarray(node_z, np.float64)[keep]
+    mesh = Mesh(x, y, fn, node_z=z)
+    mesh.merged_nodes = (n_merged, rel_tol)
+    mesh.node_index = keep
+    return mesh
 
 
 def _find_topology(ds, path, name):
@@ -570,13 +667,14 @@ def _tag_from_physical_lines(mesh, m):
         return
     key = {}
     e = mesh.edge_nodes
-    for i, (lo, hi) in enumerate(zip(np.minimum(e[:, 0], e[:, 1]), np.maximum(e[:, 0], e[:, 1]))):
+    for i, (lo, hi) in enumerate(zip(np.minimum(e[:, 0], e[:, 1]), np.maximum(e[:, 0], e[:, 1]),
+                                     strict=True)):
         if mesh.edge_faces[i, 1] < 0:
             key[(lo, hi)] = i
-    for block, tags in zip(m.cells, phys):
+    for block, tags in zip(m.cells, phys, strict=False):
         if block.type != "line":
             continue
-        for (a, b), t in zip(block.data, tags):
+        for (a, b), t in zip(block.data, tags, strict=False):
             i = key.get((min(a, b), max(a, b)))
             if i is not None and int(t) in names:
                 mesh.tag_edges(names[int(t)], [i])

@@ -16,61 +16,23 @@ from __future__ import annotations
 import difflib
 import json
 import math
-import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
+from driftlog import adapters
 from driftlog.errors import ScenarioError
+from driftlog.schema import (
+    Key,
+    Section,
+    check_tables,
+    describe_sections,
+    merge,
+    read_toml,
+    run_checks,
+)
 
 __all__ = ["Key", "Section", "SECTIONS", "Scenario", "load_scenario", "register_section",
-           "describe_keys"]
-
-REQUIRED = object()
-
-
-@dataclass
-class Key:
-    """One scenario key: type, default, units, rules and description."""
-
-    name: str
-    type: str  # float, int, bool, str, path, floats, point, points, table, float_or_str, any
-    default: Any = None
-    doc: str = ""
-    units: str = ""
-    choices: tuple = ()
-    min: float | None = None
-    max: float | None = None
-    exclusive_min: bool = False
-    length: int | None = None  # exact list length for floats
-    must_exist: bool = False  # path keys: the file must exist
-    when: str | None = None  # documentation: which setting the key applies to
-
-    def describe(self):
-        rule = []
-        if self.choices:
-            rule.append("one of " + ", ".join(repr(c) for c in self.choices))
-        if self.min is not None:
-            rule.append(f"{'>' if self.exclusive_min else '>='} {self.min}")
-        if self.max is not None:
-            rule.append(f"<= {self.max}")
-        return "; ".join(rule)
-
-
-@dataclass
-class Section:
-    """A table of the scenario file; ``repeated`` for arrays of tables ([[logs]])."""
-
-    name: str
-    keys: list[Key]
-    doc: str = ""
-    repeated: bool = False
-    check: Any = None  # extra cross-key validation: f(table, prefix, scenario)
-    by_name: dict = field(init=False)
-
-    def __post_init__(self):
-        self.by_name = {k.name: k for k in self.keys}
-
+           "describe_keys", "merge", "read_toml"]
 
 SECTIONS: dict[str, Section] = {}
 TOP_KEYS = [
@@ -85,116 +47,6 @@ def register_section(section: Section) -> Section:
     return section
 
 
-# --------------------------------------------------------------------- checking values
-def _type_error(key, value, what):
-    return ScenarioError(key, value, f"must be {what}")
-
-
-def _check_number(k: Key, key, value, integer=False):
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise _type_error(key, value, "an integer" if integer else "a number")
-    if integer and not isinstance(value, int):
-        raise _type_error(key, value, "an integer")
-    if not math.isfinite(value):
-        raise _type_error(key, value, "a finite number")
-    if k.min is not None and (value <= k.min if k.exclusive_min else value < k.min):
-        raise ScenarioError(key, value, f"must be {'>' if k.exclusive_min else '>='} {k.min}"
-                            + (f" {k.units}" if k.units else ""))
-    if k.max is not None and value > k.max:
-        raise ScenarioError(key, value, f"must be <= {k.max}" + (f" {k.units}" if k.units else ""))
-    return int(value) if integer else float(value)
-
-
-def _check_value(k: Key, key: str, value, base_dir: Path):
-    t = k.type
-    if t == "any":
-        return value
-    if t == "float":
-        return _check_number(k, key, value)
-    if t == "int":
-        return _check_number(k, key, value, integer=True)
-    if t == "bool":
-        if not isinstance(value, bool):
-            raise _type_error(key, value, "true or false")
-        return value
-    if t == "str":
-        if not isinstance(value, str):
-            raise _type_error(key, value, "a string")
-        if k.choices and value not in k.choices:
-            close = difflib.get_close_matches(value, k.choices, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise ScenarioError(key, value, "must be one of "
-                                + ", ".join(repr(c) for c in k.choices) + hint)
-        return value
-    if t == "float_or_str":
-        if isinstance(value, str):
-            if k.choices and value not in k.choices:
-                raise ScenarioError(key, value, "must be a number or one of "
-                                    + ", ".join(repr(c) for c in k.choices))
-            return value
-        return _check_number(k, key, value)
-    if t == "path":
-        if not isinstance(value, str) or not value:
-            raise _type_error(key, value, "a file path (string)")
-        p = Path(value).expanduser()
-        p = p if p.is_absolute() else (base_dir / p)
-        if k.must_exist and not p.exists():
-            raise ScenarioError(key, value, f"file not found (looked for {p})")
-        return str(p)
-    if t in ("floats", "point"):
-        if not isinstance(value, list) or not all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
-            raise _type_error(key, value, "a list of numbers")
-        n = 2 if t == "point" else k.length
-        if n is not None and len(value) != n:
-            raise _type_error(key, value, f"a list of {n} numbers")
-        out = []
-        for i, v in enumerate(value):
-            out.append(_check_number(k, f"{key}[{i}]", v))
-        return out
-    if t == "points":
-        if not isinstance(value, list) or not all(
-                isinstance(p, list) and len(p) == 2
-                and all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in p)
-                for p in value):
-            raise _type_error(key, value, "a list of [x, y] pairs")
-        if k.length is not None and len(value) < k.length:
-            raise _type_error(key, value, f"at least {k.length} [x, y] pairs")
-        return [[float(a), float(b)] for a, b in value]
-    if t == "table":
-        if not isinstance(value, dict):
-            raise _type_error(key, value, "a table")
-        return value
-    raise AssertionError(f"unknown key type {t}")
-
-
-def _check_table(section: Section, table, prefix: str, base_dir: Path):
-    if not isinstance(table, dict):
-        raise _type_error(prefix, table, "a table")
-    out = {}
-    for name, value in table.items():
-        k = section.by_name.get(name)
-        if k is None:
-            allowed = sorted(section.by_name)
-            close = difflib.get_close_matches(name, allowed, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise ScenarioError(f"{prefix}.{name}", value,
-                                f"unknown key{hint}; the keys of [{section.name}] are: "
-                                + ", ".join(allowed))
-        if value is None or (k.type == "path" and value == "" and k.default == ""):
-            out[name] = k.default  # unset (from a resolved scenario written into an output)
-            continue
-        out[name] = _check_value(k, f"{prefix}.{name}", value, base_dir)
-    for k in section.keys:
-        if k.name not in out:
-            if k.default is REQUIRED:
-                raise ScenarioError(f"{prefix}.{k.name}", None, "is required: " + k.doc)
-            out[k.name] = k.default
-            if k.type == "path" and k.default:
-                out[k.name] = _check_value(k, f"{prefix}.{k.name}", k.default, base_dir)
-    return out
-
-
 # --------------------------------------------------------------------- the scenario
 @dataclass
 class Scenario:
@@ -206,45 +58,24 @@ class Scenario:
 
     @property
     def base_dir(self) -> Path:
+        """The folder relative paths of the scenario are taken from."""
         return self.path.parent if self.path else Path.cwd()
 
     def __getitem__(self, name):
         return self.data[name]
 
     def get(self, name, default=None):
+        """A section (or top key) by name, ``default`` if absent."""
         return self.data.get(name, default)
 
     def to_json(self) -> str:
+        """The validated data as JSON (sorted keys)."""
         return json.dumps(self.data, sort_keys=True, default=str)
 
     def attrs(self) -> dict:
         """Global attributes that make a run reproducible from its output."""
         return {"scenario": self.text or self.to_json(), "scenario_resolved": self.to_json(),
                 "scenario_path": str(self.path) if self.path else ""}
-
-
-def read_toml(source, what: str = "scenario"):
-    """(raw dict, resolved path or None, text) of a TOML file path, TOML text or a dict."""
-    path, text = None, ""
-    if isinstance(source, dict):
-        return json.loads(json.dumps(source)), None, ""
-    src = str(source)
-    p = Path(src) if ("\n" not in src and len(src) < 4096) else None
-    if p is not None and (p.suffix == ".toml" or p.exists()):
-        if not p.exists():
-            raise ScenarioError(what, str(p), "file not found")
-        from driftlog.files import read_text
-
-        path, text = p.resolve(), read_text(p, f"{what} file")
-    else:
-        text = src
-    try:
-        return tomllib.loads(text), path, text
-    except tomllib.TOMLDecodeError as exc:
-        if path is None and p is not None and "=" not in src and "[" not in src:
-            raise ScenarioError(what, src, "neither a file (not found), a case name (driftlog "
-                                "cases list) nor TOML text") from None
-        raise ScenarioError(what, str(path or "<text>"), f"is not valid TOML: {exc}") from None
 
 
 def load_scenario(source, overrides: dict | None = None) -> Scenario:
@@ -266,48 +97,11 @@ def _validate(raw, path, text, overrides):
     if overrides:
         raw = merge(raw, overrides)
     base = path.parent if path else Path.cwd()
-    data = {}
-    for k in TOP_KEYS:
-        if k.name in raw:
-            data[k.name] = _check_value(k, k.name, raw[k.name], base)
-        else:
-            data[k.name] = k.default
-    for name, value in raw.items():
-        if name in data:
-            continue
-        sec = SECTIONS.get(name)
-        if sec is None:
-            allowed = sorted(list(SECTIONS) + [k.name for k in TOP_KEYS])
-            close = difflib.get_close_matches(name, allowed, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise ScenarioError(name, value if not isinstance(value, dict) else "{...}",
-                                f"unknown section{hint}; allowed: " + ", ".join(allowed))
-        if sec.repeated:
-            items = value if isinstance(value, list) else [value]
-            data[name] = [_check_table(sec, t, f"{name}[{i}]", base) for i, t in enumerate(items)]
-        else:
-            data[name] = _check_table(sec, value, name, base)
-    for name, sec in SECTIONS.items():
-        if name not in data:
-            data[name] = [] if sec.repeated else _check_table(sec, {}, name, base)
+    sections = list(SECTIONS.values())
+    data = check_tables(raw, sections, TOP_KEYS, base)
     scen = Scenario(data, path, text)
-    for name, sec in SECTIONS.items():
-        if sec.check is not None:
-            items = data[name] if sec.repeated else [data[name]]
-            for i, t in enumerate(items):
-                sec.check(t, f"{name}[{i}]" if sec.repeated else name, scen)
+    run_checks(sections, data, scen)
     return scen
-
-
-def merge(base: dict, over: dict) -> dict:
-    """Nested merge of ``over`` into a copy of ``base`` (lists and scalars replace)."""
-    out = dict(base)
-    for k, v in over.items():
-        if isinstance(v, dict) and isinstance(out.get(k), dict):
-            out[k] = merge(out[k], v)
-        else:
-            out[k] = v
-    return out
 
 
 def describe_keys(section: str | None = None) -> str:
@@ -317,36 +111,23 @@ def describe_keys(section: str | None = None) -> str:
         hint = f" (did you mean {close[0]!r}?)" if close else ""
         raise ScenarioError("--section", section, f"unknown section{hint}; the sections are: "
                             + ", ".join(SECTIONS))
-    lines = []
-    for name, sec in SECTIONS.items():
-        if section and name != section:
-            continue
-        head = f"[[{name}]]" if sec.repeated else f"[{name}]"
-        lines.append(f"{head}  {sec.doc}")
-        for k in sec.keys:
-            default = "(required)" if k.default is REQUIRED else repr(k.default)
-            rule = k.describe()
-            units = f" [{k.units}]" if k.units else ""
-            when = f" ({k.when})" if k.when else ""
-            lines.append(f"  {k.name:<22} {k.type:<8} default {default}{units}{when}")
-            if k.doc:
-                lines.append(f"      {k.doc}" + (f"; {rule}" if rule else ""))
-        lines.append("")
-    return "\n".join(lines)
+    return describe_sections(SECTIONS.values(), section)
 
 
 # --------------------------------------------------------------------- the sections
-FLOW_SOURCES = ("file", "solver", "analytic", "openfoam", "ugrid", "anuga", "cf_grid")
+# driftlog's own flow file, then what is built here, then the other readers (the registry)
+FLOW_SOURCES = (adapters.KINDS[0], "solver", "analytic") + adapters.KINDS[1:]
 ANALYTIC_KINDS = ("uniform", "solid_body_rotation", "free_vortex")
 
 
 def _check_flow(t, prefix, scen):
     src = t["source"]
-    if src in ("file", "openfoam", "ugrid", "anuga", "cf_grid") and not t["path"]:
+    if src in adapters.KINDS and not t["path"]:
         raise ScenarioError(f"{prefix}.path", None,
                             f"is required when source = {src!r}: the flow file or case to read")
-    if src in ("file", "openfoam", "ugrid", "anuga", "cf_grid") and not Path(t["path"]).exists():
+    if src in adapters.KINDS and not Path(t["path"]).exists():
         raise ScenarioError(f"{prefix}.path", t["path"], "file not found")
+    t["options"] = adapters.check_flow_options(t, prefix, scen.base_dir)
     if src == "analytic" and t["kind"] not in ANALYTIC_KINDS:
         raise ScenarioError(f"{prefix}.kind", t["kind"],
                             "must be one of " + ", ".join(map(repr, ANALYTIC_KINDS)))
@@ -377,8 +158,9 @@ register_section(Section("flow", [
     Key("time_range", "floats", None, "import only snapshots in [start, end]", "s", length=2),
     Key("options", "table", {}, "options of the importer (driftlog.adapters): openfoam "
         "decomposed, mode ('shallow_water' | 'vof'), raster ([x0, y0, dx, nx, ny]); ugrid and "
-        "cf_grid fill ('error' | 'dry'), units ({hu = 'm3 s-1'}); anuga use_centroids",
-        when="source = openfoam, ugrid, anuga, cf_grid"),
+        "cf_grid fill ('error' | 'dry'), units ({hu = 'm3 s-1'}); anuga use_centroids; "
+        "selafin depth_average",
+        when="source = openfoam, ugrid, anuga, cf_grid, selafin"),
 ], doc="the hydro source", check=_check_flow))
 
 

@@ -2,9 +2,13 @@
 
 A Gaussian eddy drifting east at speed c: every particle circles the moving centre at the
 rate Omega(R) of its distance R, so positions are known exactly.  Read through the cf_grid
-adapter, the field is interpolated in space (P1 on least-squares node values) and linearly
+adapter, the field is interpolated bilinearly in space (``driftlog.gridflow``) and linearly
 in time; both errors are second order, so refining the grid by 2 must divide the error by
 about 4, and on the formula itself RK4 must converge at order 4.
+
+On the 20 m grid the bilinear grid field's maximum error is 1.41 m (Parcels, bilinear too,
+gives the same positions to 1e-11 m: benchmarks/grid_peers.py); the triangulated mesh path
+the reader used before gave 3.47 m.
 """
 
 import numpy as np
@@ -114,5 +118,6 @@ def test_grid_interpolation_second_order(seeds, tmp_path):
     errors = [track(open_cf_grid(write_grid(tmp_path / f"eddy_{dx:g}.nc", dx)), *seeds, 5.0)
               for dx in (20.0, 10.0)]
     order = np.log2(errors[0] / errors[1])
-    assert errors[1] < 1.5, errors
+    assert errors[0] < 1.45, errors  # bilinear; 3.47 m when the grid was triangulated
+    assert errors[1] < 0.37, errors
     assert 1.7 < order < 2.3, (errors, order)

@@ -46,7 +46,8 @@ from pathlib import Path
 import numpy as np
 
 from driftlog.errors import ScenarioError
-from driftlog.scenario import SECTIONS, Scenario, _check_value, load_scenario, merge, read_toml
+from driftlog.scenario import SECTIONS, Scenario, load_scenario
+from driftlog.schema import check_value, merge, read_toml
 
 __all__ = ["Parameter", "Ensemble", "load_ensemble", "parse_vary", "check_ensemble_section",
            "DISTRIBUTIONS", "SAMPLINGS"]
@@ -192,7 +193,7 @@ def _numbers(prefix, value, n=None):
 def _check_in_key(k, prefix, value, what):
     """A bound or value of a distribution must be allowed for the key it sets."""
     try:
-        _check_value(k, prefix, value, Path.cwd())
+        check_value(k, prefix, value, Path.cwd())
     except ScenarioError as exc:
         raise ScenarioError(prefix, value, f"{what} must be a valid {k.name}: {exc.allowed}"
                             ) from None
@@ -312,7 +313,7 @@ def _check_place(prefix, value):
         if n not in PLACE_KEYS:
             raise ScenarioError(f"{prefix}.{n}", v, "not a placement key; allowed: "
                                 + ", ".join(PLACE_KEYS))
-        _check_value(sec.by_name[n], f"{prefix}.{n}", v, Path.cwd())
+        check_value(sec.by_name[n], f"{prefix}.{n}", v, Path.cwd())
 
 
 def check_ensemble_section(t: dict, prefix: str, scen: Scenario) -> None:

@@ -1,0 +1,365 @@
+"""MIKE 21 FM (DHI) ``.dfsu`` results as driftlog flows, read with ``mikeio``.
+
+A 2D horizontal dfsu file holds a flexible mesh of triangles and quadrilaterals (mixed), node
+coordinates with the bathymetry Z at the nodes, and per time step one value per element of
+each item.  MIKE 21 FM is a cell-centred finite-volume model: element values are face values
+for driftlog (``location = "face"``), sampled as every face-located flow is.
+
+Items are found by their EUM type first (language independent), then by their usual names:
+Total water depth (Water_Depth), Surface elevation (Surface_Elevation), U velocity and
+V velocity (u/v_velocity_component), or P flux and Q flux (m3/s/m) for unit discharges.
+Depth is Total water depth, or Surface elevation minus the element bathymetry.  The bed is the
+element bathymetry: Surface elevation - Total water depth of the first step when the file has
+both (the engine's own element value, to float32), else the mean of the element's node Z
+(mikeio's element coordinates).  Units are converted from the items' EUM units (meter, feet,
+US feet, cm, mm; m/s, ft/s, cm/s...) with a note; any other unit is an error.
+
+Times are seconds since the first time step, kept as the reference epoch
+(``attrs["time_reference"]``); the projection string is kept in ``attrs["projection"]``.
+3D (layered), vertical-profile and spectral dfsu files are refused with a clear error.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from driftlog.errors import FlowFileError, MeshError
+from driftlog.flow import MeshFlowField, check_times
+
+from ._common import SubsetSnapshots, reference_epoch, select_times
+
+__all__ = ["KIND", "SUFFIXES", "OPTIONS", "can_open", "open", "describe", "open_dfsu",
+           "DfsuSnapshots", "ROLES", "write"]
+
+KIND = "dfsu"
+SUFFIXES = (".dfsu",)
+OPTIONS = []  # no options of its own
+
+MAGIC = b"DHI_DFS_"
+#: role -> (EUM type names, item names, units kind)
+ROLES = {
+    "depth": (("Water_Depth", "Total_Water_Depth"), ("Total water depth", "Water depth"),
+              "length"),
+    "level": (("Surface_Elevation",), ("Surface elevation", "Water level"), "length"),
+    "u": (("u_velocity_component",), ("U velocity", "U-velocity"), "velocity"),
+    "v": (("v_velocity_component",), ("V velocity", "V-velocity"), "velocity"),
+    "hu": ((), ("P flux", "P-flux"), "unit_discharge"),
+    "hv": ((), ("Q flux", "Q-flux"), "unit_discharge"),
+    "bed": (("Bathymetry",), ("Bathymetry", "Bed level"), "length"),
+}
+_FT, _USFT = 0.3048, 1200.0 / 3937.0
+UNITS = {
+    "length": {"meter": 1.0, "centimeter": 0.01, "millimeter": 1e-3, "kilometer": 1e3,
+               "feet": _FT, "feet_US": _USFT, "millifeet": 1e-3 * _FT},
+    "velocity": {"meter_per_sec": 1.0, "feet_per_sec": _FT, "feet_US_per_sec": _USFT,
+                 "cm_per_sec": 0.01, "mm_per_sec": 1e-3},
+    "unit_discharge": {"meter_pow_3_per_sec_per_meter": 1.0, "meter_pow_2_per_sec": 1.0,
+                       "square_meter_per_sec": 1.0, "feet_pow_3_per_sec_per_feet": _FT ** 2,
+                       "feet_pow_2_per_sec": _FT ** 2, "square_feet_per_sec": _FT ** 2,
+                       "feet_US_pow_3_per_sec_per_feet_US": _USFT ** 2},
+}
+
+
+def can_open(path) -> bool:
+    """Whether ``path`` is a dfsu file (DHI DFS header with a dfsu data type; never raises)."""
+    try:
+        with Path(path).open("rb") as f:
+            if f.read(len(MAGIC)) != MAGIC:
+                return False
+        from mikecore.DfsFileFactory import DfsFileFactory
+
+        dfs = DfsFileFactory.DfsGenericOpen(str(path))
+        try:
+            return 2001 <= int(dfs.FileInfo.DataType) <= 2099
+        finally:
+            dfs.Close()
+    except Exception:
+        return False
+
+
+def _open_dfsu(path):
+    import mikeio
+
+    with Path(path).open("rb") as f:
+        magic = f.read(len(MAGIC))
+    if magic != MAGIC:
+        raise FlowFileError(f"{path}: not a dfsu file (it does not start with the DHI DFS "
+                            f"header {MAGIC.decode()!r})")
+    if not can_open(path):
+        raise FlowFileError(f"{path}: a DHI DFS file but not a dfsu (a dfs0, dfs1, dfs2 or "
+                            "dfs3?): driftlog reads MIKE 21 FM flexible-mesh .dfsu results")
+    try:
+        return mikeio.Dfsu(str(path))
+    except Exception as exc:
+        raise FlowFileError(f"{path}: unreadable dfsu file ({type(exc).__name__}: {exc}); "
+                            "a truncated or corrupted file?") from None
+
+
+def _find(items, role, mapping, path, required=True):
+    """Index of the item playing ``role``: the user's mapping, else EUM type, else name."""
+    names = [it.name for it in items]
+    if role in mapping:
+        want = str(mapping[role]).strip().lower()
+        for k, n in enumerate(names):
+            if n.strip().lower() == want:
+                return k
+        raise FlowFileError(f"{path}: item {mapping[role]!r} (given for {role!r} in [flow] "
+                            f"variables) is not in the file; it has {', '.join(names)}")
+    types, cands, _ = ROLES[role]
+    for k, it in enumerate(items):
+        if it.type.name in types:
+            return k
+    low = [n.strip().lower() for n in names]
+    for c in cands:
+        if c.lower() in low:
+            return low.index(c.lower())
+    if required:
+        raise FlowFileError(f"{path}: no {role} item: expected {cands[0]!r} (EUM type "
+                            f"{types[0] if types else 'any'}); the file has "
+                            f"{', '.join(names)}; map another with [flow] variables = "
+                            f"{{{role} = \"NAME\"}}")
+    return None
+
+
+def _factor(item, role, path, notes):
+    kind = ROLES[role][2]
+    unit = item.unit.name
+    table = UNITS[kind]
+    if unit not in table:
+        raise FlowFileError(f"{path}: item {item.name!r} ({role}) has units {unit!r}, not "
+                            f"units of {kind.replace('_', ' ')} (expected one of "
+                            f"{', '.join(table)})")
+    f = table[unit]
+    if f != 1.0:
+        notes.append(f"{item.name}: converted from {unit} to SI (x {f:g})")
+    return f
+
+
+class DfsuSnapshots:
+    """Lazy element snapshots of a dfsu file: one time step read per ``read(i)``."""
+
+    location = "face"
+
+    def __init__(self, dfs, path, times, roles, factors, bed, dry_depth):
+        self.dfs, self.path, self.times = dfs, Path(path), times
+        self.roles, self.factors, self.bed = roles, factors, bed
+        self.dry_depth = dry_depth
+        self.name = str(path)
+
+    def _items(self, i, roles):
+        idx = [self.roles[r] for r in roles]
+        try:
+            ds = self.dfs.read(items=idx, time=int(i))
+        except Exception as exc:
+            raise FlowFileError(f"{self.path}: time step {i} unreadable "
+                                f"({type(exc).__name__}: {exc}); a truncated file?") from None
+        return [np.asarray(ds[k].values, dtype=np.float64).ravel() * self.factors[r]
+                for k, r in enumerate(roles)]
+
+    def read(self, i):
+        """Element arrays (h, hu, hv) of time step i."""
+        r = self.roles
+        vel = ("u", "v") if "u" in r else ("hu", "hv")
+        if "depth" in r:
+            h, a, b = self._items(i, ("depth", *vel))
+        else:
+            eta, a, b = self._items(i, ("level", *vel))
+            h = eta - self.bed
+        if h.size and h.min() < 0:
+            if h.min() <= -self.dry_depth:
+                bad = np.flatnonzero(h <= -self.dry_depth)
+                raise FlowFileError(f"{self.path}: time step {i}: {bad.size} elements with "
+                                    f"depth below -dry_depth (min {h.min():g} m, first at "
+                                    f"{bad[:5].tolist()}); depths must be >= 0")
+            h = np.maximum(h, 0.0)
+        if "u" in r:
+            return h, h * a, h * b
+        return h, a, b
+
+    def close(self):
+        """Nothing held open (mikeio opens the file per read)."""
+
+
+def open(path, *, time_range=None, variables=None, dry_depth=1e-3):
+    """Open a MIKE 21 FM 2D dfsu result file as a MeshFlowField (steps read lazily).
+
+    Parameters
+    ----------
+    path : path
+        The .dfsu file (2D horizontal).
+    time_range : (start, end), optional
+        Only the steps in [start, end] (s since the first step).
+    variables : dict, optional
+        driftlog role (depth, level, bed, u, v, hu, hv) -> the file's item name.
+    dry_depth : float
+        Depth below which an element is dry (m).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FlowFileError(f"{path}: file not found")
+    dfs = _open_dfsu(path)
+    return _open(dfs, path, time_range, dict(variables or {}), float(dry_depth))
+
+
+open_dfsu = open
+
+
+def _open(dfs, path, time_range, mapping, dry_depth):
+    unknown = set(mapping) - set(ROLES)
+    if unknown:
+        raise FlowFileError(f"{path}: [flow] variables {sorted(unknown)} are not roles of a "
+                            f"dfsu file (allowed: {', '.join(ROLES)})")
+    kind = type(dfs).__name__
+    if kind != "Dfsu2DH":
+        layers = getattr(dfs.geometry, "n_layers", None)
+        raise FlowFileError(f"{path}: a {kind} file"
+                            + (f" ({layers} layers)" if layers else "")
+                            + "; driftlog reads 2D horizontal (MIKE 21 FM) dfsu results: "
+                            "extract a depth-averaged 2D result with MIKE's own tools")
+    g = dfs.geometry
+    nc = np.asarray(g.node_coordinates, dtype=np.float64)
+    table = g.element_table
+    lens = np.fromiter((len(e) for e in table), np.int64, len(table))
+    nmax = int(lens.max())
+    if nmax > 4 or lens.min() < 3:
+        raise FlowFileError(f"{path}: elements with {lens.min()} to {nmax} nodes; dfsu 2D "
+                            "meshes are triangles and quadrilaterals")
+    flat = np.concatenate(table).astype(np.int64)
+    starts = np.cumsum(lens) - lens
+    fn = np.full((lens.size, nmax), -1, dtype=np.int64)
+    fn[np.repeat(np.arange(lens.size), lens), np.arange(flat.size) - np.repeat(starts, lens)] = flat
+    notes = []
+    try:
+        from driftlog.mesh import Mesh
+
+        mesh = Mesh(nc[:, 0], nc[:, 1], fn, node_z=nc[:, 2])
+    except MeshError as exc:
+        raise FlowFileError(f"{path}: the elements do not make a valid mesh: {exc}") from None
+    if mesh.n_reversed:
+        notes.append(f"{mesh.n_reversed} clockwise elements reversed")
+    n_t = int(dfs.n_timesteps)
+    if n_t == 0:
+        raise FlowFileError(f"{path}: no time step (a mesh file without results)")
+    items = dfs.items
+    roles, factors = {}, {}
+
+    def need(role, required=True):
+        k = _find(items, role, mapping, path, required)
+        if k is not None:
+            roles[role] = k
+            factors[role] = _factor(items[k], role, path, notes)
+        return k
+
+    have_h = need("depth", required=False)
+    have_s = need("level", required=False)
+    if have_h is None and have_s is None:
+        raise FlowFileError(f"{path}: no depth: expected item 'Total water depth' or "
+                            f"'Surface elevation'; the file has "
+                            f"{', '.join(it.name for it in items)}")
+    if need("u", required=False) is not None:
+        need("v")
+    elif need("hu", required=False) is not None:
+        need("hv")
+    else:
+        raise FlowFileError(f"{path}: no velocity: expected items 'U velocity' and "
+                            "'V velocity' (or 'P flux' and 'Q flux'); the file has "
+                            f"{', '.join(it.name for it in items)}")
+    time = dfs.time
+    t0 = time[0]
+    times = np.asarray((time - t0).total_seconds(), dtype=np.float64)
+    check_times(times, str(path))
+    src = DfsuSnapshots(dfs, path, times, roles, factors, None, dry_depth)
+    geo_bed = mesh.face_bed()
+    if have_h is not None and have_s is not None:
+        eta, h = src._items(0, ("level", "depth"))
+        bed = eta - h
+        notes.append("bed = Surface elevation - Total water depth of the first step (the "
+                     "engine's element bathymetry; it differs from the mean of the node Z by "
+                     f"{np.abs(bed - geo_bed).max():.3g} m at most)")
+    else:
+        bed = geo_bed
+        notes.append("bed = mean of the element's node Z")
+    src.bed = bed
+    idx = select_times(times, time_range, str(path))
+    source = SubsetSnapshots(src, idx) if idx.size != times.size else src
+    attrs = {"source": "mike21 fm dfsu", "source_path": str(path.resolve()),
+             "data_location": "face",
+             "time_reference": "seconds since " + t0.strftime("%Y-%m-%d %H:%M:%S"),
+             "import_notes": "; ".join(notes)}
+    proj = getattr(g, "projection_string", None)
+    if proj:
+        attrs["projection"] = str(proj)
+    return MeshFlowField(mesh, bed, source, dry_depth=dry_depth, name=str(path), attrs=attrs)
+
+
+def describe(path) -> list[str]:
+    """A few lines on a dfsu file for ``driftlog info`` (header only)."""
+    path = Path(path)
+    dfs = _open_dfsu(path)
+    g = dfs.geometry
+    n = np.bincount([len(e) for e in g.element_table], minlength=5)
+    lines = [f"{path}: MIKE dfsu ({type(dfs).__name__}), projection "
+             f"{str(getattr(g, 'projection_string', '?'))[:40]}",
+             f"  mesh: {g.n_nodes} nodes, {g.n_elements} elements ({n[3]} triangles, "
+             f"{n[4]} quadrilaterals; data on elements)"]
+    if dfs.n_timesteps:
+        lines.append(f"  times: {dfs.n_timesteps} steps, {dfs.time[0]} to {dfs.time[-1]}")
+    else:
+        lines.append("  times: none (no result step)")
+    lines.append("  items: " + ", ".join(f"{it.name} [{it.unit.name}]" for it in dfs.items))
+    return lines
+
+
+# --------------------------------------------------------------------- writing
+def write(field, path, chunk=8, projection=None):
+    """Write a mesh flow as a MIKE 21 FM dfsu file with mikeio (element values).
+
+    Items Surface elevation, Total water depth, U velocity and V velocity on the faces (the
+    field's face values: for a node-located flow, the means of each face's node values);
+    node Z is the bed at the nodes (least-squares fits of the face bed).  Times are the
+    field's ``time_reference`` epoch (2000-01-01 without one) plus its times.  Written
+    ``chunk`` steps at a time (``Dataset.to_dfs``, then ``Dfsu.append``), so memory stays
+    bounded.  dfsu stores float32.
+    """
+    import mikeio
+    import pandas as pd
+
+    mesh = field.mesh
+    times = np.asarray(field.times, dtype=np.float64)
+    epoch = reference_epoch(field.attrs, str(path)) or np.datetime64("2000-01-01T00:00:00",
+                                                                      "us")
+    stamps = pd.DatetimeIndex(epoch + np.round(times * 1e6).astype(np.int64)
+                              .astype("timedelta64[us]"))
+    if field.location == "node":
+        zn = field.node_bed
+    else:
+        zn = mesh.node_operators()[0] @ field.bed
+    proj = projection or field.attrs.get("projection") or "NON-UTM"
+    table = [row[:k] for row, k in zip(mesh.face_nodes, mesh.face_n, strict=True)]
+    geometry = mikeio.spatial.GeometryFM2D(
+        node_coordinates=np.column_stack([mesh.node_x, mesh.node_y, zn]),
+        element_table=table, projection=proj)
+    E, U = mikeio.EUMType, mikeio.EUMUnit
+    items = [mikeio.ItemInfo("Surface elevation", E.Surface_Elevation, U.meter),
+             mikeio.ItemInfo("Total water depth", E.Water_Depth, U.meter),
+             mikeio.ItemInfo("U velocity", E.u_velocity_component, U.meter_per_sec),
+             mikeio.ItemInfo("V velocity", E.v_velocity_component, U.meter_per_sec)]
+    path = Path(path)
+    dfs = None
+    for start in range(0, times.size, chunk):
+        idx = range(start, min(start + chunk, times.size))
+        snaps = [field.snapshot(i) for i in idx]
+        cols = [np.array([sn[k] for sn in snaps], dtype=np.float32)
+                for k in ("eta", "h", "u", "v")]
+        t = stamps[start:start + len(idx)]
+        ds = mikeio.Dataset([mikeio.DataArray(c, time=t, geometry=geometry, item=it)
+                             for c, it in zip(cols, items, strict=True)])
+        if start == 0:
+            ds.to_dfs(str(path))
+            dfs = mikeio.Dfsu(str(path))
+            geometry = dfs.geometry  # the file's own (as stored), for the appended steps
+        else:
+            dfs.append(ds)
+    return path
