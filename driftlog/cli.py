@@ -59,9 +59,11 @@ def cmd_scenario(args):
         raise DriftlogError("driftlog scenario check: give the scenario file to check")
     from driftlog.preflight import check_scenario
 
-    path, _ = _scenario_path(args.file)
+    path, name = _scenario_path(args.file)
     scen = load_scenario(path)
-    notes, done = check_scenario(scen)
+    output = Path("driftlog-runs") / name / Path(scen["output"]["path"]).name \
+        if _in_cases(path) else None  # where driftlog track writes
+    notes, done = check_scenario(scen, output=output)
     for n in notes:
         print(f"driftlog: warning: {n}", file=sys.stderr)
     print(f"{path}: valid: the run will start ({len(scen['logs'])} log groups, flow source "

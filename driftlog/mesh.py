@@ -629,7 +629,7 @@ def read_mesh(path, **kwargs) -> Mesh:
 
     try:
         m = meshio.read(path)
-    except Exception as exc:  # meshio raises many types for bad files
+    except (Exception, SystemExit) as exc:  # meshio raises many types (ansys: SystemExit)
         raise MeshError(f"{path}: meshio cannot read it ({type(exc).__name__}: {exc})") from None
     polys, unsupported = [], []
     for block in m.cells:

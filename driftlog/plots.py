@@ -39,9 +39,15 @@ def flow_of_trajectories(ds):
     resolved = ds.attrs.get("scenario_resolved")
     if not resolved:
         return None
+    import warnings
+
+    from driftlog.errors import DriftlogError, DriftlogWarning
+
     try:
         return flow_from_scenario(load_scenario(json.loads(resolved)))
-    except Exception:  # noqa: BLE001 - the flow file may have moved; plot without background
+    except (DriftlogError, OSError) as exc:  # the flow file may have moved: no background
+        warnings.warn(f"drawn without the flow in the background: {exc}", DriftlogWarning,
+                      stacklevel=2)
         return None
 
 
@@ -129,11 +135,18 @@ def _bounds(ds, flow, margin=0.05):
     return x0 - dx, y0 - dy, x1 + dx, y1 + dy
 
 
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
+
+
 def plot_trajectories(path, flow=None, background="speed", show_mesh=False, out=None,
                       time=None, ax=None, title=None):
     """Figure of the trajectories in a file; saved to ``out`` (PNG) if given. Returns the figure."""
     plt = _mpl()
     ds = open_trajectories(path)
+    if out is not None:
+        from driftlog.files import check_output
+
+        check_output(out, "figure", inputs=[path], suffixes=FIGURE_SUFFIXES)
     if flow is None and background not in (None, "none"):
         flow = flow_of_trajectories(ds)
     t = ds["time"].values
@@ -213,6 +226,12 @@ def animate(path, out, flow=None, background="speed", fps=20, max_frames=300, dp
     from matplotlib.collections import PolyCollection
 
     ds = open_trajectories(path)
+    from driftlog.errors import ArgumentError
+    from driftlog.files import check_output
+
+    if not (isinstance(fps, (int, float)) and fps > 0 and np.isfinite(fps)):
+        raise ArgumentError(f"animate(fps={fps!r}): must be a number of frames per second > 0")
+    check_output(out, "animation", inputs=[path], suffixes=(".mp4", ".gif"))
     if flow is None and background not in (None, "none"):
         flow = flow_of_trajectories(ds)
     out = Path(out)

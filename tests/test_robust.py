@@ -274,9 +274,10 @@ def test_sizes_that_do_not_fit_are_refused_before_allocating(tmp_path, capsys):
     from driftlog.solver.config import estimate_mesh
 
     sec = {"mesh": "channel", "channel": [0.0, 0.0, 1500.0, 170.0], "cell_size": 0.001}
-    with pytest.raises(SizeError, match=r"\[solver.cell_size\] = 0.001 m: about 5.89e\+11"):
+    with pytest.raises(SizeError, match=r"\[solver.cell_size\] = 0.001 m: about 9.13e\+11"):
         estimate_mesh(sec)
-    assert estimate_mesh(dict(sec, cell_size=16.0)) == pytest.approx(2300, rel=0.01)
+    # the estimate against the mesh the mesher builds for river_piers (3562 cells)
+    assert estimate_mesh(dict(sec, cell_size=16.0)) == pytest.approx(3562, rel=0.02)
     river = (REPO / "cases" / "river_piers" / "scenario.toml").read_text()
     s.write_text(river.replace("cell_size = 16.0", "cell_size = 0.001")
                  .replace('path = "river_piers_flow.nc"', f'path = "{tmp_path / "rf.nc"}"'))
