@@ -221,7 +221,8 @@ def sniff(path) -> FileKind:
     return FileKind("scenario", p)
 
 
-def require(path, kinds, role: str, hint: str = "", error=InputFileError) -> FileKind:
+def require(path, kinds, role: str, hint: str = "", error=InputFileError,
+            expected: str = "") -> FileKind:
     """The kind of ``path`` if it is one of ``kinds``, else an ``InputFileError``.
 
     Parameters
@@ -235,13 +236,15 @@ def require(path, kinds, role: str, hint: str = "", error=InputFileError) -> Fil
         Appended to the message (what to do instead).
     error : DriftlogError subclass
         The exception raised (default ``InputFileError``).
+    expected : str
+        What the file must be, in words (default: from ``kinds``).
     """
     kinds = (kinds,) if isinstance(kinds, str) else tuple(kinds)
     fk = sniff(path)
     if fk.kind in kinds:
         return fk
-    expected = " or ".join(SHORT[k] for k in kinds) if len(kinds) <= 3 else \
-        "a file driftlog reads"
+    expected = expected or (" or ".join(SHORT[k] for k in kinds) if len(kinds) <= 3 else
+                            "a file driftlog reads")
     extra = hint or _HINTS.get((fk.kind, kinds[0]), "")
     raise error(f"{fk.path}: {fk.describe()}; the {role} must be {expected}"
                          + (f": {extra}" if extra else ""))

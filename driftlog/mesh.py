@@ -620,7 +620,8 @@ def read_mesh(path, **kwargs) -> Mesh:
     if not path.is_file():
         raise MeshError(f"{path}: mesh file not found")
     fk = require(path, ("mesh", "flow", "model_output", "netcdf", "ensemble", "mesh_file",
-                        "text"), "mesh file", error=MeshError)
+                        "text"), "mesh file", error=MeshError,
+                 expected="a UGRID NetCDF file or a mesh format meshio reads")
     if fk.kind != "mesh_file" and fk.kind != "text":
         return read_ugrid_mesh(path, **kwargs)
     if path.suffix.lower() in (".nc", ".nc4", ".cdf"):
