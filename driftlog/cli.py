@@ -589,6 +589,7 @@ def cmd_ensemble(args):
 
 # --------------------------------------------------------------------- entry point
 def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``driftlog`` with every registered subcommand."""
     parser = argparse.ArgumentParser(
         prog="driftlog", formatter_class=_formatter,
         description="Large floating debris (logs) on flood flows: transport, contacts with "
@@ -639,8 +640,9 @@ def main(argv=None) -> int:
         return 2
     except KeyboardInterrupt as exc:
         notes = getattr(exc, "__notes__", ())
-        print("driftlog: interrupted" + ("" if notes else "; nothing was kept under a final "
-                                          "name (files are renamed only when complete)"),
+        print("driftlog: interrupted" + ("" if notes else "; the files printed above are "
+                                          "complete, the one being written was removed (files "
+                                          "get their name only when complete)"),
               file=sys.stderr)
         for note in notes:
             print(f"  {note}", file=sys.stderr)

@@ -128,7 +128,17 @@ def describe(path) -> str:
         from driftlog.flowfile import open_flow
 
         field = open_flow(p)
-        return "\n".join(_flow_lines(field, f"{p}: driftlog flow file (UGRID-1.0 + CF)"))
+        lines = _flow_lines(field, f"{p}: driftlog flow file (UGRID-1.0 + CF)")
+        if p.name.endswith(".partial"):  # the solver's flow until it reaches its end
+            try:
+                end = json.loads(field.attrs.get("scenario_resolved", "{}"))["solver"]["end"]
+            except (ValueError, KeyError, TypeError):
+                end = None
+            lines[0] += ", PARTIAL (a solver run in progress or stopped)"
+            lines.append(f"  computed up to t = {field.times[-1]:g} s"
+                         + (f" of {end:g} s" if end else "")
+                         + "; `driftlog solve SCENARIO --resume` continues it")
+        return "\n".join(lines)
     if fk.kind in ("model_output", "openfoam"):
         from driftlog.adapters import detect_format, open_flow_source, reader
 
