@@ -32,9 +32,12 @@ def _range(a, unit=""):
 def _mesh_line(mesh):
     x0, y0, x1, y1 = mesh.bounds
     kinds = np.bincount(mesh.face_n, minlength=5)
+    merged = getattr(mesh, "merged_nodes", (0, 0.0))
+    seam = (f"; {merged[0]} coincident nodes merged (closer than {merged[1]:g} x the local "
+            "edge length)" if merged[0] else "")
     return (f"mesh: {mesh.n_faces} faces ({kinds[3]} triangles, {kinds[4]} quads), "
             f"{mesh.n_nodes} nodes; x {x0:.6g} to {x1:.6g} m, y {y0:.6g} to {y1:.6g} m; "
-            f"boundary tags {mesh.tag_names}")
+            f"boundary tags {mesh.tag_names}{seam}")
 
 
 def _times_line(times):
@@ -58,8 +61,8 @@ def _flow_lines(field, kind_line, sample=12):
     lines.append(f"  bed: {_range(field.bed, 'm')}")
     lines.append(f"  depth max {_range(hmax, 'm')}, speed max {_range(smax, 'm/s')}, wet "
                  f"fraction {min(wet):.0%} to {max(wet):.0%} (over {idx.size} of {n} snapshots)")
-    for k in ("source", "title", "driftlog_version", "imported_from"):
-        if k in field.attrs:
+    for k in ("source", "title", "driftlog_version", "imported_from", "import_notes"):
+        if field.attrs.get(k):
             lines.append(f"  {k}: {field.attrs[k]}")
     return lines
 

@@ -291,7 +291,7 @@ def test_messages_name_what_is_wrong(tmp_path, capsys, files):
     flow = _flow_file(tmp_path / "f.nc")
     s = _scenario_on_file(tmp_path, flow, x=(2.0, 25.0), y=(2.0, 1.5))
     err = _err(capsys, ["track", s])
-    assert "[logs[0]] = 'x = 25, y = 1.5': log 1 starts outside the flow's mesh" in err
+    assert "[logs[0]] = 'x = 25, y = 1.5': log 1 starts outside the flow domain" in err
     assert "x 0 to 10 m, y 0 to 4 m" in err
     # solve without [solver]
     err = _err(capsys, ["solve", files["scenario"]])
