@@ -28,6 +28,7 @@ cf_grid     CF regular grid NetCDF (LISFLOOD-FP...)           cfgrid
 selafin     TELEMAC-2D Selafin results (node-located data)    selafin (xarray-selafin)
 dfsu        MIKE 21 FM 2D dfsu results (element values)       mike (mikeio)
 raster      LISFLOOD-FP ASCII results, GeoTIFF series         raster (rioxarray)
+hecras      HEC-RAS 2D plan output (HDF5)                     hecras
 =========  ===============================================  ===========================
 
 ``open_flow_source(kind, path, **options)`` opens any of them ('auto' detects the kind);
@@ -43,13 +44,13 @@ from pathlib import Path
 from driftlog.errors import FlowFileError
 from driftlog.schema import Section, check_table
 
-from . import anuga, cfgrid, file, mike, openfoam, raster, selafin, ugrid
+from . import anuga, cfgrid, file, hecras, mike, openfoam, raster, selafin, ugrid
 from ._netcdf import open_dataset
 
 __all__ = ["READERS", "KINDS", "reader", "options_section", "open_flow_source",
            "detect_format", "flow_from_scenario", "import_flow", "checked_snapshot"]
 
-READERS = [file, openfoam, ugrid, anuga, cfgrid, selafin, mike, raster]
+READERS = [file, hecras, openfoam, ugrid, anuga, cfgrid, selafin, mike, raster]
 """The reader modules, in the order 'auto' tries them."""
 
 KINDS = tuple(r.KIND for r in READERS)
@@ -146,14 +147,14 @@ def check_flow_options(section: dict, prefix: str, base_dir: Path) -> dict:
 def flow_from_scenario(scenario):
     """The FlowField of a validated scenario's ``[flow]`` section.
 
-    For the sources of ``KINDS`` (file, openfoam, ugrid, anuga, cf_grid...); frozen at
-    ``steady_at`` if set.
+    For the sources of ``KINDS`` (file, openfoam, ugrid, anuga, cf_grid...), or 'auto' (the
+    reader whose ``can_open`` takes the file); frozen at ``steady_at`` if set.
 
     ``scenario``: a ``driftlog.scenario.Scenario`` or its ``[flow]`` table (a dict).
     """
     flow = scenario["flow"] if not isinstance(scenario, dict) or "flow" in scenario else scenario
     kind = flow["source"]
-    if kind not in KINDS:
+    if kind not in KINDS and kind != "auto":
         raise FlowFileError(f"[flow] source = {kind!r} is not read by driftlog.adapters (it "
                             f"reads {', '.join(KINDS)}); 'analytic' and 'solver' are built "
                             "elsewhere")
@@ -184,6 +185,9 @@ def import_flow(source, output, kind="auto", compress=True, progress=None, keep_
     attrs.setdefault("source", field.name)
     attrs["dry_depth"] = field.dry_depth
     attrs["imported_from"] = str(Path(source).resolve())
+    if getattr(field, "location", "face") == "node":
+        note = "node values averaged on each face (a driftlog flow file holds face values)"
+        attrs["import_notes"] = "; ".join(filter(None, [attrs.get("import_notes"), note]))
     tmp = temporary_name(output)  # renamed when complete: never a truncated flow file
     try:
         writer = FlowFileWriter(tmp, field.mesh, field.bed, attrs=attrs, compress=compress)

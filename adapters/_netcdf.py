@@ -8,10 +8,10 @@ import numpy as np
 
 from driftlog.errors import FlowFileError
 
-from ._common import check_values, time_in_seconds, unit_factor
+from ._common import check_values, time_in_seconds, time_reference_attrs, unit_factor
 
 __all__ = ["open_dataset", "check_netcdf3_size", "netcdf3_expected_size", "variable_attrs",
-           "read_times", "NetCDFSource", "FaceSnapshots",
+           "read_times", "time_attrs", "NetCDFSource", "FaceSnapshots",
            "ROLES"]
 
 # role -> (kind of units, standard names, aliases), most specific first
@@ -62,6 +62,12 @@ def open_dataset(path):
     try:
         ds = netCDF4.Dataset(path)
     except (OSError, RuntimeError) as exc:
+        with open(path, "rb") as f:
+            head = f.read(8)
+        if head == b"\x89HDF\r\n\x1a\n":  # an HDF5 file netCDF4 cannot open
+            raise FlowFileError(f"{path}: a NetCDF-4 / HDF5 file that cannot be read: "
+                                f"truncated or damaged (an interrupted copy or download?) "
+                                f"({exc})") from None
         raise FlowFileError(f"{path}: not a readable NetCDF file ({exc})") from None
     if ds.data_model.startswith("NETCDF3"):
         try:
@@ -182,20 +188,38 @@ def variable_attrs(ds, dims=None):
     return out
 
 
-def read_times(ds, path, time_dim):
-    """Snapshot times (s) of a time dimension, and the time origin if the units give one."""
-    tvar = None
+def _time_variable(ds, path, time_dim):
     if time_dim in ds.variables:
-        tvar = ds.variables[time_dim]
-    else:
-        for var in ds.variables.values():
-            if var.dimensions == (time_dim,) and (
-                    getattr(var, "standard_name", "") == "time" or getattr(var, "axis", "") == "T"):
-                tvar = var
-                break
-    if tvar is None:
-        raise FlowFileError(f"{path}: no time variable for the dimension {time_dim!r}")
-    return time_in_seconds(tvar[:], getattr(tvar, "units", None), f"{path}: {tvar.name}")
+        return ds.variables[time_dim]
+    for var in ds.variables.values():
+        if var.dimensions == (time_dim,) and (
+                getattr(var, "standard_name", "") == "time" or getattr(var, "axis", "") == "T"):
+            return var
+    raise FlowFileError(f"{path}: no time variable for the dimension {time_dim!r}")
+
+
+def read_times(ds, path, time_dim):
+    """Snapshot times (s) of a time dimension, and the time origin if the units give one.
+
+    Any CF calendar (the reference date is checked against the variable's ``calendar``);
+    character date stamps are read as seconds since the first one.
+    """
+    tvar = _time_variable(ds, path, time_dim)
+    values = tvar[:]
+    if tvar.dtype.kind == "S" and values.ndim == 2:  # char array of date stamps
+        import netCDF4
+
+        values = netCDF4.chartostring(values)
+    return time_in_seconds(values, getattr(tvar, "units", None), f"{path}: {tvar.name}",
+                           calendar=getattr(tvar, "calendar", None))
+
+
+def time_attrs(ds, path, time_dim, origin) -> dict:
+    """Flow attributes keeping the absolute time reference: ``time_reference``, ``calendar``."""
+    if not origin:
+        return {}
+    tvar = _time_variable(ds, path, time_dim)
+    return time_reference_attrs(origin, getattr(tvar, "calendar", None))
 
 
 def fill_value(var):

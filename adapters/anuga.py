@@ -21,7 +21,7 @@ import numpy as np
 
 from driftlog.errors import FlowFileError, MeshError
 from driftlog.flow import MeshFlowField, check_times
-from driftlog.mesh import Mesh
+from driftlog.mesh import mesh_merging_seams
 from driftlog.schema import Key
 
 from ._common import SubsetSnapshots, select_times
@@ -97,14 +97,13 @@ def _open(ds, path, time_range, dry_depth, use_centroids, mapping):
     notes = []
     if xll or yll:
         notes.append(f"coordinates shifted by (xllcorner, yllcorner) = ({xll:g}, {yll:g})")
-    # merge vertices stored once per triangle, so that neighbours share their nodes
-    xy = np.column_stack([x, y])
-    uniq, inverse = np.unique(xy, axis=0, return_inverse=True)
-    inverse = inverse.ravel()
-    if uniq.shape[0] < x.size:
-        notes.append(f"{x.size - uniq.shape[0]} duplicate vertices merged")
+    # merge vertices stored once per triangle (and the seams of parallel runs' merged files),
+    # so that neighbours share their nodes: within 1e-6 of the local edge length
     try:
-        mesh = Mesh(uniq[:, 0], uniq[:, 1], inverse[vols])
+        mesh = mesh_merging_seams(x, y, vols)
+        if mesh.merged_nodes[0]:
+            notes.append(f"{mesh.merged_nodes[0]} duplicate vertices merged (closer than "
+                         f"{mesh.merged_nodes[1]:g} x the local edge length)")
     except MeshError as exc:
         raise FlowFileError(f"{path}: the triangles do not make a valid mesh: {exc}") from None
     times = np.asarray(ds.variables["time"][:], np.float64) + float(getattr(ds, "starttime", 0))

@@ -28,6 +28,7 @@ from ._netcdf import (
     find_roles,
     open_dataset,
     read_times,
+    time_attrs,
     variable_attrs,
 )
 
@@ -245,6 +246,8 @@ def _open(ds, path, time_range, mapping, dry_depth, fill, units_override, layout
              "source_path": str(path.resolve()), "time_origin": origin or "",
              "variables": ", ".join(f"{k}={v[0]}" for k, v in spec.items()),
              "import_notes": "; ".join(notes), "grid_shape": f"{ny} {nx}"}
+    if has_time:
+        attrs.update(time_attrs(ds, path, tdim, origin))
     return GridFlowField(nx, ny, dx, dy, x0, y0, bed, source, dry_depth=dry_depth,
                          name=str(path), attrs=attrs, layout=layout)
 

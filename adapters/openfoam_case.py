@@ -12,9 +12,11 @@ type        keys                                        fields
 wall        -                                           h zeroGradient, hU slip
 inflow      discharge (m3/s) | unit_discharge (m2/s)    hU fixedValue (into the domain,
             | velocity (m/s) with depth (m)             uniform along the boundary), h
-                                                        zeroGradient
-outflow     level (m)                                   h fixedValue level - bed, hU
-                                                        zeroGradient
+            | discharge_series [[t, Q], ...]            zeroGradient; a series:
+                                                        flowRateInletVelocity on hU
+outflow     level (m) | depth (m) | level_series |      h fixedValue level - bed (or
+            depth_series [[t, m], ...]                  depth; a series: uniformFixedValue),
+                                                        hU zeroGradient
 open        -                                           h, hU zeroGradient
 =========  ==========================================  ====================================
 
@@ -276,19 +278,16 @@ def write_shallow_water_case(case_dir, mesh: Mesh, bed=None, boundaries=None, de
             hb[name] = {"type": "zeroGradient"}
             hub[name] = {"type": "zeroGradient"}
         elif typ == "outflow":
-            if "level" not in b:
-                raise FlowFileError(f"boundary {name!r}: outflow needs 'level' (m)")
-            hout = float(b["level"]) - bed[mesh.edge_faces[edges, 0]]
-            if np.any(hout <= 0):
-                raise FlowFileError(f"boundary {name!r}: level {b['level']} is below the bed "
-                                    f"on {np.sum(hout <= 0)} edges")
-            hb[name] = {"type": "fixedValue", "value": _nonuniform(hout)}
+            hb[name], hout = _fixed_depth(name, b, bed[mesh.edge_faces[edges, 0]])
             hub[name] = {"type": "zeroGradient"}
             hmax = max(hmax, hout.max())
         else:  # inflow
             if "discharge" in b:
                 q = float(b["discharge"]) / length.sum()
                 qv = -q * out_n
+            elif "discharge_series" in b:
+                ser = _series(name, b["discharge_series"], "discharge_series")
+                qv = -float(np.max(np.abs(ser[:, 1]))) / length.sum() * out_n
             elif "unit_discharge" in b:
                 qv = -float(b["unit_discharge"]) * out_n
             elif "velocity" in b:
@@ -303,9 +302,15 @@ def write_shallow_water_case(case_dir, mesh: Mesh, bed=None, boundaries=None, de
                 raise FlowFileError(f"boundary {name!r}: inflow needs 'discharge' (m3/s), "
                                     "'unit_discharge' (m2/s) or 'velocity' (m/s) with 'depth'")
             hb[name] = {"type": "zeroGradient"}
-            hub[name] = {"type": "fixedValue",
-                         "value": _nonuniform(np.column_stack([qv, np.zeros(len(edges))]),
-                                              vector=True)}
+            if "discharge_series" in b:  # Q(t) spread uniformly over the patch's area
+                table = " ".join(f"({t:.17g} {q / thickness:.17g})" for t, q in ser)
+                hub[name] = {"type": "flowRateInletVelocity",
+                             "volumetricFlowRate": f"table ({table})",
+                             "value": "uniform (0 0 0)"}
+            else:
+                hub[name] = {"type": "fixedValue",
+                             "value": _nonuniform(np.column_stack([qv, np.zeros(len(edges))]),
+                                                  vector=True)}
             speed = max(speed, float(np.max(np.hypot(qv[:, 0], qv[:, 1]) / np.maximum(
                 h[mesh.edge_faces[edges, 0]], 1e-12))))
     empty = {"type": "empty"}
@@ -359,6 +364,42 @@ runTimeModifiable false;"""
                     f"simpleCoeffs {{ n ({int(n_procs)} 1 1); delta 0.001; }}", "system")
     return {"case": case, "dt": dt, "end_time": end, "steps_per_write": steps_per_write,
             "patches": patches}
+
+
+def _series(name, series, key):
+    a = np.asarray(series, float)
+    if a.ndim != 2 or a.shape[1] != 2 or a.shape[0] < 1 or np.any(np.diff(a[:, 0]) <= 0):
+        raise FlowFileError(f"boundary {name!r}: {key} must be [[t, value], ...] with t "
+                            "increasing")
+    return a
+
+
+def _fixed_depth(name, b, bed):
+    """Depth on a boundary with an imposed level or depth (constant or a series in time)."""
+    keys = [k for k in ("level", "depth", "level_series", "depth_series") if k in b]
+    if len(keys) != 1:
+        raise FlowFileError(f"boundary {name!r}: outflow needs one of 'level' (m), 'depth' "
+                            "(m), 'level_series' or 'depth_series' ([[t, m], ...])")
+    key = keys[0]
+    if key.endswith("_series"):
+        ser = _series(name, b[key], key)
+        if key == "level_series":
+            if np.ptp(bed) > 1e-9 * max(1.0, np.abs(bed).max()):
+                raise FlowFileError(f"boundary {name!r}: a level series needs a flat bed along "
+                                    f"the boundary (bed from {bed.min():g} to {bed.max():g} m): "
+                                    "OpenFOAM's uniformFixedValue imposes one depth on a patch")
+            ser = np.column_stack([ser[:, 0], ser[:, 1] - bed[0]])
+        if np.any(ser[:, 1] <= 0):
+            raise FlowFileError(f"boundary {name!r}: {key} gives depths <= 0 (shallowWaterFoam "
+                                "needs water on every face)")
+        table = " ".join(f"({t:.17g} {v:.17g})" for t, v in ser)
+        return ({"type": "uniformFixedValue", "uniformValue": f"table ({table})",
+                 "value": f"uniform {ser[0, 1]:.17g}"}, np.full(bed.size, ser[:, 1].max()))
+    hout = (float(b["level"]) - bed) if key == "level" else np.full(bed.size, float(b["depth"]))
+    if np.any(hout <= 0):
+        raise FlowFileError(f"boundary {name!r}: {key} {b[key]} leaves no water on "
+                            f"{np.sum(hout <= 0)} edges (level below the bed, or depth <= 0)")
+    return {"type": "fixedValue", "value": _nonuniform(hout)}, hout
 
 
 def _clean(case: Path):
@@ -421,7 +462,7 @@ def run_case(case_dir, solver="shallowWaterFoam", n_procs=1, timeout=600, recons
             (d / "constant").mkdir(exist_ok=True)
             shutil.move(d / "0" / "h0", d / "constant" / "h0")
     env = dict(env, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OMPI_MCA_rmaps_base_oversubscribe="1")
+               OMPI_MCA_rmaps_base_oversubscribe="1", OMPI_MCA_mpi_yield_when_idle="1")
     _run([mpirun, "-np", str(int(n_procs)), solver, "-parallel", "-case", str(case)], case,
          solver, env, timeout)
     if reconstruct:

@@ -32,6 +32,7 @@ from ._netcdf import (
     find_roles,
     open_dataset,
     read_times,
+    time_attrs,
     variable_attrs,
 )
 
@@ -150,6 +151,7 @@ def _open(ds, path, time_range, mapping, dry_depth, topology, fill, units_overri
              "source_path": str(path.resolve()), "time_origin": origin or "",
              "variables": ", ".join(f"{k}={v[0]}" for k, v in spec.items()),
              "import_notes": "; ".join(notes)}
+    attrs.update(time_attrs(ds, path, tdim, origin))
     return MeshFlowField(mesh, bed, source, dry_depth=dry_depth, name=str(path), attrs=attrs)
 
 

@@ -62,6 +62,38 @@ def run_driftlog(flow, x, y, dt, duration):
     return logs.state[:, 0].copy(), logs.state[:, 1].copy(), cpu
 
 
+def sampling_speed(n_cells, n_points, repeat=5):
+    """Warm samples per second (one thread) of the grid field and of the triangulated mesh
+    path on one n_cells x n_cells grid (two snapshots), at n_points random points."""
+    from driftlog.gridflow import GridFlowField
+
+    rng = np.random.default_rng(3)
+    n = n_cells * n_cells
+    h = np.full((2, n), 2.0)
+    hu = rng.normal(size=(2, n))
+    hv = rng.normal(size=(2, n))
+    grid = GridFlowField.from_arrays(n_cells, n_cells, 1.0, 1.0, 0.0, 0.0, np.zeros(n),
+                                     [0.0, 10.0], h, hu, hv)
+    mesh = _mesh_path(grid)
+    x, y = n_cells * rng.random(n_points), n_cells * rng.random(n_points)
+    rows = []
+    nb.set_num_threads(1)
+    for name, flow in (("driftlog (bilinear grid)", grid),
+                       ("driftlog (triangulated, before)", mesh)):
+        s = flow.sample(x, y, 3.0)  # warm: compilation, snapshots, location from scratch
+        face = s.face.copy()
+        best = np.inf
+        for _ in range(repeat):
+            f = face.copy()
+            c0 = time.process_time()
+            flow.sample(x, y, 3.0 + 1e-3 * _, face=f)
+            best = min(best, time.process_time() - c0)
+        rows.append(dict(tool=name, cells=n, points=n_points, cpu_s=best,
+                         samples_per_cpu_s=n_points / best))
+        print(rows[-1], flush=True)
+    return rows
+
+
 def main(quick=False):
     from driftlog.adapters.cfgrid import open_cf_grid
 
@@ -107,10 +139,11 @@ def main(quick=False):
                 pairs.append(dict(cell_m=dx, max_distance_m=float(d.max()),
                                   mean_distance_m=float(d.mean())))
                 print(pairs[-1], flush=True)
+    speed = sampling_speed(300 if quick else 1000, 100_000 if quick else 1_000_000)
     info = dict(machine=machine(), versions=", ".join(f"{k} {v}" for k, v in vers.items()),
                 duration=pt.DURATION, dt=DT, snapshot=pt.SNAPSHOT, particles=n)
     (RESULTS / "grid_peers.json").write_text(json.dumps(
-        {"info": info, "rows": rows, "pairs": pairs}, indent=1))
+        {"info": info, "rows": rows, "pairs": pairs, "sampling": speed}, indent=1))
 
     def g(v):
         return f"{v:.3g}" if isinstance(v, float) else str(v)
@@ -134,6 +167,13 @@ def main(quick=False):
         for r in pairs:
             lines.append(f"| {g(r['cell_m'])} | {g(r['max_distance_m'])} | "
                          f"{g(r['mean_distance_m'])} |")
+    lines += ["", "Sampling speed (warm, one thread, location hints from the previous call; "
+              "CPU time; random points, two snapshots, a grid of 1 m cells):", "",
+              "| sampler | cells | points | CPU (s) | samples per CPU s |",
+              "|---|---:|---:|---:|---:|"]
+    for r in speed:
+        lines.append(f"| {r['tool']} | {r['cells']} | {r['points']} | {g(r['cpu_s'])} | "
+                     f"{g(r['samples_per_cpu_s'])} |")
     text = "\n".join(lines) + "\n"
     (RESULTS / "grid_peers.md").write_text(text)
     print(text)

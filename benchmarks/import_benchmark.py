@@ -7,6 +7,12 @@ Cases (generated once under --work, default /tmp/driftlog_import_bench):
              ascii, and binary (foamFormatConvert)
   ugrid      a 1e6-face D-Flow FM-like map file (1000 x 1000 quads, 1-based, -999 fill), 100
              snapshots of mesh2d_s1, mesh2d_waterdepth, mesh2d_ucx, mesh2d_ucy (float32)
+  hecras     the real Bald Eagle Creek dam-break plan (../shared/data/hecras: 4,425 cells in
+             two 2D areas, 37 outputs, time series in a separate file, bed =
+             "min_water_surface"), and a synthetic HEC-RAS 6 layout plan file written with
+             h5py (--hecras-n^2 cells of one 2D area, cells by faces with orientation, face
+             points, Cells Minimum Elevation; --snapshots outputs of Water Surface per cell
+             and Face Velocity per face, float32, Time Date Stamp)
 
 Measured, each step in a fresh process (peak memory = its maximum resident set size):
   open       open_flow_source: mesh and topology, bed; no snapshot read
@@ -16,6 +22,7 @@ Measured, each step in a fresh process (peak memory = its maximum resident set s
              step), from the source and from the converted flow file
 
     python benchmarks/import_benchmark.py [--work DIR] [--skip-openfoam] [--snapshots 100]
+        [--only hecras] [--hecras-n 1000]
 
 Writes benchmarks/results/import.json and import.md.
 """
@@ -160,10 +167,89 @@ def make_ugrid(work: Path, snapshots: int, n=None):
     return path
 
 
+HECRAS_DATA = ROOT.parent / "shared" / "data" / "hecras"
+
+
+def make_hecras(work: Path, snapshots: int, n: int):
+    """A HEC-RAS 6 plan file (HDF5) of one n x n 2D area, in HEC-RAS's own layout."""
+    import h5py
+
+    path = work / f"hecras_{n}_{snapshots}.p01.hdf"
+    if path.is_file():
+        return path
+    t0 = time.perf_counter()
+    nn = n + 1
+    X, Y = np.meshgrid(np.arange(nn) * 10.0, np.arange(nn) * 10.0)
+    nid = np.arange(nn * nn).reshape(nn, nn)  # [j, i]
+    # faces: horizontal (i, j) -> (i + 1, j), then vertical (i, j) -> (i, j + 1)
+    h_a, h_b = nid[:, :-1].ravel(), nid[:, 1:].ravel()
+    v_a, v_b = nid[:-1, :].ravel(), nid[1:, :].ravel()
+    nh = h_a.size
+    faces = np.column_stack([np.r_[h_a, v_a], np.r_[h_b, v_b]]).astype(np.int32)
+    hid = np.arange(nh).reshape(nn, n)
+    vid = nh + np.arange(v_a.size).reshape(n, nn)
+    # each cell's faces counter-clockwise: bottom (+1), right (+1), top (-1), left (-1)
+    cf = np.stack([hid[:-1, :], vid[:, 1:], hid[1:, :], vid[:, :-1]], -1).reshape(-1, 4)
+    orient = np.broadcast_to(np.array([1, 1, -1, -1]), cf.shape)
+    ncell = n * n
+    xc = (np.arange(ncell) % n + 0.5) * 10.0
+    yc = (np.arange(ncell) // n + 0.5) * 10.0
+    bed = 100.0 + 0.001 * xc
+    fx = 0.5 * (X.ravel()[faces[:, 0]] + X.ravel()[faces[:, 1]])
+    fy = 0.5 * (Y.ravel()[faces[:, 0]] + Y.ravel()[faces[:, 1]])
+    d = np.column_stack([X.ravel()[faces[:, 1]] - X.ravel()[faces[:, 0]],
+                         Y.ravel()[faces[:, 1]] - Y.ravel()[faces[:, 0]]])
+    nrm = np.column_stack([d[:, 1], -d[:, 0]]) / 10.0
+    tmp = path.with_suffix(".part")
+    with h5py.File(tmp, "w") as f:
+        f.attrs["File Type"] = np.bytes_("HEC-RAS Results")
+        f.attrs["File Version"] = np.bytes_("HEC-RAS 6.5 (synthetic, driftlog benchmark)")
+        f.attrs["Units System"] = np.bytes_("SI Units")
+        att = np.zeros(1, dtype=[("Name", "S16"), ("Cell Count", "<i4")])
+        att["Name"], att["Cell Count"] = b"Area", ncell
+        g = f.create_group("Geometry/2D Flow Areas")
+        g["Attributes"] = att
+        a = g.create_group("Area")
+        a["FacePoints Coordinate"] = np.column_stack([X.ravel(), Y.ravel()])
+        a["Faces FacePoint Indexes"] = faces
+        a["Cells Face and Orientation Info"] = np.column_stack(
+            [np.arange(ncell) * 4, np.full(ncell, 4)]).astype(np.int32)
+        a["Cells Face and Orientation Values"] = np.column_stack(
+            [cf.ravel(), orient.ravel()]).astype(np.int32)
+        a["Faces Perimeter Info"] = np.zeros((faces.shape[0], 2), np.int32)
+        a["Faces Perimeter Values"] = np.zeros((0, 2))
+        a["Cells Minimum Elevation"] = bed.astype(np.float32)
+        ts = f.create_group("Results/Unsteady/Output/Output Blocks/Base Output/"
+                            "Unsteady Time Series")
+        start = np.datetime64("2024-01-01T00:00:00")
+        stamps = [(start + np.timedelta64(600 * k, "s")).astype(object)
+                  .strftime("%d%b%Y %H:%M:%S:000").upper() for k in range(snapshots)]
+        ts["Time Date Stamp (ms)"] = np.array(stamps, dtype="S22")
+        r = ts.create_group("2D Flow Areas/Area")
+        ws = r.create_dataset("Water Surface", (snapshots, ncell), "f4", chunks=(1, ncell))
+        fv = r.create_dataset("Face Velocity", (snapshots, faces.shape[0]), "f4",
+                              chunks=(1, faces.shape[0]))
+        for k in range(snapshots):
+            ws[k] = bed + 1.0 + 0.1 * np.sin(xc / 500 + 0.1 * k) * np.cos(yc / 700)
+            u = 0.5 + 0.01 * np.cos(fy / 400 + 0.1 * k)
+            v = 0.1 * np.cos(fx / 300)
+            fv[k] = nrm[:, 0] * u + nrm[:, 1] * v
+    tmp.rename(path)
+    print(f"  hecras file ({ncell} cells, {snapshots} snapshots): "
+          f"{time.perf_counter() - t0:.1f} s, {path.stat().st_size / 1e9:.2f} GB", flush=True)
+    return path
+
+
 # --------------------------------------------------------------------- measured steps
-def step(kind, source, action, out=None, snapshots=None):
+def step(kind, source, action, out=None, snapshots=None, options=None):
     """Run in this (fresh) process; prints a JSON line with seconds and peak memory."""
-    from driftlog.adapters import checked_snapshot, import_flow, open_flow_source
+    from functools import partial
+
+    from driftlog.adapters import checked_snapshot, import_flow
+    from driftlog.adapters import open_flow_source as _open
+
+    options = options or {}
+    open_flow_source = partial(_open, **options)
 
     t0 = time.perf_counter()
     res = {}
@@ -177,7 +263,7 @@ def step(kind, source, action, out=None, snapshots=None):
         checked_snapshot(f, 0)
         res["read_one_s"] = time.perf_counter() - t1
     elif action == "import":
-        _, f = import_flow(source, out, kind=kind)
+        _, f = import_flow(source, out, kind=kind, **options)
         res["snapshots"] = int(f.times.size)
         res["output_bytes"] = Path(out).stat().st_size
     elif action == "sample":
@@ -204,9 +290,9 @@ def step(kind, source, action, out=None, snapshots=None):
     print("RESULT " + json.dumps(res), flush=True)
 
 
-def measure(kind, source, action, out=None, snapshots=None, quiet=False):
+def measure(kind, source, action, out=None, snapshots=None, quiet=False, options=None):
     cmd = [sys.executable, __file__, "--step", kind, str(source), action, str(out or ""),
-           str(snapshots or 0)]
+           str(snapshots or 0), "--options", json.dumps(options or {})]
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     p = subprocess.run(cmd, capture_output=True, text=True, env=env)
     line = [ln for ln in p.stdout.splitlines() if ln.startswith("RESULT ")]
@@ -227,11 +313,19 @@ def main():
     ap.add_argument("--work", default="/tmp/driftlog_import_bench")
     ap.add_argument("--snapshots", type=int, default=100)
     ap.add_argument("--skip-openfoam", action="store_true")
+    ap.add_argument("--only", choices=("hecras",), help="only this format's cases (the "
+                    "results are merged into import.json)")
+    ap.add_argument("--hecras-n", type=int, default=N, help="cells per side of the synthetic "
+                    "HEC-RAS area")
     ap.add_argument("--step", nargs=5, help=argparse.SUPPRESS)
+    ap.add_argument("--options", default="{}", help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.step:
         kind, source, action, out, snaps = a.step
-        step(kind, source, action, out or None, int(snaps) or None)
+        step(kind, source, action, out or None, int(snaps) or None, json.loads(a.options))
+        return
+    if a.only == "hecras":
+        run_hecras(a)
         return
     work = Path(a.work)
     work.mkdir(parents=True, exist_ok=True)
@@ -264,6 +358,68 @@ def main():
     (RESULTS / "import.json").write_text(json.dumps(results, indent=2))
     (RESULTS / "import.md").write_text(report(results))
     print((RESULTS / "import.md").read_text())
+
+
+def run_hecras(a):
+    """The HEC-RAS cases: the real Bald Eagle plan, and a synthetic large plan file."""
+    work = Path(a.work)
+    work.mkdir(parents=True, exist_ok=True)
+    path = RESULTS / "import.json"
+    results = json.loads(path.read_text()) if path.is_file() else {"cases": {}}
+    results.setdefault("cases", {})
+    machine = f"{platform.node()} {os.cpu_count()} cores, {platform.python_version()}"
+    plan = HECRAS_DATA / "BaldEagleDamBrk.p18.hdf"
+    opts = {"results": str(HECRAS_DATA / "BaldEagleDamBrk.p18.timeseries.hdf"),
+            "bed": "min_water_surface"}
+    print("warming the numba caches", flush=True)
+    measure("hecras", plan, "sample", snapshots=3, quiet=True, options=opts)
+    print("hecras Bald Eagle (real)", flush=True)
+    r = results["cases"]["hecras_bald_eagle"] = {"machine": machine}
+    for action in ("open", "snapshot", "import"):
+        r[action] = measure("hecras", plan, action, work / "be.nc", options=opts)
+    r["sample_lazy_source"] = measure("hecras", plan, "sample", snapshots=37, options=opts)
+    big = make_hecras(work, a.snapshots, a.hecras_n)
+    key = f"hecras_synthetic_{a.hecras_n ** 2}_cells"
+    print(f"hecras synthetic ({a.hecras_n ** 2} cells, {a.snapshots} snapshots)", flush=True)
+    r = results["cases"][key] = {"machine": machine}
+    for action in ("open", "snapshot", "import"):
+        r[action] = measure("hecras", big, action, work / "hr.nc")
+    r["sample_lazy_source"] = measure("hecras", big, "sample", snapshots=min(a.snapshots, 11))
+    r["sample_flow_file"] = measure("file", work / "hr.nc", "sample",
+                                    snapshots=min(a.snapshots, 11))
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(results, indent=2))
+    (RESULTS / "import_hecras.md").write_text(report_hecras(results))
+    print((RESULTS / "import_hecras.md").read_text())
+
+
+def report_hecras(res):
+    lines = ["HEC-RAS imports. Each step in a fresh process; peak memory is its maximum "
+             "resident set size (Python, numpy, numba, h5py included).", "",
+             "| source | step | time (s) | peak memory (MB) | notes |",
+             "| --- | --- | ---: | ---: | --- |"]
+    for case, r in res["cases"].items():
+        if not case.startswith("hecras"):
+            continue
+        for action in ("open", "snapshot", "import", "sample_lazy_source", "sample_flow_file"):
+            if action not in r:
+                continue
+            m = r[action]
+            note = ""
+            if action == "open":
+                note = f"{m['faces']} mesh faces, {m['snapshots']} snapshots"
+            if action == "snapshot":
+                note = f"one snapshot read in {m['read_one_s']:.3f} s"
+            if action == "import":
+                note = f"flow file {m['output_bytes'] / 1e6:.1f} MB"
+            if action.startswith("sample"):
+                note = (f"1e5 points, {m['intervals']} intervals: "
+                        f"{m['per_interval_s']:.3f} s per interval, "
+                        f"{m['points_per_s']:.3g} points/s")
+            lines.append(f"| {case} | {action} | {m['seconds']:.2f} | "
+                         f"{m['peak_rss_mb']:.0f} | {note} |")
+        lines.append(f"| {case} | machine | | | {r.get('machine', '')} |")
+    return "\n".join(lines) + "\n"
 
 
 def report(res):

@@ -69,6 +69,23 @@ def as_scenario(scenario, overrides=None) -> Scenario:
     return load_scenario(scenario, overrides)
 
 
+def run_clock_origin(flow, start, end) -> float:
+    """Where the tracker's clock starts: 0, or ``start`` for a run far from the time axis' zero.
+
+    A run whose absolute times carry float64 round-off above 1e-12 of its span (absolute
+    epochs such as 1.7e9 s since 1970, ``time.start = 1e17``) is computed on a clock that
+    starts at ``start`` (the flow shifted, ``FlowField.shifted``), so no precision is lost;
+    its outputs store times on that clock with the origin as CF ``add_offset``.
+    """
+    start = float(start)
+    if end is None:
+        end = flow.time_span[1]
+    end = float(end)
+    if not (np.isfinite(end) and np.isfinite(start) and end > start):
+        return 0.0
+    return start if np.spacing(max(abs(start), abs(end))) > 1e-12 * (end - start) else 0.0
+
+
 def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool, t_end=None):
     """Resolve ``auto`` physics level and rotation from dimensionless numbers.
 
@@ -187,12 +204,23 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         from driftlog.preflight import check_flow_values
 
         check_flow_values(flow, scen["time"]["start"], scen["time"]["end"])
+    tm = scen["time"]
+    origin = run_clock_origin(flow, tm["start"], tm["end"])
+    t_start = tm["start"] - origin
+    t_end = None if tm["end"] is None else tm["end"] - origin
+    if origin:  # the run far from the time axis' zero: computed on a clock starting at origin
+        flow = flow.shifted(origin)
+        logs.release_time = logs.release_time - origin
     contact = _contact_model(scen, flow)
     level, rotation, reason = choose_physics(flow, logs, scen["physics"], contact is not None,
-                                             t_end=scen["time"]["end"])
+                                             t_end=t_end)
     physics = PhysicsOptions.from_scenario(scen["physics"], level=level, rotation=rotation)
-    tm = scen["time"]
     attrs = dict(scen.attrs())
+    reference = (getattr(flow, "attrs", None) or {}).get("time_reference")
+    if reference:
+        attrs["time_units"] = str(reference)
+    if origin:
+        attrs["time_offset"] = origin
     attrs.update(title=scen["title"] or "driftlog trajectories",
                  physics_level=physics.level, physics_rotation=int(physics.rotation),
                  physics_auto_reason=reason or "not auto: as set in the scenario",
@@ -209,7 +237,7 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     initial = np.array([scen["logs"][g]["velocity"] for g in logs.group])
     tracker = Tracker(flow, logs, physics, method=scen["integrator"]["method"],
                       step=StepOptions.from_scenario(scen["integrator"]), contact=contact,
-                      t_start=tm["start"], t_end=tm["end"], output_interval=tm["output_interval"],
+                      t_start=t_start, t_end=t_end, output_interval=tm["output_interval"],
                       hydro_step=tm["hydro_step"], writer=writer, progress=progress,
                       initial_velocity=initial)
     if progress:
@@ -230,8 +258,8 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         if isinstance(kept, Path) and kept.exists():
             exc.add_note(f"kept {kept}: {getattr(writer, 'nobs', '?')} observations and "
                          f"{getattr(writer, 'nhit', '?')} contact hits up to t = "
-                         f"{tracker.t:.6g} s of {tm['end']:g} s; driftlog track SCENARIO -o "
-                         f"{out} --resume continues it")
+                         f"{tracker.t + origin:.6g} s of {tm['end']:g} s; driftlog track "
+                         f"SCENARIO -o {out} --resume continues it")
         raise
     writer.set_attrs(**{f"stats_{k}": v for k, v in tracker.stats.items()})
     if contact is not None:  # events, rejected steps, deepest overlap, Gauss-Seidel sweeps

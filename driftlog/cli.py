@@ -465,17 +465,70 @@ def cmd_import(args):
     return 0
 
 
+@command
+def add_export(sub):
+    p = _sub(sub, "export", "write a flow as another model's result file (TELEMAC Selafin, "
+             "MIKE 21 FM dfsu)",
+             "driftlog export flow.nc -o flow.slf\n  driftlog export flow.nc -o flow.dfsu",
+             description="Read a flow (any source driftlog reads) and write it with the "
+                         "format's own library: Selafin with xarray-selafin (the node values "
+                         "driftlog's sampler interpolates), dfsu with mikeio (face values, "
+                         "float32).  The format follows the output's suffix unless --format "
+                         "is given.")
+    p.add_argument("source", help="flow file, or any hydro source driftlog reads")
+    p.add_argument("-o", "--output", required=True, help="file to write (.slf or .dfsu)")
+    p.add_argument("--format", choices=("selafin", "dfsu"), default=None,
+                   help="output format (default: from the suffix: .slf/.srf/.sel/.res "
+                        "selafin, .dfsu dfsu)")
+    p.add_argument("--precision", choices=("single", "double"), default="single",
+                   help="Selafin precision (default single, TELEMAC's SERAFIN)")
+    p.set_defaults(run=cmd_export)
+
+
+def cmd_export(args):
+    from driftlog.adapters import mike, open_flow_source, selafin
+
+    out = Path(args.output)
+    fmt = args.format
+    if fmt is None:
+        if out.suffix.lower() in selafin.SUFFIXES:
+            fmt = "selafin"
+        elif out.suffix.lower() in mike.SUFFIXES:
+            fmt = "dfsu"
+        else:
+            raise DriftlogError(f"{out}: format not known from the suffix {out.suffix!r}: give "
+                                "--format selafin or --format dfsu")
+    field = open_flow_source("auto", args.source)
+    try:
+        if fmt == "selafin":
+            selafin.write(field, out, precision=args.precision)
+        else:
+            mike.write(field, out)
+    except OSError as exc:
+        raise DriftlogError(f"{out}: cannot write the {fmt} file ({exc})") from None
+    print(f"{args.source} -> {out} ({fmt}, {field.times.size} snapshots, "
+          f"{field.mesh.n_faces} faces)")
+    return 0
+
+
 # --------------------------------------------------------------------- comparison
 @command
 def add_compare(sub):
     p = _sub(sub, "compare", "run the same debris scenario on two or more flows (hydro sources) "
              "and compare flows at the logs and trajectories; or compare two trajectory files",
              "driftlog compare scenario.toml --flow solver=flow.nc --flow foam=foam_case/ "
-             "--out cmp/\n  driftlog compare run_a.nc run_b.nc")
+             "--out cmp/\n  driftlog compare scenario.toml --engines driftlog,shallowWaterFoam "
+             "--gate bridge=600,0,600,170\n  driftlog compare run_a.nc run_b.nc")
     p.add_argument("inputs", nargs="+", help="a scenario (with --flow), or two trajectory files")
     p.add_argument("--flow", action="append", metavar="NAME=SOURCE",
                    help="a flow: flow file, model output (OpenFOAM case, UGRID, sww, CF grid) "
                    "or 'scenario' (the scenario's own); the first is the reference")
+    p.add_argument("--engines", metavar="E1,E2",
+                   help="compute the scenario's [solver] section with each engine (driftlog, "
+                   "shallowWaterFoam; each flow stored and reused) and compare them; the "
+                   "first is the reference")
+    p.add_argument("--gate", action="append", metavar="NAME=X0,Y0,X1,Y1",
+                   help="a named line: arrival times of each log at it, per log")
     p.add_argument("--line", type=float, nargs=4, metavar=("X0", "Y0", "X1", "Y1"),
                    help="arrival line (default: arrival = leaving the domain)")
     p.add_argument("--out", help="output folder (default: driftlog-compare for a scenario; "
@@ -486,7 +539,13 @@ def add_compare(sub):
 def cmd_compare(args):
     import json
 
-    from driftlog.compare import compare_runs, compare_trajectories, parse_flow_spec
+    from driftlog.compare import (
+        compare_runs,
+        compare_trajectories,
+        engine_flows,
+        parse_flow_spec,
+        parse_line_spec,
+    )
 
     if len(args.inputs) == 2 and all(i.endswith(".nc") for i in args.inputs) and not args.flow:
         r = compare_trajectories(args.inputs[0], args.inputs[1], args.line)
@@ -500,13 +559,25 @@ def cmd_compare(args):
             for f in write_trajectory_comparison(r, args.inputs[0], args.inputs[1], args.out):
                 print(f"written: {f}")
         return 0
+    lines = dict(parse_line_spec(g) for g in args.gate or [])
+    if len(args.inputs) == 1 and args.engines:
+        if args.flow:
+            raise DriftlogError("driftlog compare: give --engines or --flow, not both")
+        path, _ = _scenario_path(args.inputs[0])
+        flows = engine_flows(path, args.engines, progress=True)
+        out = Path(args.out or "driftlog-compare")
+        compare_runs(path, flows, out, args.line, progress=True, lines=lines)
+        print((out / "compare.md").read_text())
+        print(f"report: {out / 'compare.md'}, {out / 'compare.json'}; figure: "
+              f"{out / 'compare.png'}")
+        return 0
     if len(args.inputs) != 1 or not args.flow:
         raise DriftlogError("driftlog compare: give one scenario and two --flow NAME=SOURCE or "
-                            "more, or two trajectory files")
+                            "more (or --engines E1,E2), or two trajectory files")
     path, _ = _scenario_path(args.inputs[0])
     out = Path(args.out or "driftlog-compare")
     compare_runs(path, [parse_flow_spec(f) for f in args.flow], out, args.line,
-                 progress=True)
+                 progress=True, lines=lines)
     print((out / "compare.md").read_text())
     print(f"report: {out / 'compare.md'}, {out / 'compare.json'}; figure: {out / 'compare.png'}")
     return 0
@@ -589,7 +660,7 @@ def cmd_ensemble(args):
 
 # --------------------------------------------------------------------- entry point
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of ``driftlog`` with every registered subcommand."""
+    """The ``driftlog`` argument parser (one sub-command per ``cmd_<name>``)."""
     parser = argparse.ArgumentParser(
         prog="driftlog", formatter_class=_formatter,
         description="Large floating debris (logs) on flood flows: transport, contacts with "

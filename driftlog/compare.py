@@ -33,7 +33,111 @@ def parse_flow_spec(spec: str):
     return (name or Path(src).stem or src), src
 
 
+def engine_flows(scenario, engines, progress=False):
+    """The scenario's flow computed by each engine of its ``[solver]`` section.
+
+    ``engines``: names from ``[solver] engine`` (``driftlog``, ``shallowWaterFoam``), or one
+    string ``"driftlog,shallowWaterFoam"``.  Each flow is stored beside ``[flow] path`` (with
+    ``_<engine>`` added for engines other than driftlog) and reused while the section is
+    unchanged.  Returns [(engine, FlowField)], frozen at ``[flow] steady_at`` when set.
+    """
+    from driftlog.adapters.openfoam_engine import ENGINES
+    from driftlog.api import as_scenario
+    from driftlog.sources import flow_from_scenario
+
+    if isinstance(engines, str):
+        engines = [e.strip() for e in engines.split(",") if e.strip()]
+    scen = as_scenario(scenario)
+    if scen["flow"]["source"] != "solver":
+        raise DriftlogError(f"--engines {','.join(engines)}: the scenario's flow must be "
+                            f"computed ([flow] source = 'solver'), not {scen['flow']['source']!r}")
+    bad = [e for e in engines if e not in ENGINES]
+    if bad or len(engines) < 2 or len(set(engines)) != len(engines):
+        raise DriftlogError(f"--engines {','.join(engines)}: give two engines or more, each "
+                            f"once, among {', '.join(ENGINES)}")
+    out = []
+    for e in engines:
+        out.append((e, flow_from_scenario(as_scenario(scen, {"solver": {"engine": e}}),
+                                          progress=progress)))
+    return out
+
+
+def parse_line_spec(spec: str):
+    """``NAME=X0,Y0,X1,Y1`` -> (name, (x0, y0, x1, y1)): a named arrival line."""
+    name, sep, coords = spec.partition("=")
+    try:
+        vals = tuple(float(v) for v in coords.split(","))
+    except ValueError:
+        vals = ()
+    if not sep or not name or len(vals) != 4:
+        raise DriftlogError(f"--gate {spec!r}: must be NAME=X0,Y0,X1,Y1 (a named line, m)")
+    return name, vals
+
+
+def per_log(ref_path, other_path, lines=None):
+    """Per log, in both runs: where it ends, its status and hits, its arrival at lines.
+
+    End position, distance between the two ends, status at the end, arrival time at each
+    named line (None: never crossed), hits per obstacle.
+
+    Returns a list of dicts (one per log, by trajectory index).
+    """
+    a, b = open_trajectories(ref_path), open_trajectories(other_path)
+    names = STATUS_MEANINGS.split()
+
+    def ends(ds):
+        ti, t = ds["trajectory_index"].values, ds["time"].values
+        order = np.lexsort((t, ti))
+        last = order[np.flatnonzero(np.diff(np.append(ti[order], -1)) != 0)]
+        n = ds.sizes["trajectory"]
+        x, y, st = np.full(n, np.nan), np.full(n, np.nan), np.full(n, -1)
+        x[ti[last]], y[ti[last]] = ds["x"].values[last], ds["y"].values[last]
+        st[ti[last]] = ds["status"].values[last]
+        return x, y, st
+
+    def hits(ds):
+        n = ds.sizes["trajectory"]
+        out = [dict() for _ in range(n)]
+        if not ds.sizes.get("hit", 0):
+            return out
+        obst = json.loads(ds.attrs.get("obstacle_names", "[]") or "[]")
+        logs, other = ds["hit_log"].values, ds["hit_other"].values
+        for lg, o in zip(logs, other, strict=True):  # one entry per contact event: few
+            if o < 0:
+                i = -int(o) - 1
+                key = obst[i] if i < len(obst) and obst[i] else f"obstacle {i}"
+            else:
+                key = "log-log"
+            if 0 <= lg < n:
+                out[lg][key] = out[lg].get(key, 0) + 1
+        return out
+
+    xa, ya, sa = ends(a)
+    xb, yb, sb = ends(b)
+    arr = {name: (arrival_times(a, ln), arrival_times(b, ln)) for name, ln in
+           (lines or {}).items()}
+    ha, hb = hits(a), hits(b)
+    ids = a["trajectory"].values if "trajectory" in a.coords else np.arange(xa.size)
+    rows = []
+    for i in range(xa.size):
+        rows.append({
+            "log": str(ids[i]), "end_reference": [float(xa[i]), float(ya[i])],
+            "end_other": [float(xb[i]), float(yb[i])],
+            "end_distance": float(np.hypot(xb[i] - xa[i], yb[i] - ya[i])),
+            "status_reference": names[sa[i]] if sa[i] >= 0 else "-",
+            "status_other": names[sb[i]] if sb[i] >= 0 else "-",
+            "arrival": {k: [_num(v[0][i]), _num(v[1][i])] for k, v in arr.items()},
+            "hits_reference": ha[i], "hits_other": hb[i]})
+    return rows
+
+
+def _num(v):
+    return None if not np.isfinite(v) else float(v)
+
+
 def _open_source(src, scenario):
+    if not isinstance(src, (str, Path)):
+        return src  # a FlowField already opened (driftlog compare --engines)
     if src == "scenario":
         from driftlog.sources import flow_from_scenario
 
@@ -128,10 +232,13 @@ def compare_trajectories(ref_path, other_path, line=None):
     }
 
 
-def compare_runs(scenario, flows: list[tuple[str, str]], out_dir, line=None, progress=False):
+def compare_runs(scenario, flows: list[tuple[str, str]], out_dir, line=None, progress=False,
+                 lines=None):
     """Track the scenario on each flow; compare each run with the first. Writes a report.
 
-    ``flows``: (name, source) pairs; source is a flow file, a model output, or 'scenario'.
+    ``flows``: (name, source) pairs; source is a flow file, a model output, 'scenario', or a
+    FlowField already opened (``engine_flows``).  ``lines``: named arrival lines
+    {name: (x0, y0, x1, y1)}, reported per log.
     Returns the report dict (also written as compare.json and compare.md, with compare.png).
     """
     from driftlog.adapters.compare import flow_differences, summarize_differences
@@ -149,8 +256,11 @@ def compare_runs(scenario, flows: list[tuple[str, str]], out_dir, line=None, pro
                            progress=progress).path
     ref = flows[0][0]
     ds_ref = open_trajectories(runs[ref])
-    report = {"reference": ref, "flows": dict(flows), "runs": {k: str(v) for k, v in runs.items()},
-              "comparisons": {}}
+    report = {"reference": ref,
+              "flows": {k: (v if isinstance(v, (str, Path)) else getattr(v, "name", k))
+                        for k, v in flows},
+              "runs": {k: str(v) for k, v in runs.items()}, "comparisons": {},
+              "lines": {k: list(v) for k, v in (lines or {}).items()}}
     for name, _ in flows[1:]:
         traj = compare_trajectories(runs[ref], runs[name], line)
         diff = flow_differences(fields[ref], fields[name], ds_ref["x"].values,
@@ -167,6 +277,15 @@ def compare_runs(scenario, flows: list[tuple[str, str]], out_dir, line=None, pro
                              name: traj["final_status_other"]},
             "hits": {ref: traj["hits_reference"], name: traj["hits_other"]},
         }
+        rows = per_log(runs[ref], runs[name], lines)
+        d = np.array([r["end_distance"] for r in rows])
+        report["comparisons"][name].update({
+            "end_distance_mean": _nanmean(d),
+            "end_distance_max": float(np.nanmax(d)) if np.any(np.isfinite(d)) else None,
+            "arrival_at_lines": {k: {ref: _count_mean([r["arrival"][k][0] for r in rows]),
+                                     name: _count_mean([r["arrival"][k][1] for r in rows])}
+                                 for k in (lines or {})},
+            "logs": rows})
         report["comparisons"][name]["_series"] = (traj, speed_diff, ds_ref["time"].values)
     _figure(report, runs, fields, out_dir / "compare.png")
     for c in report["comparisons"].values():
@@ -206,6 +325,10 @@ def write_trajectory_comparison(result, ref_path, other_path, out_dir):
             tmp.write_text(text)
         paths.append(out_dir / name)
     return paths
+def _count_mean(values):
+    v = np.array([np.nan if x is None else x for x in values], float)
+    ok = np.isfinite(v)
+    return {"crossed": int(ok.sum()), "mean_time": float(v[ok].mean()) if ok.any() else None}
 
 
 def _nanmean(a):
@@ -239,16 +362,82 @@ def _markdown(report):
     lines.append("")
     for name, c in report["comparisons"].items():
         lines.append(f"- {name}: final statuses {c['final_status']}, hits {c['hits']}")
+    for name, c in report["comparisons"].items():
+        gates = list(report.get("lines") or {})
+        lines += ["", f"## Per log: {ref} vs {name}", "",
+                  f"End distance: mean {_fmt(c['end_distance_mean'])} m, max "
+                  f"{_fmt(c['end_distance_max'])} m.", ""]
+        for g, v in c.get("arrival_at_lines", {}).items():
+            lines.append(f"- line {g}: crossed by {v[ref]['crossed']} ({ref}) and "
+                         f"{v[name]['crossed']} ({name}) logs, mean time "
+                         f"{_fmt(v[ref]['mean_time'])} s vs {_fmt(v[name]['mean_time'])} s")
+        lines += ["", "| log | end (x, y) " + ref + " | end (x, y) " + name + " | distance (m) "
+                  "| status | " + " | ".join(f"arrival {g} (s)" for g in gates) +
+                  (" | " if gates else "") + "hits " + ref + " | hits " + name + " |",
+                  "|---" * (6 + len(gates)) + "|"]
+        for r in c["logs"]:
+            ea, eb = r["end_reference"], r["end_other"]
+            arr = [f"{_fmt(r['arrival'][g][0])} / {_fmt(r['arrival'][g][1])}" for g in gates]
+            lines.append(
+                f"| {r['log']} | {ea[0]:.1f}, {ea[1]:.1f} | {eb[0]:.1f}, {eb[1]:.1f} | "
+                f"{r['end_distance']:.3g} | {r['status_reference']} / {r['status_other']} | "
+                + "".join(f"{a} | " for a in arr) + f"{_hits_text(r['hits_reference'])} | "
+                f"{_hits_text(r['hits_other'])} |")
     return "\n".join(lines) + "\n"
+
+
+def _fmt(v):
+    return "-" if v is None or not np.isfinite(v) else f"{v:.4g}"
+
+
+def _hits_text(h):
+    return ", ".join(f"{k} {v}" for k, v in sorted(h.items())) or "-"
+
+
+def _speed_difference_map(ax, fig, report, runs, fields):
+    """Under the trajectories: the speed of the first other flow minus the reference's.
+
+    On the reference's faces, at the logs' start time (the flows are sampled there).
+    """
+    names = list(report["comparisons"])
+    ref = fields[report["reference"]]
+    mesh = getattr(ref, "mesh", None)
+    if not names or mesh is None:
+        return
+    from driftlog.adapters.compare import flow_differences
+
+    t0 = float(np.nanmin(open_trajectories(runs[report["reference"]])["time"].values))
+    x, y = mesh.face_x, mesh.face_y
+    d = flow_differences(ref, fields[names[0]], x, y, np.full(x.size, t0))["speed"]
+    lim = float(np.nanmax(np.abs(d))) if np.any(np.isfinite(d)) else 1.0
+    from matplotlib.collections import PolyCollection
+
+    fn = np.where(mesh.face_nodes >= 0, mesh.face_nodes, mesh.face_nodes[:, :1])
+    verts = np.stack([mesh.node_x[fn], mesh.node_y[fn]], axis=-1)
+    pc = PolyCollection(verts, array=np.ma.masked_invalid(d), cmap="RdBu_r",
+                        edgecolors="face", linewidths=0.0, zorder=0)
+    pc.set_clim(-lim, lim)
+    ax.add_collection(pc)
+    fig.colorbar(pc, ax=ax, shrink=0.9, pad=0.01,
+                 label=f"speed (m/s), {names[0]}\nminus {report['reference']}, t = {t0:g} s")
 
 
 def _figure(report, runs, fields, out):
     from driftlog.plots import _mpl
 
     plt = _mpl()
-    fig, axes = plt.subplots(1, 3, figsize=(16, 4.8), gridspec_kw={"width_ratios": [1.6, 1, 1]})
+    # the map on top, across, at the domain's aspect; the series below
+    mesh = getattr(fields[report["reference"]], "mesh", None)
+    aspect = 0.6
+    if mesh is not None:
+        aspect = float(np.ptp(mesh.node_y) / max(np.ptp(mesh.node_x), 1e-300))
+    map_h = float(np.clip(12.0 * aspect, 2.2, 8.0))
+    fig = plt.figure(figsize=(14, map_h + 4.8))
+    gs = fig.add_gridspec(2, 2, height_ratios=[map_h, 4.2])
+    axes = [fig.add_subplot(gs[0, :]), fig.add_subplot(gs[1, 0]), fig.add_subplot(gs[1, 1])]
     ax = axes[0]
     colors = plt.get_cmap("tab10")
+    _speed_difference_map(ax, fig, report, runs, fields)
     for k, (name, path) in enumerate(runs.items()):
         ds = open_trajectories(path)
         ti = ds["trajectory_index"].values
@@ -256,15 +445,15 @@ def _figure(report, runs, fields, out):
             sel = ti == j
             ax.plot(ds["x"].values[sel], ds["y"].values[sel], color=colors(k), lw=1.2,
                     label=name if j == 0 else None)
-    mesh = getattr(fields[report["reference"]], "mesh", None)
     if mesh is not None:
         walls = mesh.boundary_segments(["wall"])
         ax.plot(walls[:, [0, 2]].T, walls[:, [1, 3]].T, color="k", lw=0.6)
     ax.set_aspect("equal")
+    ax.autoscale_view()
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title("trajectories")
-    ax.legend(fontsize=8)
+    ax.set_title("trajectories over the difference of the flows' speeds")
+    ax.legend(fontsize=8, loc="upper right")
     for k, (name, c) in enumerate(report["comparisons"].items(), start=1):
         traj, speed_diff, t = c["_series"]
         axes[1].plot(traj["times"], traj["mean_distance"], color=colors(k), label=f"{name}: mean")
@@ -276,11 +465,11 @@ def _figure(report, runs, fields, out):
     axes[1].set_xlabel("time (s)")
     axes[1].set_ylabel(f"distance to {report['reference']} run (m)")
     axes[1].set_title("same log, two flows")
-    axes[1].legend(fontsize=8)
+    axes[1].legend(fontsize=8, loc="upper left")
     axes[2].set_xlabel("time (s)")
     axes[2].set_ylabel("RMS flow speed difference at the logs (m/s)")
     axes[2].set_title("flows at the reference logs")
-    axes[2].legend(fontsize=8)
+    axes[2].legend(fontsize=8, loc="upper right")
     fig.tight_layout()
     fig.savefig(out, dpi=120)
     plt.close(fig)

@@ -192,7 +192,12 @@ def sniff(path) -> FileKind:
         return FileKind("missing" if isinstance(exc, FileNotFoundError) else "binary", p,
                         exc.strerror or str(exc))
     if head.startswith(NETCDF_MAGIC):
-        return _netcdf_kind(p)
+        fk = _netcdf_kind(p)
+        if fk.kind in ("bad_netcdf", "netcdf"):  # an HDF5 or NetCDF file another reader opens
+            reader = _reader_of(p)
+            if reader:
+                return FileKind("model_output", p, reader, info={"reader": reader})
+        return fk
     reader = _reader_of(p)
     if reader:
         return FileKind("model_output", p, reader, info={"reader": reader})

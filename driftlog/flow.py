@@ -132,16 +132,57 @@ class FlowField:
             s.values[idx], s.flag[idx], s.face[idx] = sub.values, sub.flag, sub.face
         return s
 
+    def shifted(self, origin) -> FlowField:
+        """The same flow on a clock starting at ``origin``: ``t_new = t - origin`` (s).
+
+        The tracker runs on such a clock when the run is far from the flow's time zero
+        (absolute epochs, ``time.start = 1e17``), so that its times keep full precision.
+        """
+        return TimeShiftedField(self, origin) if origin else self
+
     def sample_into(self, x, y, t, face, out, flag) -> None:
         """Kernel entry: fill ``out`` (n, NVAR) and ``flag`` (n,), update hints ``face``."""
         raise NotImplementedError
 
     def check_time(self, t):
+        """FlowDomainError if t is outside the field's time span (to 1e-9 of the span)."""
         t0, t1 = self.time_span
         span = max(t1 - t0, 1.0) if np.isfinite(t1 - t0) else 1.0
         if not (t0 - 1e-9 * span <= t <= t1 + 1e-9 * span):
             raise FlowDomainError(f"{self.name}: time {t} s is outside the flow's span "
                                   f"[{t0}, {t1}] s")
+
+
+class TimeShiftedField(FlowField):
+    """A flow field seen on a shifted clock.
+
+    Sampled at t, it answers the base field at ``t + origin``; its times and span are the
+    base's minus ``origin``.
+    """
+
+    def __init__(self, base, origin):
+        self.base, self.origin = base, float(origin)
+        self.mesh, self.dry_depth = base.mesh, base.dry_depth
+        self.name = getattr(base, "name", "flow")
+        self.attrs = dict(getattr(base, "attrs", {}) or {})
+
+    def __getattr__(self, name):
+        return getattr(self.base, name)
+
+    @property
+    def time_span(self):
+        t0, t1 = self.base.time_span
+        return (t0 - self.origin, t1 - self.origin)
+
+    @property
+    def times(self):
+        return np.asarray(self.base.times, np.float64) - self.origin
+
+    def sample_into(self, x, y, t, face, out, flag):
+        self.base.sample_into(x, y, t + self.origin, face, out, flag)
+
+    def shifted(self, origin):
+        return self.base.shifted(self.origin + float(origin))
 
 
 # --------------------------------------------------------------------- mesh sampling kernel
@@ -485,6 +526,23 @@ class MeshFlowField(FlowField):
         i, j, a, _ = self._interval(t)
         si, sj = self.snapshot(i), self.snapshot(j)
         return {k: (1 - a) * si[k] + a * sj[k] for k in ("h", "u", "v", "hu", "hv", "eta")}
+
+    def shifted(self, origin) -> MeshFlowField:
+        """The same field on a clock starting at ``origin`` (``t_new = t - origin``).
+
+        A shallow copy whose snapshot times are shifted (same source, same snapshots, its own
+        cache), so it stays a ``MeshFlowField`` (fused tracking kernels included).
+        """
+        if not origin:
+            return self
+        import copy
+
+        new = copy.copy(self)
+        new._times = self._times - float(origin)
+        new._snap = OrderedDict()
+        new._pair = new._pair_vals = None
+        new.attrs = dict(self.attrs)
+        return new
 
     def freeze(self, t) -> MeshFlowField:
         """The flow at time t as a steady field (one snapshot; on nodes for node data)."""

@@ -149,7 +149,12 @@ class FlowFileWriter:
                           coordinates="mesh2d_face_x mesh2d_face_y"))
         bv[:] = np.asarray(bed, dtype=float)
         tv = ds.createVariable("time", "f8", ("time",))
-        tv.setncatts(dict(standard_name="time", long_name="time", units=TIME_UNITS, axis="T"))
+        # the source's own reference ("seconds since 1999-01-01T12:00:00"), kept with its calendar
+        units = str((attrs or {}).get("time_reference") or TIME_UNITS)
+        tatt = dict(standard_name="time", long_name="time", units=units, axis="T")
+        if (attrs or {}).get("calendar"):
+            tatt["calendar"] = str(attrs["calendar"])
+        tv.setncatts(tatt)
         comp = dict(zlib=True, complevel=1, shuffle=True) if compress else {}
         chunks = (1, mesh.n_faces)
         for name, a in FIELDS.items():

@@ -22,15 +22,17 @@ Wet and dry, as the mesh field (``driftlog.flow.MeshFlowField``) does it: on eac
 the velocity is hu / h where h > ``dry_depth`` and 0 elsewhere, the four columns h, u, v and
 the water level are interpolated on their own, and a sample is wet where the interpolated depth
 exceeds ``dry_depth``.  Land (cells the source marks with fill values, read with ``fill =
-'dry'``) is dry ground: depth 0, velocity 0; logs reaching it strand as on any dry face.
+'dry'``) is dry ground: depth 0, velocity 0; logs reaching it ground (resting or stranded) in
+the shallowing water at its shore, as at the dry faces of a mesh.
 
 The field is a ``MeshFlowField`` on ``Mesh.regular_grid`` (face ``j * nx + i`` is cell (row j,
-column i)), so everything built on faces works unchanged: the face arrays of snapshots (for a
-node-based grid, each cell's mean of its four corners, as for any node-located source), flow
-files written from it (``driftlog import``), ``freeze``, location hints (the cell holding the
-point) and contact walls, which are the grid's outer edges.  Land cells are not walls: a log
-drifting towards land strands in the shallowing water (or is stopped as dry) as on a mesh
-whose dry faces are part of the mesh.
+column i); built lazily, ``LazyGridMesh``, as sampling does not need it), so everything built
+on faces works unchanged: the face arrays of snapshots (for a node-based grid, each cell's
+mean of its four corners, as for any node-located source), flow files written from it
+(``driftlog import``), ``freeze``, location hints (the cell holding the point) and contact
+walls, which are the grid's outer edges (tagged as on any mesh).  Land cells are not walls: a
+log drifting towards land grounds in the shallowing water, as on a mesh whose dry faces are
+part of the mesh (tests/test_grid_flow.py).
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ from driftlog.errors import FlowFileError
 from driftlog.flow import DRY, NVAR, OUTSIDE, WET, InMemorySnapshots, MeshFlowField
 from driftlog.mesh import Mesh
 
-__all__ = ["GridFlowField", "sample_grid_kernel", "grid_point"]
+__all__ = ["GridFlowField", "LazyGridMesh", "sample_grid_kernel", "grid_point"]
 
 # grid point columns of one snapshot: depth, velocity, water level
 G_H, G_U, G_V, G_ETA = range(4)
@@ -128,6 +130,70 @@ def sample_grid_kernel(px, py, face, out, flag, a, inv_dt, vals, dry_depth, nx, 
             out[k, q] = res[q]
 
 
+class LazyGridMesh:
+    """The ``Mesh`` of a regular grid, built on first use of anything but its sizes.
+
+    Sampling a grid needs no mesh (the cell of a point is arithmetic), while building the
+    topology of 1e6 quadrilaterals takes seconds and hundreds of MB; the mesh is made when
+    walls, plots, a flow file or point location ask for it (every attribute of ``Mesh`` is
+    forwarded to it then).  ``n_faces``, ``n_nodes``, ``face_nodes``, ``face_n``, ``bounds``
+    and ``grid_shape`` are answered without it.
+    """
+
+    def __init__(self, nx, ny, dx, dy, x0=0.0, y0=0.0):
+        self._args = (int(nx), int(ny), float(dx), float(dy), float(x0), float(y0))
+        self._mesh = None
+        self._table = None
+        self.n_faces = self._args[0] * self._args[1]
+        self.n_nodes = (self._args[0] + 1) * (self._args[1] + 1)
+        self.grid_shape = (self._args[1], self._args[0])
+
+    @property
+    def built(self) -> bool:
+        """Whether the mesh has been built."""
+        return self._mesh is not None
+
+    def materialize(self) -> Mesh:
+        """The ``Mesh`` itself (built once)."""
+        if self._mesh is None:
+            nx, ny, dx, dy, x0, y0 = self._args
+            self._mesh = Mesh.regular_grid(nx, ny, dx, dy, x0=x0, y0=y0)
+        return self._mesh
+
+    def _face_table(self):
+        if self._mesh is not None:
+            return self._mesh.face_nodes, self._mesh.face_n
+        if self._table is None:  # as Mesh.regular_grid numbers them (counter-clockwise)
+            nx, ny = self._args[:2]
+            nid = np.arange(self.n_nodes).reshape(ny + 1, nx + 1)
+            fn = np.stack([nid[:-1, :-1], nid[:-1, 1:], nid[1:, 1:], nid[1:, :-1]], axis=-1)
+            self._table = (fn.reshape(-1, 4), np.full(self.n_faces, 4, np.int64))
+        return self._table
+
+    @property
+    def bounds(self):
+        """(xmin, ymin, xmax, ymax) of the nodes."""
+        nx, ny, dx, dy, x0, y0 = self._args
+        return (x0, y0, x0 + nx * dx, y0 + ny * dy)
+
+    face_nodes = property(lambda self: self._face_table()[0], doc="face-node table")
+    face_n = property(lambda self: self._face_table()[1], doc="nodes per face (4)")
+
+    def __getattr__(self, name):
+        if name.startswith("__") or name in ("_args", "_mesh", "_table"):
+            raise AttributeError(name)
+        return getattr(self.materialize(), name)
+
+    def __repr__(self):
+        if self._mesh is not None:
+            return repr(self._mesh)
+        nx, ny = self._args[:2]
+        edges = nx * (ny + 1) + ny * (nx + 1)
+        return (f"<Mesh {self.n_faces} faces (0 triangles, {self.n_faces} quads), "
+                f"{self.n_nodes} nodes, {edges} edges, {2 * (nx + ny)} boundary edges, "
+                "tags ['wall']>")
+
+
 class GridFlowField(MeshFlowField):
     """Flow on a regular grid, sampled bilinearly between the grid's points.
 
@@ -171,9 +237,9 @@ class GridFlowField(MeshFlowField):
             raise FlowFileError(f"{where}: cell layout needs a source of cell (face) values")
         self.grid = (nx, ny, float(x0), float(y0), dx, dy)
         self.layout = layout
-        if mesh is None:
+        if mesh is None:  # built when something needs it (walls, plots, flow files)
             cx, cy = (nx - 1, ny - 1) if layout == "node" else (nx, ny)
-            mesh = Mesh.regular_grid(cx, cy, dx, dy, x0=x0, y0=y0)
+            mesh = LazyGridMesh(cx, cy, dx, dy, x0=x0, y0=y0)
         super().__init__(mesh, bed, source, dry_depth=dry_depth, name=name, attrs=attrs,
                          gradient="p1")
         self.gradient = "bilinear"

@@ -1,11 +1,14 @@
-"""Unstructured 2D meshes of triangles and quadrilaterals (UGRID style), their topology and readers.
+"""Unstructured 2D meshes of convex polygons (UGRID style), their topology and readers.
 
 A ``Mesh`` holds nodes and a face-node table padded with -1 (UGRID ``face_node_connectivity``),
 and derives what the solver, the samplers and the contact code need: edges, the faces on each
 side of an edge, face neighbours, areas, centroids, inradii, and boundary edges with tags.
 
-Faces are stored counter-clockwise; clockwise faces are reversed on construction (a documented
-repair).  Degenerate faces (zero area, repeated nodes) and non-convex quadrilaterals are errors.
+Faces are triangles, quadrilaterals or any convex polygon (HEC-RAS cells have up to 8 sides),
+mixed, padded with -1 to the widest.  Faces are stored counter-clockwise; clockwise faces are
+reversed on construction (a documented repair).  Degenerate faces (zero area, repeated nodes)
+and non-convex polygons are errors (the point locator and the sampler's fan of triangles need
+convex faces).
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ def _as_points(a, name):
 
 
 class Mesh:
-    """A 2D mesh of convex polygons (triangles and quadrilaterals, mixed).
+    """A 2D mesh of convex polygons (triangles, quadrilaterals and larger polygons, mixed).
 
     Parameters
     ----------
@@ -76,8 +79,6 @@ class Mesh:
         nmax = int(self.face_n.max(initial=0))
         if self.face_nodes.shape[0] == 0:
             raise MeshError("the mesh has no faces")
-        if nmax > 4:
-            raise MeshError(f"faces with {nmax} nodes found; triangles and quadrilaterals only")
         self.face_nodes = np.ascontiguousarray(self.face_nodes[:, :nmax])
         if self.face_nodes.max() >= self.n_nodes:
             bad = np.flatnonzero((self.face_nodes >= self.n_nodes).any(axis=1))[:5]
@@ -133,23 +134,33 @@ class Mesh:
         if np.any(cw):
             if not repair:
                 raise MeshError(f"{cw.sum()} faces are clockwise, first {np.flatnonzero(cw)[:5]}")
-            for k in (3, 4):
+            for k in np.unique(self.face_n[cw]):
                 rows = cw & (self.face_n == k)
                 self.face_nodes[rows, :k] = self.face_nodes[rows, :k][:, ::-1]
         self._check_convex()
         return int(cw.sum())
 
     def _check_convex(self):
-        quads = np.flatnonzero(self.face_n == 4)
-        if quads.size == 0:
+        """Every face with more than 3 nodes turns left at each node (strictly convex)."""
+        big = np.flatnonzero(self.face_n > 3)
+        if big.size == 0:
             return
-        fn = self.face_nodes[quads]
-        x, y = self.node_x[fn], self.node_y[fn]
-        ex, ey = np.roll(x, -1, axis=1) - x, np.roll(y, -1, axis=1) - y
-        turn = ex * np.roll(ey, -1, axis=1) - ey * np.roll(ex, -1, axis=1)
-        bad = quads[(turn <= 0).any(axis=1)]
+        fn = self.face_nodes[big]
+        n = self.face_n[big]
+        k = np.arange(fn.shape[1])
+        valid = k[None, :] < n[:, None]
+        # next and next-but-one node of each slot, wrapping within each face's own count
+        nxt = np.where(k[None, :] + 1 < n[:, None], k[None, :] + 1, k[None, :] + 1 - n[:, None])
+        nx2 = np.where(k[None, :] + 2 < n[:, None], k[None, :] + 2, k[None, :] + 2 - n[:, None])
+        a = np.where(valid, fn, fn[:, :1])
+        b = np.take_along_axis(fn, np.where(valid, nxt, 0), axis=1)
+        c = np.take_along_axis(fn, np.where(valid, nx2, 0), axis=1)
+        x, y = self.node_x, self.node_y
+        turn = ((x[b] - x[a]) * (y[c] - y[b]) - (y[b] - y[a]) * (x[c] - x[b]))
+        bad = big[((turn <= 0) & valid).any(axis=1)]
         if bad.size:
-            raise MeshError(f"{bad.size} non-convex quadrilaterals (first {bad[:5].tolist()}); "
+            kinds = "quadrilaterals" if np.all(self.face_n[bad] == 4) else "polygons"
+            raise MeshError(f"{bad.size} non-convex {kinds} (first {bad[:5].tolist()}); "
                             "split them into triangles")
 
     def _geometry(self):
@@ -267,7 +278,7 @@ class Mesh:
 
     @property
     def max_face_nodes(self) -> int:
-        """Columns of the face-node table (3 or 4)."""
+        """Width of the face-node table (the most nodes of a face)."""
         return self.face_nodes.shape[1]
 
     @property
@@ -292,7 +303,8 @@ class Mesh:
         merged = getattr(self, "merged_nodes", (0, 0.0))
         seam = (f", {merged[0]} coincident nodes merged (closer than {merged[1]:g} x the local "
                 "edge length)" if merged[0] else "")
-        return (f"<Mesh {self.n_faces} faces ({kinds[3]} triangles, {kinds[4]} quads), "
+        more = f", {kinds[5:].sum()} larger polygons" if kinds.size > 5 else ""
+        return (f"<Mesh {self.n_faces} faces ({kinds[3]} triangles, {kinds[4]} quads{more}), "
                 f"{self.n_nodes} nodes, {self.n_edges} edges, {self.boundary_edges.size} boundary "
                 f"edges, tags {self.tag_names}{seam}>")
 

@@ -115,17 +115,19 @@ def describe_keys(section: str | None = None) -> str:
 
 
 # --------------------------------------------------------------------- the sections
-# driftlog's own flow file, then what is built here, then the other readers (the registry)
-FLOW_SOURCES = (adapters.KINDS[0], "solver", "analytic") + adapters.KINDS[1:]
+# driftlog's own flow file, then what is built here, 'auto' (a reader chosen by the file's
+# contents), then the other readers (the registry)
+FLOW_SOURCES = (adapters.KINDS[0], "solver", "analytic", "auto") + adapters.KINDS[1:]
 ANALYTIC_KINDS = ("uniform", "solid_body_rotation", "free_vortex")
 
 
 def _check_flow(t, prefix, scen):
     src = t["source"]
-    if src in adapters.KINDS and not t["path"]:
+    read = src in adapters.KINDS or src == "auto"
+    if read and not t["path"]:
         raise ScenarioError(f"{prefix}.path", None,
                             f"is required when source = {src!r}: the flow file or case to read")
-    if src in adapters.KINDS and not Path(t["path"]).exists():
+    if read and not Path(t["path"]).exists():
         raise ScenarioError(f"{prefix}.path", t["path"], "file not found")
     t["options"] = adapters.check_flow_options(t, prefix, scen.base_dir)
     if src == "analytic" and t["kind"] not in ANALYTIC_KINDS:
@@ -160,7 +162,7 @@ register_section(Section("flow", [
         "decomposed, mode ('shallow_water' | 'vof'), raster ([x0, y0, dx, nx, ny]); ugrid and "
         "cf_grid fill ('error' | 'dry'), units ({hu = 'm3 s-1'}); anuga use_centroids; "
         "selafin depth_average",
-        when="source = openfoam, ugrid, anuga, cf_grid, selafin"),
+        when="source = auto, openfoam, ugrid, anuga, cf_grid, selafin"),
 ], doc="the hydro source", check=_check_flow))
 
 
@@ -366,6 +368,15 @@ def _check_solver(t, prefix, scen):
 
 
 register_section(Section("solver", [
+    Key("engine", "str", "driftlog", "what computes the flow: driftlog's solver, or "
+        "OpenFOAM's shallowWaterFoam on the same mesh, bed, initial state and boundaries "
+        "(flow file [flow] path + '_shallowWaterFoam', case folder beside it)",
+        choices=("driftlog", "shallowWaterFoam")),
+    Key("n_procs", "int", 1, "processes of an OpenFOAM engine run (decomposePar + mpirun when "
+        "> 1)", min=1),
+    Key("openfoam_friction", "str", "refuse", "shallowWaterFoam has no bed friction: refuse a "
+        "section with manning/strickler, or omit the friction in the OpenFOAM run (recorded in "
+        "the flow's attributes)", choices=("refuse", "omit")),
     Key("mesh", "str", "channel", "the mesh: a channel built here, a polygon (outline with "
         "tagged sides) built here, or a mesh file", choices=("channel", "polygon", "file")),
     Key("outline", "points", None, "outer boundary [[x, y], ...] of mesh = 'polygon'; side i "

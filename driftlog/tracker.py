@@ -170,6 +170,11 @@ class Tracker:
                                 "(analytic or steady flows)")
         if not self.t_end > self.t:
             raise ScenarioError("time.end", self.t_end, f"must be after time.start = {self.t}")
+        # times closer than this are one time (round-off): relative to the run's span, never
+        # to |t| (at t ~ 1.7e9 s a tolerance of 1e-9 |t| is 1.7 s and swallows a 64-s run's
+        # outputs); plus a few ulps of the largest |t| so that exact landings stay exact
+        self.time_tol = (1e-9 * (self.t_end - self.t)
+                         + 4.0 * float(np.spacing(max(abs(self.t), abs(self.t_end)))))
         self.output_interval = float(output_interval)
         self.hydro_step = float(hydro_step)
         self.writer = writer
@@ -375,11 +380,12 @@ class Tracker:
     def _release(self):
         """Logs whose release time has come: floating, resting, stranded, or an error outside."""
         L = self.logs
-        if self.t + 1e-9 < self._next_release:
+        tol = self.time_tol
+        if self.t + tol < self._next_release:
             return False
         waiting = L.status == WAITING
-        due = np.flatnonzero(waiting & (L.release_time <= self.t + 1e-9))
-        later = L.release_time[waiting & (L.release_time > self.t + 1e-9)]
+        due = np.flatnonzero(waiting & (L.release_time <= self.t + tol))
+        later = L.release_time[waiting & (L.release_time > self.t + tol)]
         self._next_release = later.min() if later.size else np.inf
         if due.size == 0:
             return False
@@ -440,7 +446,7 @@ class Tracker:
         stops = np.unique(stops[(stops > self.t) & (stops <= t1)])
         # merge stops closer than round-off
         keep = np.ones(stops.size, bool)
-        keep[1:] = np.diff(stops) > 1e-9 * max(1.0, abs(t1))
+        keep[1:] = np.diff(stops) > self.time_tol
         return stops[keep]
 
     # ----------------------------------------------------------------- recording
@@ -480,7 +486,7 @@ class Tracker:
         self._update_status()
         if not self._resumed:
             self._record()
-        out_i = int(np.searchsorted(self._outputs, self.t + 1e-9))
+        out_i = int(np.searchsorted(self._outputs, self.t + self.time_tol))
         so = self.step_options
         try:
             for stop in self._stops:
@@ -505,7 +511,7 @@ class Tracker:
                             f"(logs {bad[:5].tolist()}): the step is too long for the drag "
                             "relaxation time; use integrator.method = 'exponential' or set "
                             "integrator.drag_fraction > 0")
-                    if stop - self.t <= 1e-9 * max(1.0, abs(stop)):
+                    if stop - self.t <= self.time_tol:
                         self.t = stop  # land exactly
                     taken = self.t - t_before
                     st = self.stats
@@ -516,7 +522,8 @@ class Tracker:
                     self._update_status()
                     if bar is not None:
                         bar.update(taken)
-                while out_i < self._outputs.size and self._outputs[out_i] <= self.t + 1e-9:
+                while (out_i < self._outputs.size
+                       and self._outputs[out_i] <= self.t + self.time_tol):
                     self._record()
                     out_i += 1
         finally:

@@ -97,7 +97,7 @@ class TrajectoryWriter:
             except OSError:  # killed while open: HDF5 refuses to write it again, reads it
                 _recover(self.partial)
                 self.ds = netCDF4.Dataset(self.partial, "a")
-            self.ds.set_auto_mask(False)
+            self.ds.set_auto_maskandscale(False)  # times are written on the run's clock
             self.nobs = len(self.ds.dimensions["obs"])
             # hits belong to the records up to their time: those after the last record are
             # recomputed by the resumed run (and overwritten here)
@@ -123,9 +123,18 @@ class TrajectoryWriter:
         tv = ds.createVariable("trajectory", "i8", ("trajectory",))
         tv.setncatts(dict(cf_role="trajectory_id", long_name="log id"))
         tv[:] = logs.id
+        # times: CF units with the flow's own reference (attrs time_units); a run far from the
+        # axis' zero is computed on a clock starting at time_offset, and its times are stored
+        # on that clock with add_offset = time_offset (CF packing: stored + add_offset is the
+        # time on the flow's axis), so the file keeps every digit
+        time_attrs = dict(units=str((attrs or {}).get("time_units") or TIME_UNITS))
+        offset = float((attrs or {}).get("time_offset") or 0.0)
+        shift = dict(add_offset=offset) if offset else {}
+        time_attrs.update(shift)
         for name, (dt, a) in TRAJ_VARS.items():
             v = ds.createVariable(name, dt, ("trajectory",))
-            v.setncatts(a)
+            v.setncatts(dict(a, **shift) if name == "release_time" else a)
+            v.set_auto_maskandscale(False)
             v[:] = {"length": logs.length, "radius": logs.radius, "density": logs.density,
                     "release_time": logs.release_time, "group": logs.group,
                     "flotation_depth": np.where(np.isfinite(logs.float_depth), logs.float_depth,
@@ -134,14 +143,15 @@ class TrajectoryWriter:
         ti.setncatts(dict(long_name="which trajectory this observation is for",
                           instance_dimension="trajectory"))
         t = ds.createVariable("time", "f8", ("obs",))
-        t.setncatts(dict(standard_name="time", long_name="time", units=TIME_UNITS, axis="T"))
+        t.setncatts(dict(standard_name="time", long_name="time", axis="T", **time_attrs))
         for name, (dt, a) in OBS_VARS.items():
             v = ds.createVariable(name, dt, ("obs",), zlib=True, complevel=1)
             v.setncatts(a)
             v.coordinates = "time x y"
         for name, (dt, a) in HIT_VARS.items():
             v = ds.createVariable(name, dt, ("hit",))
-            v.setncatts(a)
+            v.setncatts(dict(a, **shift) if name == "hit_time" else a)
+        ds.set_auto_maskandscale(False)  # times are written on the run's clock (add_offset)
         ds.sync()
 
     def record(self, t, index, columns: dict):
@@ -224,7 +234,7 @@ def _recover(partial):
     os.replace(partial, old)
     tmp = partial.with_name(partial.name + ".tmp")
     with netCDF4.Dataset(old) as a, netCDF4.Dataset(tmp, "w", format="NETCDF4") as b:
-        a.set_auto_mask(False)
+        a.set_auto_maskandscale(False)
         b.setncatts({k: a.getncattr(k) for k in a.ncattrs()})
         for name, dim in a.dimensions.items():
             b.createDimension(name, None if dim.isunlimited() else len(dim))
@@ -234,6 +244,7 @@ def _recover(partial):
             kw = dict(zlib=True, complevel=1) if var.dimensions == ("obs",) else {}
             v = b.createVariable(name, var.dtype, var.dimensions, fill_value=fill, **kw)
             v.setncatts(attrs)
+            v.set_auto_maskandscale(False)
             if var.size:
                 v[:] = var[:]
     os.replace(tmp, partial)
@@ -244,7 +255,7 @@ def _to_contiguous(src, dst):
     """Rewrite an indexed ragged trajectory file as a contiguous ragged one (stable by time)."""
     tmp = Path(str(dst) + ".tmp")
     with netCDF4.Dataset(src) as a, netCDF4.Dataset(tmp, "w", format="NETCDF4") as b:
-        a.set_auto_mask(False)
+        a.set_auto_maskandscale(False)  # copied as stored (times on the run's clock)
         idx = a["trajectory_index"][:]
         order = np.argsort(idx, kind="stable")
         ntraj = len(a.dimensions["trajectory"])
@@ -261,6 +272,7 @@ def _to_contiguous(src, dst):
             kw = dict(zlib=True, complevel=1) if var.dimensions == ("obs",) else {}
             v = b.createVariable(name, var.dtype, var.dimensions, **kw)
             v.setncatts(attrs)
+            v.set_auto_maskandscale(False)
             data = var[:]
             if var.dimensions == ("obs",):
                 data = data[order]
@@ -309,7 +321,7 @@ def last_states(path):
     file holds no record.
     """
     with netCDF4.Dataset(path) as ds:
-        ds.set_auto_mask(False)
+        ds.set_auto_maskandscale(False)  # times on the run's clock (as the tracker counts)
         t = ds["time"][:]
         if t.size == 0:
             return None

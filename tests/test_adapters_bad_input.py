@@ -83,6 +83,15 @@ def test_truncated_netcdf3_is_refused(tmp_path, capsys, fraction):
         open_flow_source("cf_grid", cut)
 
 
+def test_truncated_netcdf4_is_refused(tmp_path, capsys):
+    """HDF5 knows its own end: netCDF4 refuses the file, and the message says why."""
+    full = write_grid(tmp_path / "full4.nc", fmt="NETCDF4", n=30)
+    cut = truncate(full, tmp_path / "cut4.nc", 0.7)
+    assert main(["import", str(cut), "-o", str(tmp_path / "out.nc")]) == 2
+    err = capsys.readouterr().err
+    assert "cut4.nc: a NetCDF-4 / HDF5 file that cannot be read: truncated or damaged" in err
+
+
 def test_truncated_ugrid_netcdf3_is_refused(tmp_path):
     """The check is the NetCDF opener's: every reader (here UGRID) gets it."""
     src = tmp_path / "map3.nc"

@@ -209,3 +209,61 @@ def test_cf_grid_node_layout_option(tmp_path):
     assert cell.sample(x, y, 0.0).flag.tolist() == [WET, WET]
     np.testing.assert_allclose(node.sample(x[:1], y[:1], 0.0).u, bilinear_u(x[:1], y[:1], 0),
                                atol=1e-12)
+
+
+def test_contacts_and_land_on_a_grid():
+    """Walls on a grid are its outer edges (the mesh's boundary, tags as on any mesh): a log
+    pushed north bounces on y = 8 and leaves through the open east end.  Land (dry cells
+    inside the grid) is not a wall: a log drifting into it grounds at the shore."""
+    from driftlog.contact import ContactModel
+    from driftlog.logs import LEFT, RESTING, STRANDED, Logs
+    from driftlog.physics import PhysicsOptions
+    from driftlog.scenario import load_scenario
+    from driftlog.tracker import Tracker
+
+    nx, ny = 30, 8
+    n = nx * ny
+
+    def grid(depth):
+        h = np.tile(depth, (2, 1))
+        return GridFlowField.from_arrays(nx, ny, 1.0, 1.0, 0.0, 0.0, np.zeros(n), [0.0, 100.0],
+                                         h, h * 1.0, h * 0.3)
+
+    open_water = grid(np.ones(n))
+    mesh = open_water.mesh
+    assert mesh.boundary_edges.size == 2 * (nx + ny)
+    mesh.tag_boundary("outflow", (nx - 0.5, -1, nx + 1, ny + 1))
+    scen = load_scenario({"contact": {"enabled": True, "walls": True, "restitution": 0.5}})
+    model = ContactModel.from_scenario(scen, mesh=mesh)
+    logs = Logs([3.0], [4.0], [0.0], length=1.0, radius=0.1, density=700.0)
+    Tracker(open_water, logs, PhysicsOptions(), contact=model, t_end=60.0).run()
+    hits = model.drain_hits()
+    assert len(hits["time"]) >= 1 and np.all(np.abs(hits["y"] - ny) < 1e-3)
+    assert logs.status[0] == LEFT
+    # land: the cells east of x = 15 are dry (depth 0)
+    px = np.tile(np.arange(nx) + 0.5, ny)
+    land = grid(np.where(px > 15.0, 0.0, 1.0))
+    logs = Logs([3.0], [2.0], [0.0], length=1.0, radius=0.1, density=700.0)
+    Tracker(land, logs, PhysicsOptions(), t_end=60.0).run()
+    assert logs.status[0] in (RESTING, STRANDED)  # grounded in the shallows
+    assert 13.0 < logs.state[0, 0] < 16.0, logs.state[0, 0]  # at the shore, not on the land
+
+
+def test_mesh_built_only_when_asked():
+    """Sampling needs no mesh; walls, location and repr get the same mesh as regular_grid."""
+    from driftlog.mesh import Mesh
+
+    f = make_field()
+    x, y = inner_points(20, np.random.default_rng(6))
+    f.sample(x, y, 3.0)
+    f.snapshot(2)
+    assert not f.mesh.built
+    assert f.mesh.n_faces == NX * NY and f.mesh.n_nodes == (NX + 1) * (NY + 1)
+    ref = Mesh.regular_grid(NX, NY, DX, DY, x0=X0, y0=Y0)
+    assert repr(f.mesh) == repr(ref)
+    np.testing.assert_array_equal(f.mesh.face_nodes, ref.face_nodes)
+    np.testing.assert_allclose(f.mesh.bounds, ref.bounds)
+    assert not f.mesh.built
+    np.testing.assert_allclose(f.mesh.boundary_segments(), ref.boundary_segments())
+    assert f.mesh.built
+    np.testing.assert_array_equal(f.mesh.locate(x, y), f.sample(x, y, 3.0).face)

@@ -20,7 +20,8 @@ def test_regular_grid_topology():
     # edge normals point out of edge_faces[:, 0]
     e = np.arange(m.n_edges)
     f0 = m.edge_faces[:, 0]
-    out = (m.edge_x - m.face_x[f0]) * m.edge_normal[:, 0] + (m.edge_y - m.face_y[f0]) * m.edge_normal[:, 1]
+    out = ((m.edge_x - m.face_x[f0]) * m.edge_normal[:, 0]
+           + (m.edge_y - m.face_y[f0]) * m.edge_normal[:, 1])
     assert np.all(out[e] > 0)
 
 
@@ -54,6 +55,63 @@ def test_bad_faces(faces, match):
 def test_nonconvex_quad_is_an_error():
     with pytest.raises(MeshError, match="non-convex"):
         Mesh([0, 2, 1, 0], [0, 0, 0.3, 2], [[0, 1, 2, 3]])
+
+
+def _honeycomb():
+    """Seven regular hexagons (a centre and its ring), nodes shared, plus an octagon beside."""
+    centres = [(0.0, 0.0)] + [(np.sqrt(3) * np.cos(np.pi / 6 + k * np.pi / 3),
+                                np.sqrt(3) * np.sin(np.pi / 6 + k * np.pi / 3)) for k in range(6)]
+    key, xs, ys, faces = {}, [], [], []
+    for cx, cy in centres:
+        face = []
+        for j in range(6):
+            px, py = cx + np.cos(j * np.pi / 3), cy + np.sin(j * np.pi / 3)
+            k = (round(px, 9), round(py, 9))
+            if k not in key:
+                key[k] = len(xs)
+                xs.append(px)
+                ys.append(py)
+            face.append(key[k])
+        faces.append(face + [-1, -1])
+    # a regular octagon far to the right, given clockwise (repaired)
+    n0 = len(xs)
+    ang = np.arange(8) * np.pi / 4
+    xs += list(10.0 + np.cos(ang))
+    ys += list(np.sin(ang))
+    faces.append(list(range(n0 + 7, n0 - 1, -1)))
+    return np.array(xs), np.array(ys), faces
+
+
+def test_polygons_up_to_eight_sides():
+    from driftlog.locate import brute_force_locate
+
+    x, y, faces = _honeycomb()
+    m = Mesh(x, y, faces)
+    assert m.n_reversed == 1
+    assert m.face_n.tolist() == [6] * 7 + [8]
+    np.testing.assert_allclose(m.face_area[:7], 1.5 * np.sqrt(3), rtol=1e-14)
+    assert m.face_area[7] == pytest.approx(2 * np.sqrt(2), rel=1e-14)
+    np.testing.assert_allclose(m.face_x[7], 10.0, atol=1e-14)
+    # the centre hexagon has six neighbours; 6 + 6 * 3 + 8 boundary edges
+    assert sorted(m.face_neighbours[0].tolist()) == [-1, -1] + list(range(1, 7))
+    assert m.boundary_edges.size == 6 * 3 + 8
+    rng = np.random.default_rng(3)
+    px, py = rng.uniform(-3, 11, 4000), rng.uniform(-3, 3, 4000)
+    got = m.locate(px, py)
+    count, first = brute_force_locate(px, py, m.face_nodes, m.face_n, m.node_x, m.node_y)
+    assert count.max() == 1
+    np.testing.assert_array_equal(got, first)
+    assert np.sum(got >= 0) > 500
+    assert "larger polygons" in repr(m)
+
+
+def test_nonconvex_polygon_is_an_error():
+    # a pentagon with a reflex node (dent at node 3)
+    with pytest.raises(MeshError, match="non-convex polygons"):
+        Mesh([0, 2, 2, 1, 0], [0, 0, 2, 1.0, 2], [[0, 1, 2, 3, 4]])
+    # a collinear node in a hexagon is not strictly convex either
+    with pytest.raises(MeshError, match="non-convex"):
+        Mesh([0, 1, 2, 2, 1, 0], [0, 0, 0, 2, 3, 2], [[0, 1, 2, 3, 4, 5]])
 
 
 def test_malpasset_loads(malpasset_mesh):
@@ -156,7 +214,8 @@ def test_channel_mesher_with_piers():
     assert m.face_area.sum() == pytest.approx(area, rel=1e-9)
     inflow = m.boundary_segments(["inflow"])
     np.testing.assert_allclose(inflow[:, [0, 2]], 0.0)
-    assert np.hypot(inflow[:, 2] - inflow[:, 0], inflow[:, 3] - inflow[:, 1]).sum() == pytest.approx(170)
+    length = np.hypot(inflow[:, 2] - inflow[:, 0], inflow[:, 3] - inflow[:, 1]).sum()
+    assert length == pytest.approx(170)
     # pier walls are tagged wall and lie on the circles
     walls = m.boundary_segments(["wall"])
     r = np.hypot(walls[:, 0] - 500, walls[:, 1] - 45)

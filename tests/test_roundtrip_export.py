@@ -197,3 +197,50 @@ def test_cli_import_and_info(flows, capsys):
     assert main(["import", str(d / "flow.slf"), "-o", str(d / "slf.nc")]) == 0
     fh = open_flow(d / "slf.nc").read_snapshot(2)[0]
     np.testing.assert_allclose(fh, flows["slf"].read_snapshot(2)[0], rtol=1e-12)
+
+
+def test_scenario_sources(flows, rng):
+    """source = 'selafin', 'dfsu' and 'auto' in a scenario; reader options validated."""
+    from driftlog.errors import DriftlogError
+    from driftlog.scenario import load_scenario
+    from driftlog.sources import flow_from_scenario
+
+    d = flows["dir"]
+    x, y = rng.uniform(1, 15, 50), rng.uniform(0.5, 3.5, 50)
+    ref = flows["orig"].sample(x, y, 12.0)
+    for src, name, t in (("selafin", "flow.slf", 12.0), ("auto", "flow.slf.bin", 12.0),
+                         ("dfsu", "flow.dfsu", 2.0), ("auto", "flow.dfsu.bin", 2.0)):
+        scen = load_scenario({"flow": {"source": src, "path": str(d / name)}})
+        f = flow_from_scenario(scen)
+        np.testing.assert_allclose(f.sample(x, y, t).u, ref.u, atol=1e-6)
+    scen = load_scenario({"flow": {"source": "selafin", "path": str(d / "flow.slf"),
+                                   "options": {"depth_average": True}, "steady_at": 15.0}})
+    f = flow_from_scenario(scen)
+    assert f.steady and f.location == "node"
+    np.testing.assert_allclose(f.sample(x, y, 0.0).h, flows["orig"].sample(x, y, 15.0).h,
+                               atol=1e-12)
+    with pytest.raises(DriftlogError, match="depth_average"):
+        load_scenario({"flow": {"source": "selafin", "path": str(d / "flow.slf"),
+                                "options": {"depth_average": "yes"}}})
+    with pytest.raises(DriftlogError, match=r"options \['fill'\] do not apply to 'dfsu'"):
+        flow_from_scenario(load_scenario({"flow": {"source": "auto",
+                                                   "path": str(d / "flow.dfsu.bin"),
+                                                   "options": {"fill": "dry"}}}))
+
+
+def test_cli_export(flows, capsys, rng):
+    d = flows["dir"]
+    src = str(d / "flow.nc")
+    assert main(["export", src, "-o", str(d / "cli.slf"), "--precision", "double"]) == 0
+    assert main(["export", src, "-o", str(d / "cli.dfsu")]) == 0
+    x, y = rng.uniform(1, 15, 50), rng.uniform(0.5, 3.5, 50)
+    ref = flows["orig"].sample(x, y, 20.5)
+    np.testing.assert_allclose(selafin.open(d / "cli.slf").sample(x, y, 20.5).u, ref.u,
+                               atol=1e-12)
+    np.testing.assert_allclose(mike.open(d / "cli.dfsu").sample(x, y, 10.5).u, ref.u,
+                               atol=1e-6)
+    capsys.readouterr()
+    assert main(["export", src, "-o", str(d / "cli.xyz")]) == 2
+    assert "give --format selafin or --format dfsu" in capsys.readouterr().err
+    assert main(["export", src, "-o", str(d / "nodir" / "a.slf")]) == 2
+    assert "cannot write the selafin file" in capsys.readouterr().err

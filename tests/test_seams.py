@@ -136,6 +136,9 @@ def test_import_and_info_report_merged_nodes(tmp_path, capsys):
     assert main(["info", str(out)]) == 0
     text = capsys.readouterr().out
     assert f"{(NX + 1) * (NY + 1)} nodes" in text and note in text
+    assert main(["info", str(path)]) == 0  # the map file itself
+    text = capsys.readouterr().out
+    assert "7 coincident nodes merged" in text and "<Mesh 120 faces" in text
 
 
 def test_real_boundary_kept():

@@ -100,6 +100,10 @@ def check_solver_section(t, prefix, scen):
         from driftlog.floodsetup import check_sea
 
         check_sea(t["sea"], f"{prefix}.sea")
+    if t.get("engine", "driftlog") != "driftlog":
+        from driftlog.adapters.openfoam_engine import check_engine_section
+
+        check_engine_section(t, prefix)
 
 
 def _check_outline(t, prefix):
@@ -147,6 +151,9 @@ def _check_initial(ini, key):
 
 def solver_hash(section) -> str:
     """A hash of the validated [solver] section (what decides whether a stored flow is current)."""
+    if section.get("engine", "driftlog") == "driftlog":  # keys of OpenFOAM runs only
+        section = {k: v for k, v in section.items()
+                   if k not in ("engine", "n_procs", "openfoam_friction")}
     text = json.dumps(section, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -228,9 +235,17 @@ def build_solver(sec, mesh=None):
     return s
 
 
-def _default_path(scenario):
+def _default_path(scenario, engine=None):
+    """The flow file of the section's engine.
+
+    [flow] path (or solver_flow.nc beside the scenario) for driftlog, with ``_<engine>``
+    added to its stem for another engine.
+    """
+    from driftlog.adapters.openfoam_engine import engine_flow_path
+
     p = scenario["flow"].get("path") or ""
-    return Path(p) if p else scenario.base_dir / "solver_flow.nc"
+    path = Path(p) if p else scenario.base_dir / "solver_flow.nc"
+    return engine_flow_path(path, engine or scenario["solver"].get("engine", "driftlog"))
 
 
 def _stored(path, digest):
@@ -266,6 +281,10 @@ def solve_scenario(scenario, output=None, resume=False, progress=False):
     attrs = dict(scenario.attrs())
     attrs["solver_hash"] = digest
     attrs["title"] = scenario["title"] or "driftlog solver flow"
+    if sec.get("engine", "driftlog") != "driftlog":
+        from driftlog.adapters.openfoam_engine import solve_with_shallow_water_foam
+
+        return solve_with_shallow_water_foam(scenario, path, attrs, progress=progress), path
     from driftlog.errors import FlowFileError
 
     if resume and not partial.exists() and path.exists():
@@ -353,6 +372,10 @@ def flow_from_scenario(scenario, progress=False):
     path = _default_path(scenario)
     digest = solver_hash(sec)
     state, t_last = _stored(path, digest)
+    if sec.get("engine", "driftlog") != "driftlog":  # no resuming an OpenFOAM run
+        if state is None or t_last is None or t_last < sec["end"] - 1e-9 * abs(sec["end"]):
+            solve_scenario(scenario, output=path, progress=progress)
+        return open_flow(path, dry_depth=scenario["flow"]["dry_depth"])
     if state is None or t_last is None or t_last < sec["end"]:
         p_state, p_last = _stored(partial_path(path), digest)
         resume = (p_state is not None and p_last is not None) or \

@@ -1,0 +1,344 @@
+"""HEC-RAS 2D reader on real HEC-RAS 6.5 files (../shared/data/hecras, see its README).
+
+- Muncie.g05.hdf: a complete geometry (two 2D areas, polygon cells of 3 to 8 sides, cell
+  areas, face normals and lengths, cell minimum elevations), no results.
+- BaldEagleDamBrk.p18.hdf: the Bald Eagle Creek dam-break plan, trimmed by rashdf's authors:
+  geometry of two 2D areas but no `Cells Minimum Elevation` (bed); its time series (37 outputs)
+  is in BaldEagleDamBrk.p18.timeseries.hdf.  The bed used for the tracking test is stated
+  there: bed = "min_water_surface", the lowest water surface the plan itself reports per cell
+  (the bed wherever the cell went dry, above it in the always-wet channel), a documented user
+  option, not invented data.
+"""
+
+import os
+
+import h5py
+import numpy as np
+import pytest
+
+from driftlog.errors import FlowFileError
+
+hecras = pytest.importorskip("driftlog.adapters.hecras")
+
+DATA = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "hecras")
+MUNCIE = os.path.join(DATA, "Muncie.g05.hdf")
+PLAN = os.path.join(DATA, "BaldEagleDamBrk.p18.hdf")
+SERIES = os.path.join(DATA, "BaldEagleDamBrk.p18.timeseries.hdf")
+AREAS = "Geometry/2D Flow Areas"
+TS = "Results/Unsteady/Output/Output Blocks/Base Output/Unsteady Time Series"
+
+pytestmark = pytest.mark.skipif(not os.path.isfile(MUNCIE) or not os.path.isfile(SERIES),
+                                reason="HEC-RAS data (../shared/data/hecras) not found")
+FT = 0.3048
+
+
+@pytest.fixture(scope="module")
+def muncie():
+    return hecras.read_geometry(MUNCIE)
+
+
+@pytest.fixture(scope="module")
+def bald_eagle():
+    return hecras.open(PLAN, results=SERIES, bed="min_water_surface")
+
+
+def _areas(geom):
+    starts = zip(geom.cell_start[:-1], geom.cell_start[1:], geom.face_start[:-1],
+                 geom.face_start[1:], strict=True)
+    return list(zip(geom.areas, starts, strict=True))
+
+
+def test_muncie_cell_areas_equal_hecras_surface_area(muncie):
+    assert muncie.areas == ["2D Interior Area", "Perimeter_NW"]
+    assert muncie.n_real == [5271, 519]
+    with h5py.File(MUNCIE) as f:
+        for name, (c0, c1, _, _) in _areas(muncie):
+            ref = f[f"{AREAS}/{name}/Cells Surface Area"][: c1 - c0].astype(float) * FT ** 2
+            # HEC-RAS stores float32: agreement to its round-off, perimeter cells included
+            np.testing.assert_allclose(muncie.cell_area[c0:c1], ref, rtol=1e-6)
+    # the mesh faces tile the cells exactly (split cells included)
+    assert muncie.mesh.face_area.sum() == pytest.approx(muncie.cell_area.sum(), rel=1e-13)
+    assert muncie.n_split > 0  # non-convex perimeter cells were split into triangles
+
+
+def test_muncie_face_normals_and_lengths(muncie):
+    with h5py.File(MUNCIE) as f:
+        for name, (_, _, f0, f1) in _areas(muncie):
+            ref = f[f"{AREAS}/{name}/Faces NormalUnitVector and Length"][()].astype(float)
+            np.testing.assert_allclose(muncie.face_normal[f0:f1], ref[:, :2], atol=1e-7)
+            np.testing.assert_allclose(muncie.face_length[f0:f1], ref[:, 2] * FT, rtol=1e-6)
+            # HEC-RAS's normal points from the face's cell 0 to its cell 1
+            cells = f[f"{AREAS}/{name}/Faces Cell Indexes"][()]
+            cc = f[f"{AREAS}/{name}/Cells Center Coordinate"][()] * FT
+            d = cc[cells[:, 1]] - cc[cells[:, 0]]
+            assert np.all(np.einsum("ij,ij->i", d, muncie.face_normal[f0:f1]) > 0)
+
+
+def test_muncie_polygons_of_3_to_8_sides(muncie):
+    mesh = muncie.mesh
+    assert set(np.unique(mesh.face_n)) <= set(range(3, 9))
+    assert mesh.face_n.max() == 8 and np.any(mesh.face_n > 4)
+    with h5py.File(MUNCIE) as f:
+        name, (c0, c1, _, _) = _areas(muncie)[0]
+        cfp = f[f"{AREAS}/{name}/Cells FacePoint Indexes"][: c1 - c0]
+        fp = f[f"{AREAS}/{name}/FacePoints Coordinate"][()] * FT
+        perim = f[f"{AREAS}/{name}/Faces Perimeter Info"][()][:, 1] > 0
+        vals = f[f"{AREAS}/{name}/Cells Face and Orientation Values"][()][:, 0]
+        info = f[f"{AREAS}/{name}/Cells Face and Orientation Info"][: c1 - c0]
+    # interior cells (no perimeter face) are one mesh face with HEC-RAS's face points, in order
+    whole = np.bincount(muncie.cell_of_face, minlength=muncie.n_cells) == 1
+    checked = 0
+    for c in np.flatnonzero(whole[c0:c1])[:400]:
+        if perim[vals[info[c, 0]:info[c, 0] + info[c, 1]]].any():
+            continue
+        f_ = int(np.flatnonzero(muncie.cell_of_face == c)[0])
+        nodes = mesh.face_nodes[f_, :mesh.face_n[f_]]
+        ref = cfp[c][cfp[c] >= 0]
+        np.testing.assert_array_equal(mesh.node_x[nodes], fp[ref, 0])
+        np.testing.assert_array_equal(mesh.node_y[nodes], fp[ref, 1])
+        checked += 1
+    assert checked > 300
+
+
+@pytest.mark.parametrize("path", [MUNCIE, PLAN])
+def test_uniform_flow_is_reconstructed_to_round_off(path):
+    geom = hecras.read_geometry(path)
+    for U, V in ((1.3, -0.4), (-2.0, 0.7)):
+        vn = geom.face_normal @ np.array([U, V])
+        u, v = geom.cell_velocity(vn)
+        assert np.abs(u - U).max() < 1e-13 and np.abs(v - V).max() < 1e-13
+
+
+def test_linear_flow_reconstruction_is_first_order(muncie):
+    """A linear field is not exact (one vector per cell) but close: error O(cell size)."""
+    mesh, g = muncie.mesh, muncie
+    with h5py.File(MUNCIE) as f:
+        mids = []
+        for name, _ in _areas(g):
+            fp = f[f"{AREAS}/{name}/FacePoints Coordinate"][()] * FT
+            ffp = f[f"{AREAS}/{name}/Faces FacePoint Indexes"][()]
+            mids.append(0.5 * (fp[ffp[:, 0]] + fp[ffp[:, 1]]))
+    mid = np.concatenate(mids)
+    x0 = mesh.node_x.mean()
+    k = 1e-3  # 1/s
+    vn = g.face_normal[:, 0] * k * (mid[:, 0] - x0)
+    u, _ = g.cell_velocity(vn)
+    cx = np.bincount(g.cell_of_face, mesh.face_area * mesh.face_x, g.n_cells) / g.cell_area
+    size = np.sqrt(g.cell_area)
+    assert np.all(np.abs(u - k * (cx - x0)) <= k * size)
+
+
+def test_bald_eagle_time_series(bald_eagle):
+    fl = bald_eagle
+    assert fl.times.size == 37
+    np.testing.assert_array_equal(np.diff(fl.times), 7200.0)
+    assert fl.times[0] == 0.0
+    assert fl.attrs["time_reference"] == "seconds since 1999-01-01T12:00:00"
+    assert "Pennsylvania" in fl.attrs["crs_wkt"]
+    assert fl.attrs["hecras_areas"] == "BaldEagleCr, Upper 2D Area"
+    assert "min_water_surface" in fl.attrs["hecras_bed"]
+    g = fl.source.geom
+    assert g.n_real == [3359, 1066] and g.n_cells == 3359 + 1066
+    # depth = water surface - bed, in SI, on every mesh face of the cell
+    with h5py.File(SERIES) as f:
+        ws = np.concatenate([f[f"{TS}/2D Flow Areas/BaldEagleCr/Water Surface"][20, :3359],
+                             f[f"{TS}/2D Flow Areas/Upper 2D Area/Water Surface"][20, :1066]])
+    ws = ws.astype(float)
+    h, hu, hv = fl.read_snapshot(20)
+    bed_cells = np.zeros(g.n_cells)
+    bed_cells[g.cell_of_face] = fl.bed
+    np.testing.assert_allclose(h, np.maximum(ws * FT - bed_cells, 0)[g.cell_of_face],
+                               atol=1e-9)
+    assert h.max() > 5.0  # the dam-break flood
+    # the bed is the lowest water surface: no snapshot goes below it
+    for i in (0, 18, 36):
+        assert fl.read_snapshot(i)[0].min() >= 0.0
+
+
+def test_areas_option_reads_one_area():
+    fl = hecras.open(PLAN, results=SERIES, bed="min_water_surface", areas="Upper 2D Area")
+    g = fl.source.geom
+    assert g.areas == ["Upper 2D Area"] and g.n_cells == 1066
+    full = hecras.read_geometry(PLAN)
+    u, v = g.cell_velocity(np.ones(g.face_normal.shape[0]))
+    uf, vf = full.cell_velocity(np.r_[np.zeros(full.face_start[1]), np.ones(2286)])
+    np.testing.assert_allclose(u, uf[3359:], atol=1e-12)
+    np.testing.assert_allclose(v, vf[3359:], atol=1e-12)
+
+
+def test_log_released_in_the_channel_moves_downstream(bald_eagle, tmp_path):
+    """A log released in Bald Eagle Creek during the flood drifts down the valley.
+
+    Downstream is measured with HEC-RAS's own summary Maximum Water Surface of the cells the
+    log crosses: the flood's peak water surface falls along the valley.
+    """
+    from driftlog.api import track
+
+    fl = bald_eagle
+    x0, y0 = 618646.677, 102034.111  # a channel cell of BaldEagleCr
+    scen = f"""
+title = "Bald Eagle Creek"
+[flow]
+source = "analytic"
+kind = "uniform"
+[time]
+start = 72000.0
+end = 86400.0
+output_interval = 1800.0
+[[logs]]
+seeding = "list"
+x = [{x0}]
+y = [{y0}]
+length = 5.0
+radius = 0.2
+density = 600.0
+[output]
+path = "{tmp_path / 'be.nc'}"
+"""
+    ds = track(scen, flow=fl).dataset()
+    x, y, status = ds["x"].values, ds["y"].values, ds["status"].values
+    assert x.size == 9 and np.all(status == 1)  # floating throughout
+    with h5py.File(PLAN) as f:
+        s = "Results/Unsteady/Output/Output Blocks/Base Output/Summary Output/2D Flow Areas"
+        peak = np.concatenate([f[f"{s}/BaldEagleCr/Maximum Water Surface"][0, :3359],
+                               f[f"{s}/Upper 2D Area/Maximum Water Surface"][0, :1066]]) * FT
+    cells = fl.source.geom.cell_of_face[fl.sample(x, y, 72000.0).face]
+    assert np.hypot(x[-1] - x[0], y[-1] - y[0]) > 2000.0
+    assert np.all(np.diff(peak[cells]) <= 0.0) and peak[cells[-1]] < peak[cells[0]] - 1.0
+
+
+# --------------------------------------------------------------------- bad input
+def test_not_a_hecras_file(tmp_path):
+    p = tmp_path / "notes.hdf"
+    p.write_text("not HDF5")
+    with pytest.raises(FlowFileError, match="not a HEC-RAS file"):
+        hecras.open(p)
+    q = tmp_path / "other.h5"
+    with h5py.File(q, "w") as f:
+        f["x"] = np.arange(3)
+    with pytest.raises(FlowFileError, match="not a HEC-RAS 2D file"):
+        hecras.open(q)
+    assert not hecras.can_open(p) and not hecras.can_open(q)
+    assert hecras.can_open(PLAN) and hecras.can_open(MUNCIE)
+
+
+def test_unknown_area_lists_the_areas():
+    with pytest.raises(FlowFileError, match="no 2D flow area named 'Main'.*'BaldEagleCr', "
+                                            "'Upper 2D Area'"):
+        hecras.open(PLAN, results=SERIES, areas=["Main"])
+
+
+def test_geometry_file_has_no_results():
+    with pytest.raises(FlowFileError, match="no 2D results: a geometry file.*results ="):
+        hecras.open(MUNCIE)
+
+
+def test_missing_bed_says_which_option_to_give():
+    with pytest.raises(FlowFileError, match="no bed.*geometry = .*terrain = "):
+        hecras.open(PLAN, results=SERIES)
+    with pytest.raises(FlowFileError, match="no 2D flow area 'BaldEagleCr'"):
+        hecras.open(PLAN, results=SERIES, geometry=MUNCIE)
+
+
+def test_truncated_file(tmp_path):
+    data = open(SERIES, "rb").read()
+    p = tmp_path / "cut.hdf"
+    p.write_bytes(data[: len(data) // 2])
+    with pytest.raises(FlowFileError, match="truncated"):
+        hecras.open(PLAN, results=p, bed="min_water_surface")
+
+
+def test_date_stamps():
+    assert str(hecras.parse_stamp("01JAN1999 2400")) == "1999-01-02T00:00:00.000"
+    assert str(hecras.parse_stamp(b"05Feb2024 13:45:07:250")) == "2024-02-05T13:45:07.250"
+    with pytest.raises(FlowFileError, match="not understood"):
+        hecras.parse_stamp("1999-01-01 00:00")
+
+
+def test_describe():
+    lines = hecras.describe(MUNCIE)
+    assert "US Customary" in lines[0] and "'2D Interior Area': 5271 cells" in lines[1]
+    assert "37 outputs" in hecras.describe(SERIES)[-1]
+
+
+def test_terrain_bed_is_the_lowest_pixel_in_each_cell(tmp_path, muncie):
+    rasterio = pytest.importorskip("rasterio")
+    from rasterio.transform import from_origin
+
+    mesh = muncie.mesh
+    x0, y0, x1, y1 = np.asarray(mesh.bounds) / FT
+    res = 10.0  # ft pixels, cells are ~50 ft across
+    nx, ny = int((x1 - x0) / res) + 2, int((y1 - y0) / res) + 2
+    tr = from_origin(x0 - res, y1 + res, res, res)
+    cols, rows = np.meshgrid(np.arange(nx), np.arange(ny))
+    px, py = x0 - res + (cols + 0.5) * res, y1 + res - (rows + 0.5) * res
+    z = 900.0 + 0.01 * (px - x0) - 0.02 * (py - y0)  # a plane, ft
+    p = tmp_path / "terrain.tif"
+    with rasterio.open(p, "w", driver="GTiff", width=nx, height=ny, count=1, dtype="float64",
+                       transform=tr) as r:
+        r.write(z, 1)
+    bed = hecras._bed_from_terrain(p, muncie, MUNCIE)
+    # on a plane, the lowest pixel centre in a cell lies between the lowest and the highest
+    # point of the cell's polygon (nodes), and mostly within one pixel's rise of the lowest
+    fn = mesh.face_nodes
+    zn = 900.0 + 0.01 * (mesh.node_x / FT - x0) - 0.02 * (mesh.node_y / FT - y0)
+    zmin = np.where(fn >= 0, zn[np.maximum(fn, 0)], np.inf).min(axis=1)
+    zmax = np.where(fn >= 0, zn[np.maximum(fn, 0)], -np.inf).max(axis=1)
+    low, high = np.full(muncie.n_cells, np.inf), np.full(muncie.n_cells, -np.inf)
+    np.minimum.at(low, muncie.cell_of_face, zmin)
+    np.maximum.at(high, muncie.cell_of_face, zmax)
+    assert np.all(bed >= low * FT - 1e-9) and np.all(bed <= high * FT + 1e-9)
+    rise = np.hypot(0.01, 0.02) * res * np.sqrt(2) * FT
+    assert np.mean(bed <= low * FT + rise) > 0.99
+
+
+def test_import_cli_auto_and_scenario_source(tmp_path):
+    """`driftlog import plan.hdf`, `source = "auto"` and `source = "hecras"` all read it."""
+    import netCDF4
+    from driftlog.adapters import detect_format
+
+    from driftlog.cli import main
+    from driftlog.scenario import load_scenario
+    from driftlog.sources import flow_from_scenario
+
+    assert detect_format(PLAN) == "hecras" and detect_format(MUNCIE) == "hecras"
+    out = tmp_path / "flow.nc"
+    assert main(["import", PLAN, "-o", str(out), "--option", f"results={SERIES}",
+                 "--option", "bed=min_water_surface"]) == 0
+    with netCDF4.Dataset(out) as ds:
+        assert ds["time"].units == "seconds since 1999-01-01T12:00:00"
+        assert ds["time"].size == 37 and "Pennsylvania" in ds.crs_wkt
+        assert ds.dimensions["mesh2d_nMax_face_nodes"].size == 8
+    # a plan without bed: the error names the options (exit code 2, no traceback)
+    assert main(["import", PLAN, "-o", str(tmp_path / "x.nc"), "--option",
+                 f"results={SERIES}"]) == 2
+    for source in ("auto", "hecras"):
+        scen = load_scenario(f"""
+[flow]
+source = "{source}"
+path = "{PLAN}"
+[flow.options]
+results = "{SERIES}"
+bed = "min_water_surface"
+areas = ["BaldEagleCr"]
+[time]
+end = 3600.0
+[[logs]]
+x = [618646.677]
+y = [102034.111]
+""")
+        fl = flow_from_scenario(scen)
+        assert fl.source.geom.areas == ["BaldEagleCr"] and fl.times.size == 37
+    with pytest.raises(Exception, match="bed"):
+        load_scenario(f"""
+[flow]
+source = "hecras"
+path = "{PLAN}"
+[flow.options]
+bed = "terrain_please"
+[time]
+end = 1.0
+[[logs]]
+x = [0.0]
+y = [0.0]
+""")
