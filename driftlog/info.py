@@ -31,13 +31,7 @@ def _range(a, unit=""):
 
 def _mesh_line(mesh):
     x0, y0, x1, y1 = mesh.bounds
-    kinds = np.bincount(mesh.face_n, minlength=5)
-    merged = getattr(mesh, "merged_nodes", (0, 0.0))
-    seam = (f"; {merged[0]} coincident nodes merged (closer than {merged[1]:g} x the local "
-            "edge length)" if merged[0] else "")
-    return (f"mesh: {mesh.n_faces} faces ({kinds[3]} triangles, {kinds[4]} quads), "
-            f"{mesh.n_nodes} nodes; x {x0:.6g} to {x1:.6g} m, y {y0:.6g} to {y1:.6g} m; "
-            f"boundary tags {mesh.tag_names}{seam}")
+    return f"{mesh!r}\n  extent: x {x0:.6g} to {x1:.6g} m, y {y0:.6g} to {y1:.6g} m"
 
 
 def _times_line(times):
