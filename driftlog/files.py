@@ -119,6 +119,19 @@ def _netcdf_kind(path: Path) -> FileKind:
     except (OSError, RuntimeError, UnicodeError) as exc:
         msg = str(exc).replace(f": {str(path)!r}", "").replace(f": '{path}'", "")
         return FileKind("bad_netcdf", path, f"{path.stat().st_size} bytes; {msg}")
+    if ds.data_model.startswith("NETCDF3"):  # opens when cut short: sizes against the header
+        from driftlog.errors import DriftlogError
+
+        try:
+            from driftlog.adapters._netcdf import check_netcdf3_size
+
+            check_netcdf3_size(path)
+        except DriftlogError as exc:
+            ds.close()
+            msg = str(exc).replace(f"{path}: ", "")
+            return FileKind("bad_netcdf", path, f"{path.stat().st_size} bytes; {msg}")
+        except ImportError:  # pragma: no cover
+            pass
     with ds:
         names = set(ds.variables)
         attrs = set(ds.ncattrs())
