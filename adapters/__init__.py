@@ -56,6 +56,22 @@ READERS = [file, hecras, openfoam, ugrid, anuga, cfgrid, selafin, mike, raster]
 KINDS = tuple(r.KIND for r in READERS)
 
 
+def _register_with_files():
+    """Tell ``driftlog.files.sniff`` about the readers of other models' files."""
+    from driftlog.adapters._netcdf import check_netcdf3_size
+
+    from driftlog import files
+
+    for r in READERS:
+        if r.KIND not in ("file", "ugrid", "cf_grid", "anuga"):  # NetCDF: sniffed by content
+            files.register_reader(r.KIND, r.can_open)
+    if check_netcdf3_size not in files.CONTENT_CHECKS:
+        files.CONTENT_CHECKS.append(check_netcdf3_size)
+
+
+_register_with_files()
+
+
 def reader(kind):
     """The reader module of a kind (FlowFileError naming the known kinds if none)."""
     for r in READERS:

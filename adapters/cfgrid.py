@@ -26,6 +26,7 @@ from ._netcdf import (
     ROLES,
     NetCDFSource,
     find_roles,
+    netcdf_matches,
     open_dataset,
     read_times,
     time_attrs,
@@ -296,14 +297,7 @@ OPTIONS = [
 
 def can_open(path) -> bool:
     """Whether ``path`` is a NetCDF file with 1-D x and y coordinates (a regular grid)."""
-    try:
-        p = Path(path)
-        if not p.is_file():
-            return False
-        with open_dataset(p) as ds:
-            return is_cf_grid(ds)
-    except Exception:
-        return False
+    return netcdf_matches(path, is_cf_grid)
 
 
 def open(path, *, time_range=None, variables=None, dry_depth=1e-3, **options):

@@ -406,10 +406,10 @@ def _clean(case: Path):
     """Remove the results of an earlier run: time and processor directories, logs."""
     if not case.is_dir():
         return
-    from .openfoam import _NUMBER
+    from ._foam_case import NUMBER
 
     for d in case.iterdir():
-        if d.is_dir() and (_NUMBER.match(d.name) or d.name.startswith("processor")):
+        if d.is_dir() and (NUMBER.match(d.name) or d.name.startswith("processor")):
             shutil.rmtree(d)
         elif d.is_file() and d.name.startswith("log."):
             d.unlink()

@@ -152,8 +152,11 @@ def _fail(engine, case, log, what, path):
                          f"  ({keep})")
 
 
-def solve_with_shallow_water_foam(scenario, path, attrs, progress=False, timeout=None):
+def solve_with_shallow_water_foam(scenario, path, attrs, build, progress=False, timeout=None):
     """Compute a scenario's [solver] section with shallowWaterFoam; write the flow file.
+
+    ``build(section)`` gives driftlog's ``ShallowWaterSolver`` of the section
+    (``driftlog.solver.config.build_solver``): its mesh, bed and initial state are the case's.
 
     The case is written to ``engine_case_path(path)`` and run there (serial, or decomposed
     on ``n_procs`` processes); its snapshots are checked (finite, depth > 0) and written to
@@ -170,7 +173,6 @@ def solve_with_shallow_water_foam(scenario, path, attrs, progress=False, timeout
     )
 
     from driftlog.flowfile import FlowFileWriter
-    from driftlog.solver.config import build_solver
     from driftlog.solver.run import SolveResult
 
     sec = scenario["solver"]
@@ -186,7 +188,7 @@ def solve_with_shallow_water_foam(scenario, path, attrs, progress=False, timeout
                     f"{BASHRC} and no shallowWaterFoam on PATH (Debian: apt-get install "
                     "openfoam; or set DRIFTLOG_OPENFOAM_BASHRC to your OpenFOAM's etc/bashrc)",
                     path)
-    s = build_solver(sec)  # the mesh, bed and initial state exactly as driftlog's solver has
+    s = build(sec)  # the mesh, bed and initial state exactly as driftlog's solver has
     mesh = s.mesh
     h = s.h.copy()
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -1,8 +1,8 @@
 """The Python API: load a scenario, get its flow, track its logs, read the results.
 
-    import driftlog
-    result = driftlog.track("cases/vortex/scenario.toml")
-    ds = result.dataset()          # xarray, CF trajectories
+>>> import driftlog
+>>> result = driftlog.track("cases/vortex/scenario.toml")
+>>> ds = result.dataset()          # xarray, CF trajectories
 """
 
 from __future__ import annotations
@@ -13,11 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
+from driftlog.contact import ContactModel
 from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.files import check_output
 from driftlog.flow import WET
 from driftlog.logs import Logs, logs_from_scenario
 from driftlog.physics import NLIN, PhysicsOptions, log_parameters, rhs_kernel
+from driftlog.preflight import check_flow_values, check_start, count_logs, estimate_run
 from driftlog.scenario import Scenario, load_scenario
 from driftlog.sources import flow_from_scenario
 from driftlog.tracker import StepOptions, Tracker
@@ -37,6 +39,7 @@ class TrackResult:
     physics: dict
     scenario: Scenario
     extra_files: list = field(default_factory=list)
+    writer: object = None  # what received the records (a TrajectoryWriter, or the given one)
     flow_name: str = ""
 
     def dataset(self):
@@ -162,11 +165,8 @@ def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool, t_end
 def _contact_model(scen, flow):
     if not scen["contact"]["enabled"]:
         return None
-    try:
-        from driftlog.contact import ContactModel
-    except ImportError as exc:  # pragma: no cover - until the contact package lands
-        raise DriftlogError(f"contact.enabled = true but contacts are not available ({exc})")
-    return ContactModel.from_scenario(scen, mesh=getattr(flow, "mesh", None))
+    return ContactModel.from_sections(scen["contact"], scen["obstacles"],
+                                      mesh=getattr(flow, "mesh", None))
 
 
 def track(scenario, flow=None, output=None, progress=False, overrides=None,
@@ -197,12 +197,8 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     if flow is None:
         flow = flow_from_scenario(scen, progress=progress)
     logs = logs_from_scenario(scen)
-    from driftlog.preflight import check_start
-
     check_start(scen, flow, logs, warn=writer is None)  # outside the mesh, in an obstacle
     if writer is None and not resume:  # every snapshot the run reads: finite, sized, >= 0
-        from driftlog.preflight import check_flow_values
-
         check_flow_values(flow, scen["time"]["start"], scen["time"]["end"])
     tm = scen["time"]
     origin = run_clock_origin(flow, tm["start"], tm["end"])
@@ -270,57 +266,9 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     if scen["output"]["vtk"]:
         extra.append(write_vtk(path))
     result = TrackResult(path, logs, tracker.stats,
-                         dict(level=level, rotation=rotation, reason=reason), scen, extra,
+                         dict(level=level, rotation=rotation, reason=reason), scen, extra, writer,
                          flow_name=getattr(flow, "name", str(flow)))
     return result
-
-
-def count_logs(scen) -> int:
-    """The number of logs a validated scenario seeds, without seeding them."""
-    n = 0
-    for g in scen["logs"]:
-        if g.get("seeding", "list") == "list":
-            x = g.get("x")
-            n += len(x) if isinstance(x, (list, tuple)) else 1
-        else:
-            n += int(g.get("count") or 0)
-    return n
-
-
-def estimate_run(scen, output=None):
-    """Refuse (``SizeError``) a run too large for this machine, before anything is allocated.
-
-    Memory: about 2 kB per log for the tracker (state, integrator stages, flow samples,
-    contacts) and the buffered records (``flush_interval`` records of 85 bytes per log), and
-    the final rewrite of the trajectory file, 32 bytes per observation (one variable at a
-    time, with its sort order).  Disk: 85 bytes per observation, twice (the ``.partial`` file
-    and the final file).  Returns (logs, observations, bytes of memory).
-    """
-    import shutil
-
-    from driftlog.resources import check_fits
-
-    n = count_logs(scen)
-    tm = scen["time"]
-    records = int((tm["end"] - tm["start"]) / tm["output_interval"]) + 2
-    nobs = float(n) * records
-    mem = n * (2000.0 + 85.0 * scen["output"]["flush_interval"]) + 32.0 * nobs
-    advice = ("fewer logs (count), a longer [time] output_interval, or an ensemble "
-              "(driftlog ensemble) that runs the logs in members")
-    check_fits(mem, f"tracking {n:.3g} logs over {records} records ({nobs:.3g} observations)",
-               advice)
-    out = Path(output or scen["output"]["path"])
-    try:
-        free = shutil.disk_usage(out.parent if out.parent.exists() else Path.cwd()).free
-    except OSError:
-        free = None
-    if free is not None and 2 * 85.0 * nobs > 0.9 * free:
-        from driftlog.errors import SizeError
-
-        raise SizeError(f"tracking {n:.3g} logs over {records} records writes about "
-                        f"{2 * 85 * nobs / 2**30:.3g} GiB, more than the {free / 2**30:.3g} GiB "
-                        f"free on the disk of {out.parent}; {advice}")
-    return n, nobs, mem
 
 
 def cases_dir() -> Path:

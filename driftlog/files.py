@@ -41,7 +41,7 @@ from pathlib import Path
 from driftlog.errors import DriftlogError, InputFileError, OutputPathError
 
 __all__ = ["FileKind", "sniff", "require", "check_output", "atomic_output", "read_text",
-           "DESCRIPTIONS"]
+           "DESCRIPTIONS", "register_reader"]
 
 NETCDF_MAGIC = (b"CDF\x01", b"CDF\x02", b"CDF\x05", b"\x89HDF\r\n\x1a\n")
 MESH_SUFFIXES = (".msh", ".vtu", ".vtk", ".2dm", ".ply", ".obj", ".off", ".stl", ".xdmf",
@@ -120,18 +120,13 @@ def _netcdf_kind(path: Path) -> FileKind:
         msg = str(exc).replace(f": {str(path)!r}", "").replace(f": '{path}'", "")
         return FileKind("bad_netcdf", path, f"{path.stat().st_size} bytes; {msg}")
     if ds.data_model.startswith("NETCDF3"):  # opens when cut short: sizes against the header
-        from driftlog.errors import DriftlogError
-
-        try:
-            from driftlog.adapters._netcdf import check_netcdf3_size
-
-            check_netcdf3_size(path)
-        except DriftlogError as exc:
-            ds.close()
-            msg = str(exc).replace(f"{path}: ", "")
-            return FileKind("bad_netcdf", path, f"{path.stat().st_size} bytes; {msg}")
-        except ImportError:  # pragma: no cover
-            pass
+        for check in CONTENT_CHECKS:
+            try:
+                check(path)
+            except DriftlogError as exc:
+                ds.close()
+                msg = str(exc).replace(f"{path}: ", "")
+                return FileKind("bad_netcdf", path, f"{path.stat().st_size} bytes; {msg}")
     with ds:
         names = set(ds.variables)
         attrs = set(ds.ncattrs())
@@ -151,32 +146,42 @@ def _netcdf_kind(path: Path) -> FileKind:
             return FileKind("flow", path, info=info)
         if topo and not ({"time"} & names or own):
             return FileKind("mesh", path, info=info)
-        try:
-            from driftlog.adapters.anuga import is_sww
-            from driftlog.adapters.cfgrid import is_cf_grid
-
-            if topo or is_sww(ds) or is_cf_grid(ds):
-                return FileKind("model_output", path, info=info)
-        except ImportError:  # pragma: no cover - adapters always ship with the package
-            pass
+        sww = {"x", "y", "volumes", "stage"} <= names  # ANUGA
+        grid = any(len(v.dimensions) == 1 and (getattr(v, "axis", "") in ("X", "Y") or
+                                               v.name in ("x", "y", "lon", "lat"))
+                   for v in ds.variables.values())  # a CF grid's 1-D coordinates
+        if topo or sww or grid:
+            return FileKind("model_output", path, info=info)
         return FileKind("netcdf", path, f"variables: {sorted(names)[:10]}", info=info)
 
 
-def _reader_of(path) -> str:
-    """The first non-NetCDF reader of ``driftlog.adapters.READERS`` that can open ``path``.
+# Registered from above (this module sits at the bottom of the import layers and imports
+# nothing of driftlog but its errors): ``driftlog.adapters`` adds its readers' ``can_open``
+# probes and the NetCDF-3 size check when it is imported.
+READER_PROBES = []  # (kind, can_open(path) -> bool), the readers of other models' files
+CONTENT_CHECKS = []  # check(path): raises a DriftlogError for a NetCDF-3 file cut short
 
-    Selafin, dfsu, rasters, OpenFOAM...: its kind, or '' when none can.
+
+def register_reader(kind, can_open):
+    """Let :func:`sniff` recognise another model's files (``driftlog.adapters`` does this)."""
+    if all(k != kind for k, _ in READER_PROBES):
+        READER_PROBES.append((kind, can_open))
+
+
+def _is_openfoam_case(p: Path) -> bool:
+    return ((p / "system" / "controlDict").is_file() or (p / "constant" / "polyMesh").is_dir()
+            or (p / "processor0").is_dir())
+
+
+def _reader_of(path) -> str:
+    """The first registered reader of other models' files that can open ``path``.
+
+    Selafin, dfsu, rasters, HEC-RAS...: its kind, or '' when none can.
     """
-    try:
-        from driftlog.adapters import READERS
-    except ImportError:  # pragma: no cover
-        return ""
-    for r in READERS:
-        if r.KIND in ("file", "ugrid", "cf_grid", "anuga"):
-            continue  # NetCDF layouts: told apart by _netcdf_kind
+    for kind, can_open in READER_PROBES:
         try:
-            if r.can_open(path):
-                return r.KIND
+            if can_open(path):
+                return kind
         except Exception:  # noqa: BLE001 - a reader's probe must not break sniffing
             continue
     return ""
@@ -189,9 +194,7 @@ def sniff(path) -> FileKind:
         if not p.exists():
             return FileKind("missing", p)
         if p.is_dir():
-            from driftlog.adapters.openfoam import is_openfoam_case
-
-            if is_openfoam_case(p):
+            if _is_openfoam_case(p):
                 return FileKind("openfoam", p)
             reader = _reader_of(p)
             return FileKind("model_output", p, reader, info={"reader": reader}) if reader \

@@ -14,6 +14,7 @@ import numba as nb
 import numpy as np
 
 from driftlog.errors import ScenarioError
+from driftlog.schema import Key, Section
 
 __all__ = ["Logs", "STATUS_MEANINGS", "WAITING", "FLOATING", "RESTING", "STRANDED", "LEFT",
            "seed_logs", "logs_from_scenario", "flotation_depth", "submerged_volume"]
@@ -210,3 +211,52 @@ def logs_from_scenario(scenario, water_density=None) -> Logs:
 
 # aliases used by callers who think in terms of the seeding
 seed_logs = seed_positions
+
+
+# --------------------------------------------------------------------- the scenario section
+SEEDINGS = ("list", "line", "polygon", "random", "grid")
+
+
+def _check_logs(t, prefix, scen):
+    s = t["seeding"]
+    if s == "list":
+        if not t["x"] or not t["y"] or len(t["x"]) != len(t["y"]):
+            raise ScenarioError(f"{prefix}.x", t["x"],
+                                "seeding = 'list' needs x and y lists of the same length")
+        for key in ("theta",):
+            if isinstance(t[key], list) and len(t[key]) not in (1, len(t["x"])):
+                raise ScenarioError(f"{prefix}.{key}", t[key],
+                                    f"must have 1 or {len(t['x'])} values (one per log)")
+    elif s == "line":
+        for key in ("start", "end"):
+            if t[key] is None:
+                raise ScenarioError(f"{prefix}.{key}", None, "is required for seeding = 'line'")
+    elif s in ("polygon", "random"):
+        if t["polygon"] is None:
+            raise ScenarioError(f"{prefix}.polygon", None,
+                                f"is required for seeding = {s!r} (at least 3 [x, y] points)")
+    if s != "list" and t["count"] < 1:
+        raise ScenarioError(f"{prefix}.count", t["count"], "must be >= 1")
+
+
+LOGS_SECTION = Section("logs", [
+    Key("name", "str", "", "a label for this group of logs"),
+    Key("seeding", "str", "list", "how the logs are placed", choices=SEEDINGS),
+    Key("x", "floats", [], "x of each log centre", "m", when="seeding = list"),
+    Key("y", "floats", [], "y of each log centre", "m", when="seeding = list"),
+    Key("theta", "any", 0.0, "angle of the log axis to the x axis: a number, a list (one per "
+        "log), or 'random'", "rad"),
+    Key("count", "int", 1, "number of logs", min=1, when="seeding = line, polygon, random, grid"),
+    Key("start", "point", None, "first end of the release line", "m", when="seeding = line"),
+    Key("end", "point", None, "second end of the release line", "m", when="seeding = line"),
+    Key("polygon", "points", None, "release area", "m", length=3,
+        when="seeding = polygon, random, grid"),
+    Key("seed", "int", 0, "random seed (the same seed gives the same logs, bit for bit)",
+        min=0),
+    Key("length", "float", 1.0, "log length L", "m", min=0.0, exclusive_min=True),
+    Key("radius", "float", 0.1, "log radius r", "m", min=0.0, exclusive_min=True),
+    Key("density", "float", 720.0, "log density rho_b", "kg/m3", min=0.0, exclusive_min=True),
+    Key("release_time", "float", None, "when the logs enter (default: time.start)", "s"),
+    Key("velocity", "str", "flow", "initial velocity: the flow's at release, or rest",
+        choices=("flow", "rest")),
+], doc="logs to release (repeat [[logs]] for several groups)", repeated=True, check=_check_logs)

@@ -26,7 +26,7 @@ import numpy as np
 
 from driftlog.errors import DriftlogWarning, ScenarioError
 
-__all__ = ["check_start", "check_scenario", "check_flow_values"]
+__all__ = ["check_start", "check_scenario", "check_flow_values", "count_logs", "estimate_run"]
 
 
 def _log_capsules(logs):
@@ -171,7 +171,6 @@ def check_scenario(scen, output=None, read_flow=True):
     Returns (warnings, what was checked: a list of short phrases).  A solver flow not computed
     yet is not computed: its mesh is built (after a size estimate) and the logs located on it.
     """
-    from driftlog.api import estimate_run
     from driftlog.files import check_output
     from driftlog.logs import logs_from_scenario
 
@@ -220,3 +219,50 @@ def check_scenario(scen, output=None, read_flow=True):
                                           is not None) else "logs seeded")
     return notes, done
 
+
+def count_logs(scen) -> int:
+    """The number of logs a validated scenario seeds, without seeding them."""
+    n = 0
+    for g in scen["logs"]:
+        if g.get("seeding", "list") == "list":
+            x = g.get("x")
+            n += len(x) if isinstance(x, (list, tuple)) else 1
+        else:
+            n += int(g.get("count") or 0)
+    return n
+
+
+def estimate_run(scen, output=None):
+    """Refuse (``SizeError``) a run too large for this machine, before anything is allocated.
+
+    Memory: about 2 kB per log for the tracker (state, integrator stages, flow samples,
+    contacts) and the buffered records (``flush_interval`` records of 85 bytes per log), and
+    the final rewrite of the trajectory file, 32 bytes per observation (one variable at a
+    time, with its sort order).  Disk: 85 bytes per observation, twice (the ``.partial`` file
+    and the final file).  Returns (logs, observations, bytes of memory).
+    """
+    import shutil
+
+    from driftlog.resources import check_fits
+
+    n = count_logs(scen)
+    tm = scen["time"]
+    records = int((tm["end"] - tm["start"]) / tm["output_interval"]) + 2
+    nobs = float(n) * records
+    mem = n * (2000.0 + 85.0 * scen["output"]["flush_interval"]) + 32.0 * nobs
+    advice = ("fewer logs (count), a longer [time] output_interval, or an ensemble "
+              "(driftlog ensemble) that runs the logs in members")
+    check_fits(mem, f"tracking {n:.3g} logs over {records} records ({nobs:.3g} observations)",
+               advice)
+    out = Path(output or scen["output"]["path"])
+    try:
+        free = shutil.disk_usage(out.parent if out.parent.exists() else Path.cwd()).free
+    except OSError:
+        free = None
+    if free is not None and 2 * 85.0 * nobs > 0.9 * free:
+        from driftlog.errors import SizeError
+
+        raise SizeError(f"tracking {n:.3g} logs over {records} records writes about "
+                        f"{2 * 85 * nobs / 2**30:.3g} GiB, more than the {free / 2**30:.3g} GiB "
+                        f"free on the disk of {out.parent}; {advice}")
+    return n, nobs, mem

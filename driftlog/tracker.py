@@ -34,8 +34,9 @@ from driftlog.physics import (
     log_parameters,
     rhs_kernel,
 )
+from driftlog.schema import Key, Section
 
-__all__ = ["Tracker", "StepOptions", "StepTooSmallError", "IntegrationError"]
+__all__ = ["Tracker", "StepOptions", "TIME_SECTION", "StepTooSmallError", "IntegrationError"]
 
 
 class StepTooSmallError(DriftlogError):
@@ -533,3 +534,20 @@ class Tracker:
                 bar.close()
             self.stats["wall_seconds"] = _time.perf_counter() - wall
         return self.logs
+
+
+# --------------------------------------------------------------------- the scenario section
+def _check_time(t, prefix, scen):
+    if t["end"] is not None and not t["end"] > t["start"]:
+        raise ScenarioError(f"{prefix}.end", t["end"],
+                            f"must be after time.start = {t['start']} s (time span reversed)")
+
+
+TIME_SECTION = Section("time", [
+    Key("start", "float", 0.0, "start of the debris run", "s"),
+    Key("end", "float", None, "end of the debris run (default: end of the flow)", "s"),
+    Key("output_interval", "float", 1.0, "interval between trajectory records", "s", min=0.0,
+        exclusive_min=True),
+    Key("hydro_step", "float", 1.0, "hydrodynamic step for flows without snapshots (analytic)",
+        "s", min=0.0, exclusive_min=True),
+], doc="the time span", check=_check_time)

@@ -25,6 +25,7 @@ import numpy as np
 from driftlog._version import __version__
 from driftlog.flowfile import TIME_UNITS, _attrs_for_netcdf
 from driftlog.logs import STATUS_MEANINGS
+from driftlog.schema import Key, Section
 
 __all__ = ["TrajectoryWriter", "open_trajectories", "write_vtk", "write_flow_vtk", "last_states"]
 
@@ -455,3 +456,13 @@ def write_flow_vtk(path, out_dir=None, every=1):
     pvd = out_dir / "flow.pvd"
     _write_pvd(pvd, entries)
     return pvd
+
+
+# --------------------------------------------------------------------- the scenario section
+OUTPUT_SECTION = Section("output", [
+    Key("path", "path", "trajectories.nc", "trajectory file (CF-1.11 trajectory NetCDF)"),
+    Key("vtk", "bool", False, "also write VTK (ParaView) files beside the trajectory file"),
+    Key("figure", "bool", False, "draw a figure of the trajectories"),
+    Key("animation", "bool", False, "write an animation (MP4 if ffmpeg is there, else GIF)"),
+    Key("flush_interval", "int", 10, "records between flushes to disk", min=1),
+], doc="what is written")

@@ -234,7 +234,7 @@ def test_contacts_and_land_on_a_grid():
     assert mesh.boundary_edges.size == 2 * (nx + ny)
     mesh.tag_boundary("outflow", (nx - 0.5, -1, nx + 1, ny + 1))
     scen = load_scenario({"contact": {"enabled": True, "walls": True, "restitution": 0.5}})
-    model = ContactModel.from_scenario(scen, mesh=mesh)
+    model = ContactModel.from_sections(scen["contact"], scen["obstacles"], mesh=mesh)
     logs = Logs([3.0], [4.0], [0.0], length=1.0, radius=0.1, density=700.0)
     Tracker(open_water, logs, PhysicsOptions(), contact=model, t_end=60.0).run()
     hits = model.drain_hits()

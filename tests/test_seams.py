@@ -84,7 +84,7 @@ def run(flow, mesh, contacts, t_end=40.0):
     mesh.tag_boundary("outflow", (NX - 0.5, -1, NX + 1, NY + 1))  # the east end is open
     if contacts:
         scen = load_scenario({"contact": {"enabled": True, "walls": True, "restitution": 0.5}})
-        model = ContactModel.from_scenario(scen, mesh=mesh)
+        model = ContactModel.from_sections(scen["contact"], scen["obstacles"], mesh=mesh)
     Tracker(flow, logs, PhysicsOptions(), contact=model, t_end=t_end).run()
     hits = model.drain_hits() if model else None
     return logs, hits

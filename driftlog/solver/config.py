@@ -1,6 +1,6 @@
 """Solving a scenario's flow: the ``[solver]`` section's checks, mesh, solver and runs.
 
-The keys are registered in ``driftlog.scenario`` (``driftlog scenario keys --section solver``).
+The keys are declared here (``SOLVER_SECTION``, ``driftlog scenario keys --section solver``).
 
     [flow]
     source = "solver"
@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from driftlog.errors import ScenarioError
+from driftlog.schema import Key, Section
 from driftlog.solver.boundaries import KINDS, as_boundary
 
 __all__ = ["build_mesh", "build_solver", "solve_scenario", "flow_from_scenario",
@@ -50,7 +51,7 @@ INITIAL_KEYS = ("type", "value", "polygon", "outside", "velocity", "path", "time
 
 
 def check_solver_section(t, prefix, scen):
-    """Cross-key checks of the [solver] section (scenario.py registers the keys)."""
+    """Cross-key checks of the [solver] section (the ``check`` of ``SOLVER_SECTION``)."""
     flow = scen.get("flow") or {}
     if flow.get("source") != "solver" and t["end"] is None:
         return  # not used
@@ -97,7 +98,7 @@ def check_solver_section(t, prefix, scen):
         as_boundary(spec, f"{prefix}.boundaries.{tag}")
     _check_initial(t["initial"] or {}, f"{prefix}.initial")
     if t.get("sea"):
-        from driftlog.floodsetup import check_sea
+        from driftlog.solver.sea import check_sea
 
         check_sea(t["sea"], f"{prefix}.sea")
     if t.get("engine", "driftlog") != "driftlog":
@@ -201,7 +202,7 @@ def build_solver(sec, mesh=None):
     mesh = build_mesh(sec) if mesh is None else mesh
     boundaries, coast = sec["boundaries"], None
     if sec.get("sea"):  # a sea found from the bed: its coast tagged, its water filled below
-        from driftlog.floodsetup import apply_sea
+        from driftlog.solver.sea import apply_sea
 
         boundaries = dict(boundaries or {})
         coast = apply_sea(mesh, sec["sea"], boundaries)
@@ -228,7 +229,7 @@ def build_solver(sec, mesh=None):
             np.column_stack([mesh.face_x, mesh.face_y]))
         h = np.where(inside, h, 0.0)
     if coast is not None:
-        from driftlog.floodsetup import fill_sea
+        from driftlog.solver.sea import fill_sea
 
         h = fill_sea(mesh, s.bed, h, float(sec["sea"]["level"]), coast)
     s.set_state(h, h * vel[0], h * vel[1], t=sec["start"])
@@ -284,7 +285,8 @@ def solve_scenario(scenario, output=None, resume=False, progress=False):
     if sec.get("engine", "driftlog") != "driftlog":
         from driftlog.adapters.openfoam_engine import solve_with_shallow_water_foam
 
-        return solve_with_shallow_water_foam(scenario, path, attrs, progress=progress), path
+        return solve_with_shallow_water_foam(scenario, path, attrs, build_solver,
+                                             progress=progress), path
     from driftlog.errors import FlowFileError
 
     if resume and not partial.exists() and path.exists():
@@ -382,3 +384,70 @@ def flow_from_scenario(scenario, progress=False):
             (state is not None and t_last is not None)
         solve_scenario(scenario, output=path, resume=resume, progress=progress)
     return open_flow(path, dry_depth=scenario["flow"]["dry_depth"])
+
+
+# --------------------------------------------------------------------- the scenario section
+SOLVER_SECTION = Section("solver", [
+    Key("engine", "str", "driftlog", "what computes the flow: driftlog's solver, or "
+        "OpenFOAM's shallowWaterFoam on the same mesh, bed, initial state and boundaries "
+        "(flow file [flow] path + '_shallowWaterFoam', case folder beside it)",
+        choices=("driftlog", "shallowWaterFoam")),
+    Key("n_procs", "int", 1, "processes of an OpenFOAM engine run (decomposePar + mpirun when "
+        "> 1)", min=1),
+    Key("openfoam_friction", "str", "refuse", "shallowWaterFoam has no bed friction: refuse a "
+        "section with manning/strickler, or omit the friction in the OpenFOAM run (recorded in "
+        "the flow's attributes)", choices=("refuse", "omit")),
+    Key("mesh", "str", "channel", "the mesh: a channel built here, a polygon (outline with "
+        "tagged sides) built here, or a mesh file", choices=("channel", "polygon", "file")),
+    Key("outline", "points", None, "outer boundary [[x, y], ...] of mesh = 'polygon'; side i "
+        "runs from point i to point i + 1 (the last back to the first)", "m", length=3,
+        when="mesh = polygon"),
+    Key("side_tags", "table", {}, "boundary tags of outline sides: {tag = [side indices]}, "
+        "e.g. {inflow = [0], outflow = [5]}; untagged sides are walls", when="mesh = polygon"),
+    Key("channel", "floats", None, "channel [x0, y0, length, width]; x0 side tagged inflow, "
+        "the other end outflow, banks wall", "m", length=4),
+    Key("cell_size", "float", None, "target triangle edge length of the channel or polygon "
+        "mesh", "m",
+        min=0.0, exclusive_min=True),
+    Key("structured", "bool", False, "channel of squares instead of triangles (no holes)"),
+    Key("piers", "any", [], "circular piers [[x, y, radius], ...] cut out of the channel "
+        "(tagged wall)", "m"),
+    Key("holes", "any", [], "polygonal holes [[[x, y], ...], ...] cut out of the channel", "m"),
+    Key("mesh_file", "path", "", "mesh file read by driftlog.mesh.read_mesh (mesh = 'file')",
+        must_exist=True),
+    Key("bed", "str", "flat", "bed elevation: flat at bed_level, a slope falling along +x from "
+        "bed_level at x0, a piecewise-linear profile along x, or the mesh file's node "
+        "elevations", choices=("flat", "slope", "profile", "mesh")),
+    Key("bed_level", "float", 0.0, "bed level (flat) or bed level at x0 (slope)", "m"),
+    Key("slope", "float", 0.0, "bed slope, positive falling towards +x (bed = 'slope')", "m/m"),
+    Key("bed_profile", "points", None, "bed [[x, z], ...] along x, linear between points, "
+        "constant beyond (bed = 'profile')", "m"),
+    Key("manning", "float", None, "Manning coefficient n (or give strickler)", "s m-1/3",
+        min=0.0),
+    Key("strickler", "float", None, "Strickler coefficient K = 1/n", "m1/3 s-1", min=0.0,
+        exclusive_min=True),
+    Key("order", "int", 1, "1: first order (explicit Euler); 2: MUSCL + Heun", min=1, max=2),
+    Key("riemann", "str", "hllc", "Riemann solver", choices=("hllc", "hll")),
+    Key("cfl", "float", None, "fraction of the positivity-preserving time step (default 0.9 "
+        "at order 1, 0.8 at order 2)", min=0.0, max=1.0, exclusive_min=True),
+    Key("dry_depth", "float", 1e-6, "depth below which a face has no velocity", "m", min=0.0,
+        exclusive_min=True),
+    Key("arrival_depth", "float", 0.05, "depth marking the flood's arrival at a face "
+        "(arrival_time output)", "m", min=0.0, exclusive_min=True),
+    Key("start", "float", 0.0, "start time", "s"),
+    Key("end", "float", None, "end time of the computation (required with [flow] source = "
+        "'solver')", "s"),
+    Key("output_interval", "float", None, "time between snapshots of the flow file (default: "
+        "start and end only)", "s", min=0.0, exclusive_min=True),
+    Key("boundaries", "table", {}, "conditions by boundary tag: [solver.boundaries.<tag>] "
+        "type = wall | level | depth | discharge | froude | rating | free; "
+        "value = number or series = [[t, v], ...]; rating: "
+        "table = [[level, Q], ...]; tags not listed are walls"),
+    Key("initial", "table", {}, "initial state: type = dry | level | depth | file; value (m); "
+        "polygon = [[x, y], ...] (level or depth only inside); velocity = [u, v]; path and "
+        "time (file)"),
+    Key("sea", "table", {}, "a sea found from the bed: level = sea surface (m); boundary "
+        "edges at or below it are tagged (tag, default 'sea') with an imposed level (boundary "
+        "= 'level', default) or a free outflow ('free'); faces below it connected to them "
+        "start filled to it"),
+], doc="driftlog's shallow-water solver ([flow] source = 'solver')", check=check_solver_section)
