@@ -36,6 +36,7 @@ from pathlib import Path
 from driftlog.contact.model import CONTACT_SECTION
 from driftlog.contact.obstacles import OBSTACLES_SECTION
 from driftlog.ensemble.vary import ENSEMBLE_SECTION
+from driftlog.errors import ScenarioError
 from driftlog.integrators import INTEGRATOR_SECTION
 from driftlog.logs import LOGS_SECTION
 from driftlog.physics import PHYSICS_SECTION
