@@ -129,7 +129,8 @@ def check_start(scen, flow, logs, mesh=None, warn=True):
                                 "the obstacles")
         from driftlog.contact.obstacles import Obstacles
 
-        obs = Obstacles.from_scenario(scen, mesh)
+        obs = Obstacles.from_tables(scen["obstacles"],
+                                    walls=mesh if scen["contact"]["walls"] else None)
         gap = _capsule_gaps(logs, obs.capsules)
         over = np.flatnonzero(gap < 0)
         if over.size:
