@@ -174,11 +174,10 @@ def flow_from_scenario(scenario):
         raise FlowFileError(f"[flow] source = {kind!r} is not read by driftlog.adapters (it "
                             f"reads {', '.join(KINDS)}); 'analytic' and 'solver' are built "
                             "elsewhere")
-    options = dict(flow.get("options") or {})
-    field = open_flow_source(kind, flow["path"], time_range=flow.get("time_range"),
-                             variables=flow.get("variables") or {},
-                             dry_depth=flow.get("dry_depth", 1e-3), **options)
-    if flow.get("steady_at") is not None:
+    field = open_flow_source(kind, flow["path"], time_range=flow["time_range"],
+                             variables=flow["variables"], dry_depth=flow["dry_depth"],
+                             **flow["options"])
+    if flow["steady_at"] is not None:
         field = field.freeze(float(flow["steady_at"]))
     return field
 

@@ -73,11 +73,11 @@ def engine_case_path(path, engine) -> Path:
 
 def check_engine_section(t, prefix):
     """Load-time checks of a [solver] section computed by OpenFOAM (nothing to check else)."""
-    engine = t.get("engine", "driftlog")
+    engine = t["engine"]
     if engine == "driftlog":
         return
     friction = [k for k in ("manning", "strickler") if t.get(k)]
-    if friction and t.get("openfoam_friction", "refuse") != "omit":
+    if friction and t["openfoam_friction"] != "omit":
         k = friction[0]
         raise ScenarioError(f"{prefix}.{k}", t[k], f"engine {engine!r}: shallowWaterFoam "
                             "(OpenFOAM v1912) has no bed friction, so this coefficient cannot "

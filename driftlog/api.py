@@ -17,7 +17,7 @@ from driftlog.contact import ContactModel
 from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.files import check_output
 from driftlog.flow import WET
-from driftlog.logs import Logs, logs_from_scenario
+from driftlog.logs import Logs, logs_from_groups
 from driftlog.physics import NLIN, PhysicsOptions, log_parameters, rhs_kernel
 from driftlog.preflight import check_flow_values, check_start, count_logs, estimate_run
 from driftlog.scenario import Scenario, load_scenario
@@ -25,8 +25,8 @@ from driftlog.sources import flow_from_scenario
 from driftlog.tracker import StepOptions, Tracker
 from driftlog.trajectory import TrajectoryWriter, open_trajectories, write_vtk
 
-__all__ = ["track", "TrackResult", "choose_physics", "as_scenario", "cases_dir", "find_case",
-           "count_logs", "estimate_run"]
+__all__ = ["track", "TrackResult", "choose_physics", "as_scenario", "logs_from_scenario",
+           "cases_dir", "find_case", "count_logs", "estimate_run"]
 
 
 @dataclass
@@ -87,6 +87,13 @@ def run_clock_origin(flow, start, end) -> float:
     if not (np.isfinite(end) and np.isfinite(start) and end > start):
         return 0.0
     return start if np.spacing(max(abs(start), abs(end))) > 1e-12 * (end - start) else 0.0
+
+
+def logs_from_scenario(scenario, water_density=None) -> Logs:
+    """All [[logs]] groups of a validated scenario as one Logs (``logs.logs_from_groups``)."""
+    return logs_from_groups(scenario["logs"],
+                            water_density or scenario["physics"]["water_density"],
+                            scenario["time"]["start"])
 
 
 def choose_physics(flow, logs: Logs, section: dict, contact_enabled: bool, t_end=None):

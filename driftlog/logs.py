@@ -17,7 +17,7 @@ from driftlog.errors import ScenarioError
 from driftlog.schema import Key, Section
 
 __all__ = ["Logs", "STATUS_MEANINGS", "WAITING", "FLOATING", "RESTING", "STRANDED", "LEFT",
-           "seed_logs", "logs_from_scenario", "flotation_depth", "submerged_volume"]
+           "seed_logs", "logs_from_groups", "flotation_depth", "submerged_volume"]
 
 # status codes, written to trajectory files with flag_meanings
 WAITING, FLOATING, RESTING, STRANDED, LEFT = 0, 1, 2, 3, 4
@@ -193,13 +193,15 @@ def seed_positions(group: dict, prefix: str = "logs[0]"):
     return x, y, theta
 
 
-def logs_from_scenario(scenario, water_density=None) -> Logs:
-    """All [[logs]] groups of a validated scenario as one Logs."""
-    groups = scenario["logs"]
+def logs_from_groups(groups: list, water_density: float, start: float) -> Logs:
+    """Validated ``[[logs]]`` tables (``LOGS_SECTION``) as one Logs.
+
+    ``water_density`` (kg/m3) sets the logs' flotation; a group without ``release_time``
+    enters at ``start`` (s).
+    """
     if not groups:
         raise ScenarioError("logs", [], "a scenario needs at least one [[logs]] group")
-    rho = water_density or scenario["physics"]["water_density"]
-    t0 = scenario["time"]["start"]
+    rho, t0 = water_density, start
     parts = []
     for i, g in enumerate(groups):
         x, y, theta = seed_positions(g, f"logs[{i}]")

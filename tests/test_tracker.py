@@ -147,7 +147,7 @@ level = "auto"
 rotation = "auto"
 """
     s = load_scenario(scen)
-    from driftlog.logs import logs_from_scenario
+    from driftlog.api import logs_from_scenario
     from driftlog.sources import flow_from_scenario
 
     f = flow_from_scenario(s)

@@ -41,11 +41,11 @@ from pathlib import Path
 import numpy as np
 
 from driftlog._version import __version__
+from driftlog.api import logs_from_scenario, track
 from driftlog.ensemble.aggregate import Aggregate
 from driftlog.ensemble.spec import Ensemble, describe_parameters, load_ensemble
 from driftlog.ensemble.summary import MemberRecorder, MemberSummary
 from driftlog.errors import DriftlogError, ScenarioError
-from driftlog.logs import logs_from_scenario
 from driftlog.scenario import load_scenario
 from driftlog.schema import merge
 
@@ -101,7 +101,6 @@ def _worker_flow(scenario, grid: dict | None):
 def run_member_task(base: dict, member: int, overrides: dict, parameters: dict,
                     options: dict) -> MemberSummary:
     """Run one member and reduce it (the Dask task; also run in-process with workers = 0)."""
-    from driftlog.api import track
     from driftlog.trajectory import TrajectoryWriter
 
     wall, cpu = time.perf_counter(), time.process_time()

@@ -29,6 +29,11 @@ The keys are declared here (``SOLVER_SECTION``, ``driftlog scenario keys --secti
 A flow computed from a ``[solver]`` section stores a hash of the section in its attributes
 (``solver_hash``); ``flow_from_scenario`` reuses the file when the hash matches and it reaches
 the end time, resumes it when it stopped early, and recomputes it otherwise.
+
+``engine = "shallowWaterFoam"`` computes the same section with OpenFOAM instead
+(``driftlog.adapters.openfoam_engine``): its flow file is ``[flow] path`` with
+``_shallowWaterFoam`` added to the stem, reused by the same hash (the engine, ``n_procs`` and
+``openfoam_friction`` included), recomputed from scratch otherwise (no resuming).
 """
 
 from __future__ import annotations
@@ -101,7 +106,7 @@ def check_solver_section(t, prefix, scen):
         from driftlog.solver.sea import check_sea
 
         check_sea(t["sea"], f"{prefix}.sea")
-    if t.get("engine", "driftlog") != "driftlog":
+    if t["engine"] != "driftlog":
         from driftlog.adapters.openfoam_engine import check_engine_section
 
         check_engine_section(t, prefix)
@@ -152,7 +157,7 @@ def _check_initial(ini, key):
 
 def solver_hash(section) -> str:
     """A hash of the validated [solver] section (what decides whether a stored flow is current)."""
-    if section.get("engine", "driftlog") == "driftlog":  # keys of OpenFOAM runs only
+    if section["engine"] == "driftlog":  # keys of OpenFOAM runs only
         section = {k: v for k, v in section.items()
                    if k not in ("engine", "n_procs", "openfoam_friction")}
     text = json.dumps(section, sort_keys=True, default=str)
@@ -246,7 +251,7 @@ def _default_path(scenario, engine=None):
 
     p = scenario["flow"].get("path") or ""
     path = Path(p) if p else scenario.base_dir / "solver_flow.nc"
-    return engine_flow_path(path, engine or scenario["solver"].get("engine", "driftlog"))
+    return engine_flow_path(path, engine or scenario["solver"]["engine"])
 
 
 def _stored(path, digest):
@@ -282,7 +287,7 @@ def solve_scenario(scenario, output=None, resume=False, progress=False):
     attrs = dict(scenario.attrs())
     attrs["solver_hash"] = digest
     attrs["title"] = scenario["title"] or "driftlog solver flow"
-    if sec.get("engine", "driftlog") != "driftlog":
+    if sec["engine"] != "driftlog":
         from driftlog.adapters.openfoam_engine import solve_with_shallow_water_foam
 
         return solve_with_shallow_water_foam(scenario, path, attrs, build_solver,
@@ -374,7 +379,7 @@ def flow_from_scenario(scenario, progress=False):
     path = _default_path(scenario)
     digest = solver_hash(sec)
     state, t_last = _stored(path, digest)
-    if sec.get("engine", "driftlog") != "driftlog":  # no resuming an OpenFOAM run
+    if sec["engine"] != "driftlog":  # no resuming an OpenFOAM run
         if state is None or t_last is None or t_last < sec["end"] - 1e-9 * abs(sec["end"]):
             solve_scenario(scenario, output=path, progress=progress)
         return open_flow(path, dry_depth=scenario["flow"]["dry_depth"])
