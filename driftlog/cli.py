@@ -63,7 +63,11 @@ def cmd_scenario(args):
     scen = load_scenario(path)
     output = Path("driftlog-runs") / name / Path(scen["output"]["path"]).name \
         if _in_cases(path) else None  # where driftlog track writes
-    notes, done = check_scenario(scen, output=output)
+    from driftlog.api import logs_from_scenario
+    from driftlog.preflight import estimate_run
+
+    estimate_run(scen, output)  # before seeding: 1e7 logs are refused, not allocated
+    notes, done = check_scenario(scen, logs_from_scenario(scen), output=output)
     for n in notes:
         print(f"driftlog: warning: {n}", file=sys.stderr)
     print(f"{path}: valid: the run will start ({len(scen['logs'])} log groups, flow source "

@@ -166,22 +166,20 @@ def check_flow_values(flow, t0, t1):
     return hi - lo + 1
 
 
-def check_scenario(scen, output=None, read_flow=True):
+def check_scenario(scen, logs, output=None, read_flow=True):
     """Every check ``track`` makes before it starts, without tracking (``scenario check``).
 
-    Returns (warnings, what was checked: a list of short phrases).  A solver flow not computed
-    yet is not computed: its mesh is built (after a size estimate) and the logs located on it.
+    ``logs``: the scenario's seeded logs (``driftlog.api.logs_from_scenario``).  Returns
+    (warnings, what was checked: a list of short phrases).  A solver flow not computed yet is
+    not computed: its mesh is built (after a size estimate) and the logs located on it.
     """
     from driftlog.files import check_output
-    from driftlog.logs import logs_from_scenario
-
     done = []
     out = Path(output or scen["output"]["path"])
     check_output(out, "trajectory file", suffixes=(".nc", ".nc4"), create=False)
     n, nobs, mem = estimate_run(scen, out)
     done.append(f"output {out} writable; {n} logs, {nobs:.3g} observations, about "
                 f"{mem / 2**20:.3g} MiB")
-    logs = logs_from_scenario(scen)
     src = scen["flow"]["source"]
     flow = mesh = None
     if src == "solver":
