@@ -1,7 +1,7 @@
 """[solver] engine = "shallowWaterFoam": one scenario, two engines, one comparison.
 
 The river_piers scene of ``cases/river_piers/compare_engines.toml`` at a reduced size (50 m
-triangles, 2400 s of flow, 600 s of logs) on driftlog's solver and on OpenFOAM's
+triangles, 2400 s of flow, 400 s of logs) on driftlog's solver and on OpenFOAM's
 shallowWaterFoam; then what is refused, and what a failed OpenFOAM run leaves behind.
 """
 
@@ -27,7 +27,7 @@ def reduced(tmp, **solver):
     ov = {"flow": {"path": str(tmp / "flow.nc")},
           "solver": dict({"cell_size": 50.0, "end": 2400.0, "output_interval": 1200.0},
                          **solver),
-          "time": {"end": 600.0}}
+          "time": {"end": 400.0}}
     return load_scenario(CASE, overrides=ov)
 
 
@@ -105,10 +105,10 @@ def test_provenance_and_reuse(engines):
 @needs_foam
 @pytest.mark.openfoam
 def test_decomposed_run_matches_serial(tmp_path):
-    """Two processes (decomposePar, mpirun) give the serial run's flow; 2 minutes of it."""
+    """Two processes (decomposePar, mpirun) give the serial run's flow; 40 s of it."""
     from driftlog.solver.config import flow_from_scenario
 
-    short = dict(engine="shallowWaterFoam", end=120.0, output_interval=60.0)
+    short = dict(engine="shallowWaterFoam", end=40.0, output_interval=20.0)
     serial = flow_from_scenario(reduced(tmp_path / "serial", **short))
     par = flow_from_scenario(reduced(tmp_path / "par", n_procs=2, **short))
     assert (tmp_path / "par" / "flow_shallowWaterFoam" / "processor1").is_dir()
