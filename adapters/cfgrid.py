@@ -229,6 +229,7 @@ def _open(ds, path, time_range, mapping, dry_depth, fill, units_override, layout
         raise FlowFileError(f"{path}: no bed elevation (a (y, x) variable with standard_name "
                             f"'altitude' or names like {ROLES['bed'][2][:4]}); map it with "
                             "[flow] variables = {bed = \"NAME\"}")
+    bed = _fill_bed(bed, ny, nx, path, notes)
     src.bed = bed
     layout = "cell" if layout in (None, "auto") else layout
     if layout == "node":  # the values are at the corners of the cells: the domain ends there
@@ -251,6 +252,26 @@ def _open(ds, path, time_range, mapping, dry_depth, fill, units_override, layout
         attrs.update(time_attrs(ds, path, tdim, origin))
     return GridFlowField(nx, ny, dx, dy, x0, y0, bed, source, dry_depth=dry_depth,
                          name=str(path), attrs=attrs, layout=layout)
+
+
+def _fill_bed(bed, ny, nx, path, notes):
+    """Bed cells at fill values (land read with fill = 'dry') take the nearest valid bed.
+
+    Those cells are dry; a NaN bed there would make the water level, and so the free-surface
+    slope the full model uses, NaN in the cells around them.
+    """
+    bad = ~np.isfinite(bed)
+    if not bad.any():
+        return bed
+    if bad.all():
+        raise FlowFileError(f"{path}: the bed is a fill value / NaN everywhere")
+    from scipy.ndimage import distance_transform_edt
+
+    grid = bed.reshape(ny, nx)
+    idx = distance_transform_edt(bad.reshape(ny, nx), return_distances=False,
+                                 return_indices=True)
+    notes.append(f"{int(bad.sum())} bed cells at fill values: dry, with the nearest valid bed")
+    return grid[tuple(idx)].ravel()
 
 
 def _find_bed(ds, yn, xn, lead, mapping, path):

@@ -29,6 +29,11 @@ The keys are declared here (``SOLVER_SECTION``, ``driftlog scenario keys --secti
 A flow computed from a ``[solver]`` section stores a hash of the section in its attributes
 (``solver_hash``); ``flow_from_scenario`` reuses the file when the hash matches and it reaches
 the end time, resumes it when it stopped early, and recomputes it otherwise.
+
+``engine = "shallowWaterFoam"`` computes the same section with OpenFOAM instead
+(``driftlog.adapters.openfoam_engine``): its flow file is ``[flow] path`` with
+``_shallowWaterFoam`` added to the stem, reused by the same hash (the engine, ``n_procs`` and
+``openfoam_friction`` included), recomputed from scratch otherwise (no resuming).
 """
 
 from __future__ import annotations

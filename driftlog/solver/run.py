@@ -57,6 +57,10 @@ class SolveResult:
 
     def summary(self) -> str:
         """A few lines for the command line."""
+        if not math.isfinite(self.volume_error):  # an engine that keeps no balance (OpenFOAM)
+            return (f"t = {self.t_end:g} s, {self.steps} steps in {self.wall_time:.2f} s "
+                    f"({self.cell_updates_per_s:.3g} cell-updates/s), volume {self.volume:.6g} "
+                    f"m3 (no volume balance from this engine), {self.snapshots} snapshots")
         return (f"t = {self.t_end:g} s, {self.steps} steps in {self.wall_time:.2f} s "
                 f"({self.cell_updates_per_s:.3g} cell-updates/s), volume {self.volume:.6g} m3, "
                 f"volume error {self.volume_error:.3g} m3 ({self.relative_volume_error:.2g} "
