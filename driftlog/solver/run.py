@@ -114,6 +114,14 @@ def _create(path, solver, attrs):
 
 
 def _write(w, solver):
+    for name, arr in (("h", solver.h), ("hu", solver.hu), ("hv", solver.hv)):
+        if not np.all(np.isfinite(arr)):
+            bad = np.flatnonzero(~np.isfinite(arr))
+            x, y = solver.mesh.face_x[bad[0]], solver.mesh.face_y[bad[0]]
+            raise FlowFileError(f"{w.path}: the solver's {name} is not finite at t = "
+                                f"{solver.t:.6g} s on {bad.size} faces (first at x = {x:.6g}, "
+                                f"y = {y:.6g} m); nothing non-finite is written: check the "
+                                "boundary values, the initial state and cfl")
     w.write(solver.t, solver.h, hu=solver.hu, hv=solver.hv, dry_depth=solver.dry_depth,
             **_series_values(solver))
     ex = solver.extremes.arrays()
