@@ -10,8 +10,8 @@ from driftlog.errors import FlowFileError
 
 from ._common import check_values, time_in_seconds, time_reference_attrs, unit_factor
 
-__all__ = ["open_dataset", "check_netcdf3_size", "netcdf3_expected_size", "variable_attrs",
-           "read_times", "time_attrs", "NetCDFSource", "FaceSnapshots",
+__all__ = ["open_dataset", "netcdf_matches", "check_netcdf3_size", "netcdf3_expected_size",
+           "variable_attrs", "read_times", "time_attrs", "NetCDFSource", "FaceSnapshots",
            "ROLES"]
 
 # role -> (kind of units, standard names, aliases), most specific first
@@ -176,6 +176,21 @@ def check_netcdf3_size(path):
                             f"declares {exp[0]} ({exp[1]} records); the data past byte {got} "
                             "are missing (an interrupted copy or download?): copy the file "
                             "again")
+
+
+def netcdf_matches(path, test) -> bool:
+    """Whether ``path`` is a readable NetCDF file for which ``test(dataset)`` is true.
+
+    The content sniff of the NetCDF readers' ``can_open``: never raises.
+    """
+    try:
+        p = Path(path)
+        if not p.is_file():
+            return False
+        with open_dataset(p) as ds:
+            return bool(test(ds))
+    except Exception:
+        return False
 
 
 def variable_attrs(ds, dims=None):

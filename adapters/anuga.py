@@ -25,7 +25,7 @@ from driftlog.mesh import mesh_merging_seams
 from driftlog.schema import Key
 
 from ._common import SubsetSnapshots, select_times
-from ._netcdf import NetCDFSource, open_dataset
+from ._netcdf import NetCDFSource, netcdf_matches, open_dataset
 
 __all__ = ["open_anuga", "is_sww", "AnugaSnapshots"]
 
@@ -153,16 +153,10 @@ OPTIONS = [
 
 def can_open(path) -> bool:
     """Whether ``path`` is an ANUGA sww file (by suffix or layout; never raises)."""
-    try:
-        p = Path(path)
-        if not p.is_file():
-            return False
-        if p.suffix.lower() == ".sww":
-            return True
-        with open_dataset(p) as ds:
-            return is_sww(ds)
-    except Exception:
-        return False
+    p = Path(path)
+    if p.suffix.lower() == ".sww" and p.is_file():
+        return True
+    return netcdf_matches(p, is_sww)
 
 
 def open(path, *, time_range=None, variables=None, dry_depth=1e-3, **options):

@@ -26,6 +26,7 @@ from ._netcdf import (
     ROLES,
     NetCDFSource,
     find_roles,
+    netcdf_matches,
     open_dataset,
     read_times,
     time_attrs,
@@ -228,6 +229,7 @@ def _open(ds, path, time_range, mapping, dry_depth, fill, units_override, layout
         raise FlowFileError(f"{path}: no bed elevation (a (y, x) variable with standard_name "
                             f"'altitude' or names like {ROLES['bed'][2][:4]}); map it with "
                             "[flow] variables = {bed = \"NAME\"}")
+    bed = _fill_bed(bed, ny, nx, path, notes)
     src.bed = bed
     layout = "cell" if layout in (None, "auto") else layout
     if layout == "node":  # the values are at the corners of the cells: the domain ends there
@@ -250,6 +252,26 @@ def _open(ds, path, time_range, mapping, dry_depth, fill, units_override, layout
         attrs.update(time_attrs(ds, path, tdim, origin))
     return GridFlowField(nx, ny, dx, dy, x0, y0, bed, source, dry_depth=dry_depth,
                          name=str(path), attrs=attrs, layout=layout)
+
+
+def _fill_bed(bed, ny, nx, path, notes):
+    """Bed cells at fill values (land read with fill = 'dry') take the nearest valid bed.
+
+    Those cells are dry; a NaN bed there would make the water level, and so the free-surface
+    slope the full model uses, NaN in the cells around them.
+    """
+    bad = ~np.isfinite(bed)
+    if not bad.any():
+        return bed
+    if bad.all():
+        raise FlowFileError(f"{path}: the bed is a fill value / NaN everywhere")
+    from scipy.ndimage import distance_transform_edt
+
+    grid = bed.reshape(ny, nx)
+    idx = distance_transform_edt(bad.reshape(ny, nx), return_distances=False,
+                                 return_indices=True)
+    notes.append(f"{int(bad.sum())} bed cells at fill values: dry, with the nearest valid bed")
+    return grid[tuple(idx)].ravel()
 
 
 def _find_bed(ds, yn, xn, lead, mapping, path):
@@ -296,14 +318,7 @@ OPTIONS = [
 
 def can_open(path) -> bool:
     """Whether ``path`` is a NetCDF file with 1-D x and y coordinates (a regular grid)."""
-    try:
-        p = Path(path)
-        if not p.is_file():
-            return False
-        with open_dataset(p) as ds:
-            return is_cf_grid(ds)
-    except Exception:
-        return False
+    return netcdf_matches(path, is_cf_grid)
 
 
 def open(path, *, time_range=None, variables=None, dry_depth=1e-3, **options):

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from driftlog.flow import WET
+from driftlog.columns import WET
 
 __all__ = ["sample_flows", "flow_differences", "summarize_differences"]
 

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from driftlog.flow import MeshFlowField
 from driftlog.flowfile import open_flow
 
 from ._common import SubsetSnapshots, select_times
-from ._netcdf import open_dataset
+from ._netcdf import netcdf_matches
 from .ugrid import is_ugrid
 
 __all__ = ["KIND", "SUFFIXES", "OPTIONS", "can_open", "open"]
@@ -22,15 +20,8 @@ _OWN = ("water_depth", "velocity_x", "velocity_y", "bed_level")
 
 def can_open(path) -> bool:
     """Whether ``path`` is a flow file written by driftlog (UGRID with driftlog's variables)."""
-    try:
-        p = Path(path)
-        if not p.is_file():
-            return False
-        with open_dataset(p) as ds:
-            return (is_ugrid(ds) and all(v in ds.variables for v in _OWN)
-                    and "driftlog_version" in ds.ncattrs())
-    except Exception:
-        return False
+    return netcdf_matches(path, lambda ds: is_ugrid(ds) and "driftlog_version" in ds.ncattrs()
+                          and all(v in ds.variables for v in _OWN))
 
 
 def open(path, *, time_range=None, variables=None, dry_depth=1e-3):

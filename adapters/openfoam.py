@@ -22,7 +22,6 @@ asked (``FoamSnapshots.read``), so a long run is not loaded at once.
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import numpy as np
@@ -34,87 +33,24 @@ from driftlog.schema import Key
 
 from . import foam_io
 from ._common import select_times
+from ._foam_case import (
+    FoamCase,
+    PolyMesh,
+    check_ran,
+    is_openfoam_case,
+    processor_dirs,
+    time_dirs,
+)
+from .openfoam_vof import depth_average_columns, open_vof
 
 __all__ = ["open_openfoam", "FoamCase", "FoamSnapshots", "depth_average_columns",
            "is_openfoam_case"]
 
 SHALLOW_WATER_NAMES = {"depth": "h", "hu": "hU", "u": "U", "level": "hTotal", "bed": "h0"}
 VOF_NAMES = {"alpha": "alpha.water", "u": "U"}
-_NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
 
 
-def is_openfoam_case(path) -> bool:
-    """Whether a directory looks like an OpenFOAM case."""
-    p = Path(path)
-    return p.is_dir() and ((p / "system" / "controlDict").is_file()
-                           or (p / "constant" / "polyMesh").is_dir()
-                           or (p / "processor0").is_dir())
-
-
-def _time_dirs(folder: Path):
-    """(value, name) of the time directories in a folder, sorted by time."""
-    out = []
-    if not folder.is_dir():
-        return out
-    for d in folder.iterdir():
-        if d.is_dir() and _NUMBER.match(d.name):
-            out.append((float(d.name), d.name))
-    return sorted(out)
-
-
-def _processor_dirs(case: Path):
-    dirs = [d for d in case.iterdir() if d.is_dir() and re.fullmatch(r"processor\d+", d.name)]
-    return sorted(dirs, key=lambda d: int(d.name[9:]))
-
-
-class _PolyMesh:
-    """The arrays of a polyMesh directory (points, faces, owner, boundary), read once."""
-
-    def __init__(self, folder: Path):
-        self.folder = folder
-        if not folder.is_dir():
-            raise FlowFileError(f"{folder}: no polyMesh directory (run blockMesh first?)")
-        for name in ("points", "faces", "owner", "boundary"):
-            if foam_io.foam_path(folder / name) is None:
-                raise FlowFileError(f"{folder}: polyMesh file {name!r} is missing")
-        self.points = foam_io.read_points(folder / "points")
-        self.offsets, self.labels = foam_io.read_faces(folder / "faces")
-        self.owner = foam_io.read_label_list(folder / "owner")
-        self.patches = foam_io.read_boundary(folder / "boundary")
-        self.n_faces = self.offsets.size - 1
-        self.n_cells = int(self.owner.max()) + 1 if self.owner.size else 0
-        if self.owner.size != self.n_faces:
-            raise FlowFileError(f"{folder}: owner has {self.owner.size} entries for "
-                                f"{self.n_faces} faces")
-        self._neighbour = None
-
-    @property
-    def neighbour(self):
-        if self._neighbour is None:
-            self._neighbour = foam_io.read_label_list(self.folder / "neighbour")
-            self.n_cells = max(self.n_cells, int(self._neighbour.max(initial=-1)) + 1)
-        return self._neighbour
-
-    def face_table(self, faces):
-        """Padded (n, kmax) node table of the given faces, and their node counts."""
-        start, stop = self.offsets[faces], self.offsets[faces + 1]
-        count = stop - start
-        kmax = int(count.max(initial=0))
-        k = np.arange(kmax)
-        idx = start[:, None] + np.minimum(k[None, :], np.maximum(count[:, None] - 1, 0))
-        table = self.labels[idx]
-        table[k[None, :] >= count[:, None]] = -1
-        return table, count
-
-    def patch_faces(self, types=None, names=None):
-        out = []
-        for p in self.patches:
-            if (types is None or p.get("type") in types) and (names is None or p["name"] in names):
-                out.append(np.arange(p["startFace"], p["startFace"] + p["nFaces"]))
-        return np.concatenate(out) if out else np.empty(0, np.int64)
-
-
-def _bottom_faces(pm: _PolyMesh):
+def _bottom_faces(pm: PolyMesh):
     """For a one-cell-thick mesh: the bottom face of each cell (from the empty patches).
 
     Returns (face ids in cell order, node table (n_cells, kmax) counter-clockwise from above).
@@ -157,61 +93,6 @@ def _bottom_faces(pm: _PolyMesh):
     return faces, table
 
 
-class FoamCase:
-    """An OpenFOAM case directory: its time directories, serial or decomposed.
-
-    Parameters
-    ----------
-    path : path
-        The case directory.
-    decomposed : bool or None
-        Read the ``processor*`` directories (True), the case root (False), or whichever has
-        more written times holding ``field`` (None).
-    field : str
-        A field that a written time must hold to count.
-    """
-
-    def __init__(self, path, decomposed=None, field="h"):
-        self.path = Path(path)
-        if not self.path.is_dir():
-            raise FlowFileError(f"{self.path}: OpenFOAM case directory not found")
-        self.processors = _processor_dirs(self.path)
-        self.field = field
-        root_times = [t for t in _time_dirs(self.path)
-                      if foam_io.foam_path(self.path / t[1] / field)]
-        proc_times = []
-        if self.processors:
-            proc_times = [t for t in _time_dirs(self.processors[0])
-                          if foam_io.foam_path(self.processors[0] / t[1] / field)]
-        if decomposed is None:
-            decomposed = bool(self.processors) and len(proc_times) > len(root_times)
-        if decomposed and not self.processors:
-            raise FlowFileError(f"{self.path}: decomposed = True but there are no processor* "
-                                "directories")
-        self.decomposed = bool(decomposed)
-        self.time_entries = proc_times if self.decomposed else root_times
-        if not self.time_entries:
-            where = self.processors[0] if self.decomposed else self.path
-            others = [n for _, n in _time_dirs(where)]
-            raise FlowFileError(
-                f"{where}: no time directory holds the field {field!r} " +
-                (f"(time directories: {others}) " if others else "(no time directories) ") +
-                "— the case never ran, or wrote other fields")
-
-    @property
-    def times(self) -> np.ndarray:
-        """The written times (s)."""
-        return np.array([t for t, _ in self.time_entries])
-
-    def time_name(self, i) -> str:
-        """The directory name of written time i."""
-        return self.time_entries[i][1]
-
-    def parts(self):
-        """The folders that hold meshes and fields: the processors, or the case itself."""
-        return self.processors if self.decomposed else [self.path]
-
-
 class _TwoDMesh:
     """The 2D mesh of a one-cell-thick case (serial or assembled from processors)."""
 
@@ -223,7 +104,7 @@ class _TwoDMesh:
         side = []  # (patch name, type, (n, 2) global node pairs)
         n_points = 0
         for part in parts:
-            pm = _PolyMesh(part / "constant" / "polyMesh")
+            pm = PolyMesh(part / "constant" / "polyMesh")
             faces, table = _bottom_faces(pm)
             if case.decomposed:
                 addr = part / "constant" / "polyMesh"
@@ -397,15 +278,13 @@ def open_openfoam(path, time_range=None, decomposed=None, variables=None, dry_de
     if mode == "auto":
         mode = _detect_mode(path, names, vof)
     if mode == "vof":
-        from .openfoam_vof import open_vof
-
         return open_vof(path, time_range=time_range, decomposed=decomposed, names=vof,
                         dry_depth=dry_depth, mesh2d=mesh2d, raster=raster)
     if mode != "shallow_water":
         raise FlowFileError(f"{path}: mode {mode!r} unknown (auto, shallow_water, vof)")
     case = FoamCase(path, decomposed=decomposed, field=names["depth"])
     if not allow_initial_only:
-        _check_ran(case, "shallowWaterFoam")
+        check_ran(case, "shallowWaterFoam")
     two_d = _TwoDMesh(case)
     snaps = FoamSnapshots(case, two_d.n_cells, two_d.cell_maps, names)
     notes = []
@@ -424,41 +303,23 @@ def open_openfoam(path, time_range=None, decomposed=None, variables=None, dry_de
                          attrs=attrs)
 
 
-def _check_ran(case: FoamCase, solver):
-    """Ran: more than one written time, or a time written by a solver (with uniform/time)."""
-    part = case.parts()[0]
-    written = any((part / name / "uniform" / "time").is_file() for _, name in case.time_entries)
-    if len(case.time_entries) < 2 and not written:
-        names = [n for _, n in case.time_entries]
-        raise FlowFileError(f"{part}: only initial fields (time directory {names[0]}, not "
-                            f"written by a solver): the case never ran; run {solver} first, "
-                            "or pass allow_initial_only=True to import the initial fields")
-
-
 def _detect_mode(path, names, vof):
-    for folder in [path] + (_processor_dirs(path)[:1] if path.is_dir() else []):
-        for _, tname in _time_dirs(folder):
+    for folder in [path] + (processor_dirs(path)[:1] if path.is_dir() else []):
+        for _, tname in time_dirs(folder):
             if foam_io.foam_path(folder / tname / names["depth"]):
                 return "shallow_water"
             if foam_io.foam_path(folder / tname / vof["alpha"]):
                 return "vof"
     if not path.is_dir():
         raise FlowFileError(f"{path}: OpenFOAM case directory not found")
-    if not (path / "constant" / "polyMesh").is_dir() and not _processor_dirs(path):
+    if not (path / "constant" / "polyMesh").is_dir() and not processor_dirs(path):
         raise FlowFileError(f"{path}: not an OpenFOAM case (no constant/polyMesh, no "
                             "processor* directories)")
-    times = [n for _, n in _time_dirs(path)]
+    times = [n for _, n in time_dirs(path)]
     raise FlowFileError(f"{path}: no time directory holds {names['depth']!r} "
                         f"(shallowWaterFoam) or {vof['alpha']!r} (interFoam)" +
                         (f"; time directories: {times}" if times else
                          "; there are no time directories: the case never ran"))
-
-
-def depth_average_columns(*args, **kwargs):
-    """See ``driftlog.adapters.openfoam_vof.depth_average_columns``."""
-    from .openfoam_vof import depth_average_columns as f
-
-    return f(*args, **kwargs)
 
 
 # --------------------------------------------------------------------- the reader contract

@@ -406,10 +406,10 @@ def _clean(case: Path):
     """Remove the results of an earlier run: time and processor directories, logs."""
     if not case.is_dir():
         return
-    from .openfoam import _NUMBER
+    from ._foam_case import NUMBER
 
     for d in case.iterdir():
-        if d.is_dir() and (_NUMBER.match(d.name) or d.name.startswith("processor")):
+        if d.is_dir() and (NUMBER.match(d.name) or d.name.startswith("processor")):
             shutil.rmtree(d)
         elif d.is_file() and d.name.startswith("log."):
             d.unlink()
@@ -440,7 +440,7 @@ def run_case(case_dir, solver="shallowWaterFoam", n_procs=1, timeout=600, recons
     if env is None:
         raise OpenFOAMError(f"OpenFOAM is not installed (no {BASHRC}; on Debian: apt-get "
                             "install openfoam)")
-    case = Path(case_dir)
+    case = Path(case_dir).resolve()  # the tools run in it: a relative -case would double
     if n_procs <= 1:
         _run([solver, "-case", str(case)], case, solver, env, timeout)
         return case

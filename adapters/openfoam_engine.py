@@ -73,11 +73,11 @@ def engine_case_path(path, engine) -> Path:
 
 def check_engine_section(t, prefix):
     """Load-time checks of a [solver] section computed by OpenFOAM (nothing to check else)."""
-    engine = t.get("engine", "driftlog")
+    engine = t["engine"]
     if engine == "driftlog":
         return
     friction = [k for k in ("manning", "strickler") if t.get(k)]
-    if friction and t.get("openfoam_friction", "refuse") != "omit":
+    if friction and t["openfoam_friction"] != "omit":
         k = friction[0]
         raise ScenarioError(f"{prefix}.{k}", t[k], f"engine {engine!r}: shallowWaterFoam "
                             "(OpenFOAM v1912) has no bed friction, so this coefficient cannot "
@@ -144,7 +144,7 @@ def _version(log_text, env):
 
 
 def _fail(engine, case, log, what, path):
-    from driftlog.adapters.openfoam_case import OpenFOAMError
+    from .openfoam_case import OpenFOAMError
 
     keep = (f"the stored flow {path} is untouched" if Path(path).exists()
             else f"no flow file written ({path})")
@@ -152,8 +152,11 @@ def _fail(engine, case, log, what, path):
                          f"  ({keep})")
 
 
-def solve_with_shallow_water_foam(scenario, path, attrs, progress=False, timeout=None):
+def solve_with_shallow_water_foam(scenario, path, attrs, build, progress=False, timeout=None):
     """Compute a scenario's [solver] section with shallowWaterFoam; write the flow file.
+
+    ``build(section)`` gives driftlog's ``ShallowWaterSolver`` of the section
+    (``driftlog.solver.config.build_solver``): its mesh, bed and initial state are the case's.
 
     The case is written to ``engine_case_path(path)`` and run there (serial, or decomposed
     on ``n_procs`` processes); its snapshots are checked (finite, depth > 0) and written to
@@ -161,17 +164,16 @@ def solve_with_shallow_water_foam(scenario, path, attrs, progress=False, timeout
 
     Returns a ``SolveResult``; its ``volume_error`` is NaN (OpenFOAM keeps no balance here).
     """
-    from driftlog.adapters.openfoam import open_openfoam
-    from driftlog.adapters.openfoam_case import (
+    from driftlog.flowfile import FlowFileWriter
+    from driftlog.solver.run import SolveResult
+
+    from .openfoam import open_openfoam
+    from .openfoam_case import (
         OpenFOAMError,
         foam_env,
         run_case,
         write_shallow_water_case,
     )
-
-    from driftlog.flowfile import FlowFileWriter
-    from driftlog.solver.config import build_solver
-    from driftlog.solver.run import SolveResult
 
     sec = scenario["solver"]
     engine = sec["engine"]
@@ -180,13 +182,13 @@ def solve_with_shallow_water_foam(scenario, path, attrs, progress=False, timeout
     log = case / "log.shallowWaterFoam"
     env = foam_env()
     if env is None:
-        from driftlog.adapters.openfoam_case import BASHRC
+        from .openfoam_case import BASHRC
 
         raise _fail(engine, case, "none (nothing ran)", "OpenFOAM is not installed: no "
                     f"{BASHRC} and no shallowWaterFoam on PATH (Debian: apt-get install "
                     "openfoam; or set DRIFTLOG_OPENFOAM_BASHRC to your OpenFOAM's etc/bashrc)",
                     path)
-    s = build_solver(sec)  # the mesh, bed and initial state exactly as driftlog's solver has
+    s = build(sec)  # the mesh, bed and initial state exactly as driftlog's solver has
     mesh = s.mesh
     h = s.h.copy()
     with np.errstate(invalid="ignore", divide="ignore"):

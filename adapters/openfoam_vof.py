@@ -25,12 +25,12 @@ from driftlog.mesh import Mesh
 
 from . import foam_io
 from ._common import SubsetSnapshots, select_times
-from .openfoam import FoamCase, _check_ran, _PolyMesh
+from ._foam_case import FoamCase, PolyMesh, check_ran
 
 __all__ = ["open_vof", "cell_geometry", "depth_average_columns", "VofSnapshots"]
 
 
-def face_geometry(pm: _PolyMesh):
+def face_geometry(pm: PolyMesh):
     """Face centres (nf, 3) and area vectors (nf, 3) (OpenFOAM's triangle decomposition)."""
     table, count = pm.face_table(np.arange(pm.n_faces))
     pts = pm.points
@@ -49,7 +49,7 @@ def face_geometry(pm: _PolyMesh):
     return centre, area
 
 
-def cell_geometry(pm: _PolyMesh):
+def cell_geometry(pm: PolyMesh):
     """Cell volumes (nc,), centroids (nc, 3) and lowest node z (nc,) of a polyMesh."""
     fc, fa = face_geometry(pm)
     own, nbr = pm.owner, pm.neighbour
@@ -75,7 +75,7 @@ def cell_geometry(pm: _PolyMesh):
     return vol, cen, zmin, fc, fa
 
 
-def depth_average_columns(pm: _PolyMesh, vertical=0.5):
+def depth_average_columns(pm: PolyMesh, vertical=0.5):
     """Columns of an extruded mesh: (column of each cell, 2D Mesh of the columns' footprints).
 
     Cells are joined through internal faces whose unit normal has |n_z| > ``vertical``; the
@@ -180,11 +180,11 @@ def open_vof(path, time_range=None, decomposed=None, names=None, dry_depth=1e-3,
     names = dict(names or {"alpha": "alpha.water", "u": "U"})
     case = FoamCase(path, decomposed=decomposed, field=names["alpha"])
     if not allow_initial_only:
-        _check_ran(case, "interFoam")
+        check_ran(case, "interFoam")
     parts, geo = [], []
     offset = 0
     for folder in case.parts():
-        pm = _PolyMesh(folder / "constant" / "polyMesh")
+        pm = PolyMesh(folder / "constant" / "polyMesh")
         vol, cen, zmin, _, _ = cell_geometry(pm)
         if case.decomposed:
             cells = foam_io.read_label_list(folder / "constant" / "polyMesh" /

@@ -6,15 +6,15 @@ Rasters are read with ``rioxarray`` (GDAL: ESRI ASCII grids, GeoTIFF, anything G
 
 LISFLOOD-FP
     ``path``: the run's parameter file (``.par``: ``DEMfile``, ``resroot``, ``dirroot``,
-    ``saveint``), or a results directory / one result file with the options ``dem`` and
-    ``interval``.  Snapshot k is ``<resroot>-<kkkk>.wd`` (water depth, m), ``.Vx`` and ``.Vy``
-    (velocity, m/s) at t = k ``saveint``.  LISFLOOD computes velocities on the cell faces:
-    ``.Vx`` on the ncols + 1 faces of each row and ``.Vy`` on the nrows + 1 faces of each
-    column; each cell gets the mean of its two faces (a velocity raster the size of the DEM is
-    taken as cell values).  LISFLOOD's rows run from north to south and its ``Vy`` is positive
-    in that direction (southward: ``vy_positive = "south"``, the default; say ``"north"`` for
-    a file written the other way).  DEM cells at nodata are outside the model: dry, with the
-    nearest valid bed elevation (so the water level has no cliff there).
+    ``saveint``) or the run folder holding it, or a results directory / one result file with the
+    options ``dem`` and ``interval``. Snapshot k is ``<resroot>-<kkkk>.wd`` (water depth, m),
+    ``.Vx`` and ``.Vy`` (velocity, m/s) at t = k ``saveint``. LISFLOOD computes velocities on
+    the cell faces: ``.Vx`` on the ncols + 1 faces of each row and ``.Vy`` on the nrows + 1
+    faces of each column; each cell gets the mean of its two faces (a velocity raster the size
+    of the DEM is taken as cell values). LISFLOOD's rows run from north to south and its ``Vy``
+    is positive in that direction (southward: ``vy_positive = "south"``, the default; say
+    ``"north"`` for a file written the other way). DEM cells at nodata are outside the model:
+    dry, with the nearest valid bed elevation (so the water level has no cliff there).
 GeoTIFF series
     ``path``: a directory (or a file in it).  The rasters of each quantity are found by a file
     pattern with one ``*`` standing for the time: ``depth_*.tif`` (or a water ``level``),
@@ -223,6 +223,8 @@ def _lisflood_files(folder, resroot=None):
 
 def _open_lisflood(path, options, notes):
     path = Path(path)
+    if path.is_dir() and not any(_LISFLOOD_RESULT.match(q.name) for q in path.iterdir()):
+        path = _run_par(path)  # a run folder: its parameter file
     interval = options.get("interval")
     dem = options.get("dem")
     resroot = None
@@ -368,12 +370,19 @@ def _open_geotiff(path, options, variables, notes):
 
 
 # --------------------------------------------------------------------- the reader
+def _run_par(folder):
+    """The one LISFLOOD-FP parameter file (with a DEMfile) of a run folder, or None."""
+    pars = [q for q in Path(folder).glob("*.par") if "demfile" in read_lisflood_par(q)]
+    return pars[0] if len(pars) == 1 else None
+
+
 def _is_lisflood(path):
     p = Path(path)
     if p.suffix.lower() == ".par":
         return "demfile" in read_lisflood_par(p)
     if p.is_dir():
-        return any(_LISFLOOD_RESULT.match(q.name) for q in p.iterdir())
+        return (any(_LISFLOOD_RESULT.match(q.name) for q in p.iterdir())
+                or _run_par(p) is not None)
     return bool(_LISFLOOD_RESULT.match(p.name))
 
 

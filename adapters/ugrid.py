@@ -30,6 +30,7 @@ from ._netcdf import (
     factors,
     fill_value,
     find_roles,
+    netcdf_matches,
     open_dataset,
     read_times,
     time_attrs,
@@ -206,14 +207,7 @@ OPTIONS = [
 
 def can_open(path) -> bool:
     """Whether ``path`` is a NetCDF file with a 2D UGRID mesh topology (never raises)."""
-    try:
-        p = Path(path)
-        if not p.is_file():
-            return False
-        with open_dataset(p) as ds:
-            return is_ugrid(ds)
-    except Exception:
-        return False
+    return netcdf_matches(path, is_ugrid)
 
 
 def open(path, *, time_range=None, variables=None, dry_depth=1e-3, **options):

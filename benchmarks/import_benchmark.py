@@ -241,6 +241,21 @@ def make_hecras(work: Path, snapshots: int, n: int):
 
 
 # --------------------------------------------------------------------- measured steps
+def peak_rss_mb():
+    """This process's peak resident set size (MB): VmHWM of its own address space.
+
+    Not ``ru_maxrss``: Linux carries the parent's peak into a child over fork and exec, so a
+    step started by a parent that had generated a 1 GB input reported the parent's peak.
+    """
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
 def step(kind, source, action, out=None, snapshots=None, options=None):
     """Run in this (fresh) process; prints a JSON line with seconds and peak memory."""
     from functools import partial
@@ -286,7 +301,7 @@ def step(kind, source, action, out=None, snapshots=None, options=None):
         res.update(intervals=n, samples=4 * n, sample_loop_s=el,
                    per_interval_s=el / n, points_per_s=4 * n * 1e5 / el)
     res["seconds"] = time.perf_counter() - t0
-    res["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    res["peak_rss_mb"] = peak_rss_mb()
     print("RESULT " + json.dumps(res), flush=True)
 
 

@@ -158,10 +158,10 @@ def jam_run(method, tmp):
 
     rec = dict(t=[], dt=[], overlap=[], speed=[], contacts=[])
     made = []
-    orig = model_mod.ContactModel.from_scenario.__func__
+    orig = model_mod.ContactModel.from_sections.__func__
 
-    def spy(cls, scen, mesh=None):
-        m = orig(cls, scen, mesh)
+    def spy(cls, contact, obstacles, mesh=None):
+        m = orig(cls, contact, obstacles, mesh)
         sub = m.substep
 
         def substep(bodies, dt):  # record the step taken, the deepest overlap, the speeds
@@ -181,7 +181,7 @@ def jam_run(method, tmp):
         made.append(m)
         return m
 
-    model_mod.ContactModel.from_scenario = classmethod(spy)
+    model_mod.ContactModel.from_sections = classmethod(spy)
     err = None
     t0 = time.perf_counter()
     try:
@@ -191,7 +191,7 @@ def jam_run(method, tmp):
     except ContactJamError as exc:
         err = str(exc)
     finally:
-        model_mod.ContactModel.from_scenario = classmethod(orig)
+        model_mod.ContactModel.from_sections = classmethod(orig)
     wall = time.perf_counter() - t0
     out = {k: np.array(v) for k, v in rec.items()}
     return out, err, made[0].stats, wall

@@ -32,7 +32,9 @@ zero on dry faces).
 from __future__ import annotations
 
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -68,11 +70,10 @@ from driftlog.columns import (
     V,
 )
 from driftlog.errors import FlowDomainError, FlowFileError
-from driftlog.locate import locate_one
-from driftlog.protocols import MeshKernel
+from driftlog.locate import Locator, locate_one
 
 __all__ = [
-    "FlowField", "FlowSample", "MeshFlowField", "InMemorySnapshots", "SAMPLE_COLUMNS",
+    "FlowField", "FlowSample", "MeshFlowField", "MeshKernel", "InMemorySnapshots", "SAMPLE_COLUMNS",
     "sample_point",
     "H", "U", "V", "DUDT", "DVDT", "DUDX", "DUDY", "DVDX", "DVDY", "DETADX", "DETADY", "ETA",
     "NVAR", "OUTSIDE", "DRY", "WET",
@@ -118,6 +119,22 @@ class FlowSample:
     def wet(self):
         """True where the point is wet."""
         return self.flag == WET
+
+
+class MeshKernel(NamedTuple):
+    """What the fused tracking kernels (``driftlog.fused``) need of a mesh flow.
+
+    ``node_values(t) -> (values (n_nodes, 2 NQ), time weight a, 1 / snapshot gap)``: the
+    snapshot pair around t at the nodes; ``dry_depth``; ``recovered``: gradients are the P1
+    interpolation of recovered node gradients (else the P1 interpolant's own); ``locator``:
+    the mesh's ``Locator``.  A flow whose ``sample_into`` is exactly ``sample_mesh_kernel``
+    over these gives it (the fused step then reproduces the general path bit for bit).
+    """
+
+    node_values: Callable[[float], tuple]
+    dry_depth: float
+    recovered: bool
+    locator: Locator
 
 
 class FlowField:

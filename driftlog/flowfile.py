@@ -32,8 +32,8 @@ from driftlog.errors import FlowFileError, MeshError
 from driftlog.flow import MeshFlowField, check_times
 from driftlog.mesh import Mesh, read_ugrid_mesh
 
-__all__ = ["FlowFileWriter", "write_flow", "open_flow", "NetCDFSnapshots", "TIME_UNITS",
-           "write_mesh"]
+__all__ = ["FlowFileWriter", "write_flow", "open_flow", "read_flow_mesh", "NetCDFSnapshots",
+           "TIME_UNITS", "write_mesh"]
 
 TIME_UNITS = "seconds since 2000-01-01 00:00:00"
 FACE_DIM, NODE_DIM, EDGE_DIM, MAXN_DIM = ("mesh2d_nFaces", "mesh2d_nNodes", "mesh2d_nEdges",
@@ -139,7 +139,8 @@ class FlowFileWriter:
         ds.Conventions = "CF-1.11 UGRID-1.0"
         ds.title = (attrs or {}).get("title", "driftlog flow")
         ds.driftlog_version = __version__
-        ds.history = f"{_dt.datetime.now(_dt.UTC).isoformat(timespec='seconds')} driftlog {__version__}"
+        now = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
+        ds.history = f"{now} driftlog {__version__}"
         ds.setncatts(_attrs_for_netcdf({k: v for k, v in (attrs or {}).items() if k != "title"}))
         write_mesh(ds, mesh)
         ds.createDimension("time", None)
@@ -188,10 +189,12 @@ class FlowFileWriter:
         self.ds.sync()
 
     def set_attrs(self, **attrs):
+        """Add or replace global attributes of the file."""
         self.ds.setncatts(_attrs_for_netcdf(attrs))
         self.ds.sync()
 
     def close(self):
+        """Close the file (once)."""
         if self.ds.isopen():
             self.ds.close()
 
@@ -231,8 +234,9 @@ class NetCDFSnapshots:
         self.times = check_times(self.ds.variables["time"][:], self.name)
 
     def read(self, i):
+        """Snapshot i as face arrays (h, hu, hv); fill values are an error."""
         h, u, v = (np.asarray(var[i, :], dtype=np.float64) for var in self.vars)
-        for arr, var in zip((h, u, v), self.vars):
+        for arr, var in zip((h, u, v), self.vars, strict=True):
             fill = var.getncattr("_FillValue") if "_FillValue" in var.ncattrs() else None
             if fill is not None and np.any(arr == fill):
                 raise FlowFileError(f"{self.path}: {var.name} at snapshot {i} holds fill values "
@@ -240,25 +244,13 @@ class NetCDFSnapshots:
         return h, h * u, h * v
 
     def close(self):
+        """Close the file (once)."""
         if self.ds.isopen():
             self.ds.close()
 
 
-def open_flow(path, dry_depth=None) -> MeshFlowField:
-    """Open a driftlog flow file as a MeshFlowField (snapshots read lazily, two at a time)."""
-    path = Path(path)
-    if not path.is_file():
-        raise FlowFileError(f"{path}: flow file not found")
-    try:
-        mesh = read_ugrid_mesh(path)
-    except MeshError as exc:
-        raise FlowFileError(f"{path}: not a driftlog flow file: {exc}") from None
-    try:
-        src = NetCDFSnapshots(path)
-    except OSError as exc:
-        raise FlowFileError(f"{path}: cannot read ({exc})") from None
-    ds = src.ds
-    attrs = {k: ds.getncattr(k) for k in ds.ncattrs()}
+def _read_edge_tags(ds, mesh: Mesh) -> None:
+    """Give ``mesh`` the boundary tags stored in an open flow file (same edges only)."""
     if "mesh2d_edge_type" in ds.variables:
         var = ds.variables["mesh2d_edge_type"]
         tags = np.asarray(var[:], dtype=np.int16)
@@ -268,6 +260,46 @@ def open_flow(path, dry_depth=None) -> MeshFlowField:
         if same_edges:
             mesh.tag_names = names or ["wall"]
             mesh.edge_tag = tags
+
+
+def _read_mesh(path: Path) -> Mesh:
+    from driftlog.files import require
+
+    if not path.is_file() and not path.is_dir():
+        raise FlowFileError(f"{path}: flow file not found")
+    require(path, ("flow", "model_output", "netcdf"), "flow file", error=FlowFileError)
+    try:
+        return read_ugrid_mesh(path)
+    except MeshError as exc:
+        raise FlowFileError(f"{path}: not a driftlog flow file: {exc}") from None
+
+
+def read_flow_mesh(path) -> Mesh:
+    """The mesh of a driftlog flow file, with its boundary tags, as ``open_flow`` gives it.
+
+    Only the mesh is read (no snapshot source is opened).
+    """
+    path = Path(path)
+    mesh = _read_mesh(path)
+    try:
+        with netCDF4.Dataset(path) as ds:
+            _read_edge_tags(ds, mesh)
+    except OSError as exc:
+        raise FlowFileError(f"{path}: cannot read ({exc})") from None
+    return mesh
+
+
+def open_flow(path, dry_depth=None) -> MeshFlowField:
+    """Open a driftlog flow file as a MeshFlowField (snapshots read lazily, two at a time)."""
+    path = Path(path)
+    mesh = _read_mesh(path)
+    try:
+        src = NetCDFSnapshots(path)
+    except OSError as exc:
+        raise FlowFileError(f"{path}: cannot read ({exc})") from None
+    ds = src.ds
+    attrs = {k: ds.getncattr(k) for k in ds.ncattrs()}
+    _read_edge_tags(ds, mesh)
     if "bed_level" not in ds.variables:
         raise FlowFileError(f"{path}: variable 'bed_level' is missing")
     bed = np.asarray(ds.variables["bed_level"][:], dtype=float)

@@ -23,10 +23,10 @@ The integrator arithmetic is ``driftlog.integrators``' own (``euler_row``, ``rk4
 import numba as nb
 
 from driftlog._numba import kernel
-from driftlog.columns import NVAR, X, Y
+from driftlog.columns import NLIN, NVAR, X, Y
 from driftlog.flow import sample_point
 from driftlog.integrators import euler_row, put_row, rk4_final_row, rk4_stage_row, row
-from driftlog.physics import NLIN, log_rhs
+from driftlog.physics import log_rhs
 
 __all__ = ["euler_mesh_step", "rk4_mesh_step", "FUSED_METHODS"]
 

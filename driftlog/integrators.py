@@ -21,6 +21,8 @@ Stage k (1 to 3) starts from S0 + RK4_C[k] dt D_{k-1} at time t0 + RK4_C[k] dt.
 
 from __future__ import annotations
 
+import math
+
 import numba as nb
 import numpy as np
 
@@ -40,6 +42,7 @@ from driftlog.columns import (
     X,
     Y,
 )
+from driftlog.schema import Key, Section
 
 __all__ = ["Integrator", "make_integrator", "phi_functions", "METHODS", "RK4_C", "row",
            "put_row", "euler_row", "rk4_stage_row", "rk4_final_row"]
@@ -331,3 +334,21 @@ def make_integrator(method: str) -> Integrator:
     from driftlog.errors import ScenarioError
 
     raise ScenarioError("integrator.method", method, "must be one of " + ", ".join(METHODS))
+
+
+# --------------------------------------------------------------------- the scenario section
+INTEGRATOR_SECTION = Section("integrator", [
+    Key("method", "str", "rk4", "time integrator: explicit Euler, RK4 (the paper), or "
+        "exponential (RK4 with drag integrated exactly over the step: stable on stiff drag)",
+        choices=("euler", "rk4", "exponential")),
+    Key("length_fraction", "float", 1.0, "dt <= length_fraction * L / |U_b| (paper: 1)",
+        min=0.0, exclusive_min=True),
+    Key("angle_step", "float", math.pi / 4, "dt <= angle_step / |omega_b| (paper: pi/4)", "rad",
+        min=0.0, exclusive_min=True),
+    Key("drag_fraction", "float", 0.5, "dt <= drag_fraction * tau_D for explicit methods (0: no "
+        "bound, as the paper)", min=0.0),
+    Key("max_step", "float", None, "upper bound of the sub-step", "s", min=0.0,
+        exclusive_min=True),
+    Key("min_step", "float", 1e-9, "sub-steps below this are an error (the run stops with a "
+        "message)", "s", min=0.0, exclusive_min=True),
+], doc="time integration (MODEL.md sections 8-9)")

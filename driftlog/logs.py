@@ -15,9 +15,10 @@ import numpy as np
 
 from driftlog.columns import NSTATE, OMEGA, THETA, UB, VB, X, Y
 from driftlog.errors import ScenarioError
+from driftlog.schema import Key, Section
 
 __all__ = ["Logs", "STATUS_MEANINGS", "WAITING", "FLOATING", "RESTING", "STRANDED", "LEFT",
-           "seed_logs", "logs_from_scenario", "flotation_depth", "submerged_volume"]
+           "seed_logs", "logs_from_groups", "flotation_depth", "submerged_volume"]
 
 # status codes, written to trajectory files with flag_meanings
 WAITING, FLOATING, RESTING, STRANDED, LEFT = 0, 1, 2, 3, 4
@@ -83,9 +84,20 @@ class Logs:
         self.water_density = float(water_density)
         for name in ("length", "radius", "density"):
             a = getattr(self, name)
-            if not np.all(a > 0):
-                i = int(np.flatnonzero(~(a > 0))[0])
-                raise ScenarioError(f"logs.{name}", float(a[i]), f"must be > 0 (log {i})")
+            if not np.all((a > 0) & np.isfinite(a)):
+                i = int(np.flatnonzero(~((a > 0) & np.isfinite(a)))[0])
+                raise ScenarioError(f"logs.{name}", float(a[i]),
+                                    f"must be a finite number > 0 (log {i})")
+        for k, name in enumerate(("x", "y", "theta", "u", "v", "omega")):
+            bad = ~np.isfinite(self.state[:, k])
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                raise ScenarioError(f"logs.{name}", float(self.state[i, k]),
+                                    f"must be a finite number (log {i}; {int(bad.sum())} logs)")
+        if not np.all(np.isfinite(self.release_time)):
+            i = int(np.flatnonzero(~np.isfinite(self.release_time))[0])
+            raise ScenarioError("logs.release_time", float(self.release_time[i]),
+                                f"must be a finite number (log {i})")
         self.volume = np.pi * self.radius ** 2 * self.length
         self.mass = self.density * self.volume
         self.inertia = self.mass * (self.length ** 2 / 12.0 + self.radius ** 2 / 4.0)
@@ -182,13 +194,15 @@ def seed_positions(group: dict, prefix: str = "logs[0]"):
     return x, y, theta
 
 
-def logs_from_scenario(scenario, water_density=None) -> Logs:
-    """All [[logs]] groups of a validated scenario as one Logs."""
-    groups = scenario["logs"]
+def logs_from_groups(groups: list, water_density: float, start: float) -> Logs:
+    """Validated ``[[logs]]`` tables (``LOGS_SECTION``) as one Logs.
+
+    ``water_density`` (kg/m3) sets the logs' flotation; a group without ``release_time``
+    enters at ``start`` (s).
+    """
     if not groups:
         raise ScenarioError("logs", [], "a scenario needs at least one [[logs]] group")
-    rho = water_density or scenario["physics"]["water_density"]
-    t0 = scenario["time"]["start"]
+    rho, t0 = water_density, start
     parts = []
     for i, g in enumerate(groups):
         x, y, theta = seed_positions(g, f"logs[{i}]")
@@ -200,3 +214,52 @@ def logs_from_scenario(scenario, water_density=None) -> Logs:
 
 # aliases used by callers who think in terms of the seeding
 seed_logs = seed_positions
+
+
+# --------------------------------------------------------------------- the scenario section
+SEEDINGS = ("list", "line", "polygon", "random", "grid")
+
+
+def _check_logs(t, prefix, scen):
+    s = t["seeding"]
+    if s == "list":
+        if not t["x"] or not t["y"] or len(t["x"]) != len(t["y"]):
+            raise ScenarioError(f"{prefix}.x", t["x"],
+                                "seeding = 'list' needs x and y lists of the same length")
+        for key in ("theta",):
+            if isinstance(t[key], list) and len(t[key]) not in (1, len(t["x"])):
+                raise ScenarioError(f"{prefix}.{key}", t[key],
+                                    f"must have 1 or {len(t['x'])} values (one per log)")
+    elif s == "line":
+        for key in ("start", "end"):
+            if t[key] is None:
+                raise ScenarioError(f"{prefix}.{key}", None, "is required for seeding = 'line'")
+    elif s in ("polygon", "random"):
+        if t["polygon"] is None:
+            raise ScenarioError(f"{prefix}.polygon", None,
+                                f"is required for seeding = {s!r} (at least 3 [x, y] points)")
+    if s != "list" and t["count"] < 1:
+        raise ScenarioError(f"{prefix}.count", t["count"], "must be >= 1")
+
+
+LOGS_SECTION = Section("logs", [
+    Key("name", "str", "", "a label for this group of logs"),
+    Key("seeding", "str", "list", "how the logs are placed", choices=SEEDINGS),
+    Key("x", "floats", [], "x of each log centre", "m", when="seeding = list"),
+    Key("y", "floats", [], "y of each log centre", "m", when="seeding = list"),
+    Key("theta", "any", 0.0, "angle of the log axis to the x axis: a number, a list (one per "
+        "log), or 'random'", "rad"),
+    Key("count", "int", 1, "number of logs", min=1, when="seeding = line, polygon, random, grid"),
+    Key("start", "point", None, "first end of the release line", "m", when="seeding = line"),
+    Key("end", "point", None, "second end of the release line", "m", when="seeding = line"),
+    Key("polygon", "points", None, "release area", "m", length=3,
+        when="seeding = polygon, random, grid"),
+    Key("seed", "int", 0, "random seed (the same seed gives the same logs, bit for bit)",
+        min=0),
+    Key("length", "float", 1.0, "log length L", "m", min=0.0, exclusive_min=True),
+    Key("radius", "float", 0.1, "log radius r", "m", min=0.0, exclusive_min=True),
+    Key("density", "float", 720.0, "log density rho_b", "kg/m3", min=0.0, exclusive_min=True),
+    Key("release_time", "float", None, "when the logs enter (default: time.start)", "s"),
+    Key("velocity", "str", "flow", "initial velocity: the flow's at release, or rest",
+        choices=("flow", "rest")),
+], doc="logs to release (repeat [[logs]] for several groups)", repeated=True, check=_check_logs)

@@ -565,23 +565,24 @@ def merge_coincident_nodes(node_x, node_y, face_nodes, fill_value=FILL, start_in
     n = x.size
     if n < 2 or fn.size == 0 or fn.max() >= n:
         return np.arange(n), fn, 0
-    # shortest edge at each node (over the faces' consecutive node pairs)
-    nxt = np.roll(fn, -1, axis=1)
-    first = fn[:, :1]
-    nxt = np.where(nxt < 0, first, nxt)  # the last real node closes on the first
-    valid = fn >= 0
-    a, b = fn[valid], nxt[valid]
-    length = np.hypot(x[a] - x[b], y[a] - y[b])
-    local = np.full(n, np.inf)
-    np.minimum.at(local, a, length)
-    np.minimum.at(local, b, length)
-    finite = np.isfinite(local)
-    if not finite.any():
-        return np.arange(n), fn, 0
-    local[~finite] = local[finite].max()
+    # candidates: pairs within rel_tol of the domain's diagonal (no edge is longer), then each
+    # pair against its own nodes' shortest edges, computed for the candidates only (a mesh
+    # without seams costs one tree query)
+    diag = float(np.hypot(np.ptp(x), np.ptp(y)))
     tree = cKDTree(np.column_stack([x, y]))
-    pairs = tree.query_pairs(rel_tol * float(local.max()), output_type="ndarray")
+    pairs = tree.query_pairs(rel_tol * diag, output_type="ndarray")
     if pairs.size:
+        cand = np.unique(pairs)
+        nxt = np.roll(fn, -1, axis=1)
+        nxt = np.where(nxt < 0, fn[:, :1], nxt)  # the last real node closes on the first
+        valid = fn >= 0
+        a, b = fn[valid], nxt[valid]
+        touch = np.isin(a, cand) | np.isin(b, cand)
+        a, b = a[touch], b[touch]
+        length = np.hypot(x[a] - x[b], y[a] - y[b])
+        local = np.full(n, np.inf)
+        np.minimum.at(local, a, length)
+        np.minimum.at(local, b, length)
         d = np.hypot(x[pairs[:, 0]] - x[pairs[:, 1]], y[pairs[:, 0]] - y[pairs[:, 1]])
         lim = rel_tol * np.minimum(local[pairs[:, 0]], local[pairs[:, 1]])
         pairs = pairs[d <= lim]
@@ -636,16 +637,23 @@ def read_mesh(path, **kwargs) -> Mesh:
     ``elevation``, ``bed`` or ``bed_level``, or from a non-zero third coordinate.  Line cells with
     gmsh physical names tag the boundary edges they cover.
     """
+    from driftlog.files import require
+
     path = Path(path)
     if not path.is_file():
         raise MeshError(f"{path}: mesh file not found")
+    fk = require(path, ("mesh", "flow", "model_output", "netcdf", "ensemble", "mesh_file",
+                        "text"), "mesh file", error=MeshError,
+                 expected="a UGRID NetCDF file or a mesh format meshio reads")
+    if fk.kind != "mesh_file" and fk.kind != "text":
+        return read_ugrid_mesh(path, **kwargs)
     if path.suffix.lower() in (".nc", ".nc4", ".cdf"):
         return read_ugrid_mesh(path, **kwargs)
     import meshio
 
     try:
         m = meshio.read(path)
-    except Exception as exc:  # meshio raises many types for bad files
+    except (Exception, SystemExit) as exc:  # meshio raises many types (ansys: SystemExit)
         raise MeshError(f"{path}: meshio cannot read it ({type(exc).__name__}: {exc})") from None
     polys, unsupported = [], []
     for block in m.cells:

@@ -50,6 +50,7 @@ from driftlog.columns import (
     Y,
 )
 from driftlog.logs import submerged_volume
+from driftlog.schema import Key, Section
 
 __all__ = ["PhysicsOptions", "log_parameters", "rhs_kernel", "log_rhs", "ganser_cd",
            "drag_speed_product", "effective_area", "TRACER", "DRAG", "FULL", "NPARAM", "NLIN"]
@@ -331,3 +332,31 @@ def rhs_kernel(S, F, P, opt, D, lin, want_lin=True):
         if want_lin:
             for k in range(NLIN):
                 lin[i, k] = ln[k]
+
+
+# --------------------------------------------------------------------- the scenario section
+PHYSICS_LEVELS = ("tracer", "drag", "full", "auto")
+PHYSICS_SECTION = Section("physics", [
+    Key("level", "str", "full", "tracer (U_b = U_w), drag only, the full reference model, or "
+        "auto (chosen from the drag relaxation time against the flow time scale)",
+        choices=PHYSICS_LEVELS),
+    Key("rotation", "str", "on", "rotation of the logs (eq. 8-10)", choices=("on", "off", "auto")),
+    Key("fluid_volume", "str", "body", "volume in the pressure-gradient and added-mass terms: "
+        "the paper's V_b, or the submerged volume", choices=("body", "submerged")),
+    Key("surface_slope", "bool", False, "add -rho g V grad(eta) in place of the steady part of "
+        "DU_w/Dt"),
+    Key("drag_law", "str", "ganser", "drag coefficient: Ganser (1993), constant, or linear F = k w",
+        choices=("ganser", "constant", "linear")),
+    Key("drag_area", "str", "paper", "reference area of C_D: the paper's S_eff, Ganser's "
+        "pi d_v^2 / 4, or the wetted projected area", choices=("paper", "ganser", "wetted")),
+    Key("drag_coefficient", "float", 1.0, "C_D when drag_law = constant", min=0.0),
+    Key("linear_drag", "float", 1.0, "k when drag_law = linear", "kg/s", min=0.0),
+    Key("torque_force", "str", "total", "force applied at the centre of pressure (eq. 8): the "
+        "total hydrodynamic force (MODEL.md 6), or the drag alone (pressure-gradient and "
+        "added-mass forces then act at the centre of mass; well posed when the log moves with "
+        "the flow)", choices=("total", "drag")),
+    Key("water_density", "float", 1000.0, "rho", "kg/m3", min=0.0, exclusive_min=True),
+    Key("gravity", "float", 9.81, "g", "m/s2", min=0.0, exclusive_min=True),
+    Key("viscosity", "float", 1.0e-3, "dynamic viscosity mu", "Pa s", min=0.0,
+        exclusive_min=True),
+], doc="the log transport model (MODEL.md sections 3-6)")

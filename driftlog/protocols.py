@@ -7,7 +7,7 @@ tests/test_protocols.py on every shipped class):
   callers use of a flow field.  ``driftlog.flow.FlowField`` is the base class that provides
   ``sample`` (over ``sample_into``), the empty snapshot list of steady fields and
   ``mesh_kernel() -> None``; ``MeshFlowField`` (and the readers built on it) answer
-  ``mesh_kernel()`` with the arrays the fused tracking kernels read (``MeshKernel``), the
+  ``mesh_kernel()`` with the arrays the fused tracking kernels read (``flow.MeshKernel``), the
   explicit capability that replaces any guess from the class or its methods.
 - ``ContactBodies``: what ``driftlog.contact.ContactModel`` reads and calls on the bodies it
   moves (``Tracker``, ``contact.BallisticLogs``): compact state arrays of the moving logs, the
@@ -18,33 +18,15 @@ tests/test_protocols.py on every shipped class):
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import TYPE_CHECKING, NamedTuple, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
-if TYPE_CHECKING:  # type names only: no import at run time (this module is a leaf)
-    from driftlog.flow import FlowSample
-    from driftlog.locate import Locator
+if TYPE_CHECKING:  # type names only: no import at run time
+    from driftlog.flow import FlowSample, MeshKernel
     from driftlog.mesh import Mesh
 
-__all__ = ["FlowFieldLike", "ContactBodies", "MeshKernel"]
-
-
-class MeshKernel(NamedTuple):
-    """What the fused tracking kernels (``driftlog.fused``) need of a mesh flow.
-
-    ``node_values(t) -> (values (n_nodes, 2 NQ), time weight a, 1 / snapshot gap)``: the
-    snapshot pair around t at the nodes; ``dry_depth``; ``recovered``: gradients are the P1
-    interpolation of recovered node gradients (else the P1 interpolant's own); ``locator``:
-    the mesh's ``Locator``.  A flow whose ``sample_into`` is exactly ``sample_mesh_kernel``
-    over these gives it (the fused step then reproduces the general path bit for bit).
-    """
-
-    node_values: Callable[[float], tuple]
-    dry_depth: float
-    recovered: bool
-    locator: Locator
+__all__ = ["FlowFieldLike", "ContactBodies"]
 
 
 @runtime_checkable

@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+from driftlog import adapters
 from driftlog.analytic import FreeVortex, SolidBodyRotation, UniformFlow
 from driftlog.errors import ScenarioError
+from driftlog.schema import Key, Section
 
-__all__ = ["flow_from_scenario"]
+__all__ = ["flow_from_scenario", "FLOW_SECTION"]
 
 
 def analytic_flow(section):
@@ -47,3 +51,55 @@ def flow_from_scenario(scenario, progress=False):
                                 f"only flows on a mesh can be frozen, not source = {src!r}")
         field = field.freeze(sec["steady_at"])
     return field
+
+
+# --------------------------------------------------------------------- the scenario section
+# driftlog's own flow file, then what is built here, 'auto' (a reader chosen by the file's
+# contents), then the other readers (the registry)
+FLOW_SOURCES = (adapters.KINDS[0], "solver", "analytic", "auto") + adapters.KINDS[1:]
+ANALYTIC_KINDS = ("uniform", "solid_body_rotation", "free_vortex")
+
+
+def _check_flow(t, prefix, scen):
+    src = t["source"]
+    read = src in adapters.KINDS or src == "auto"
+    if read and not t["path"]:
+        raise ScenarioError(f"{prefix}.path", None,
+                            f"is required when source = {src!r}: the flow file or case to read")
+    if read and not Path(t["path"]).exists():
+        raise ScenarioError(f"{prefix}.path", t["path"], "file not found")
+    t["options"] = adapters.check_flow_options(t, prefix, scen.base_dir)
+    if src == "analytic" and t["kind"] not in ANALYTIC_KINDS:
+        raise ScenarioError(f"{prefix}.kind", t["kind"],
+                            "must be one of " + ", ".join(map(repr, ANALYTIC_KINDS)))
+
+
+FLOW_SECTION = Section("flow", [
+    Key("source", "str", "analytic", "where the flow comes from", choices=FLOW_SOURCES),
+    Key("path", "path", "", "flow file (source = file), or model output to import; for "
+        "source = solver, where the computed flow is stored (reused if present)"),
+    Key("kind", "str", "solid_body_rotation", "analytic flow", choices=ANALYTIC_KINDS,
+        when="source = analytic"),
+    Key("velocity", "point", [1.0, 0.0], "uniform velocity", "m/s", when="kind = uniform"),
+    Key("acceleration", "point", [0.0, 0.0], "uniform acceleration", "m/s2",
+        when="kind = uniform"),
+    Key("omega", "float", 0.0628318530717959, "rotation rate", "rad/s",
+        when="kind = solid_body_rotation"),
+    Key("circulation", "float", 10.0, "circulation Gamma", "m2/s", when="kind = free_vortex"),
+    Key("core_radius", "float", 0.0, "solid-body core radius", "m", min=0.0,
+        when="kind = free_vortex"),
+    Key("center", "point", [0.0, 0.0], "centre of rotation", "m"),
+    Key("depth", "float", 1.0, "water depth of analytic flows", "m", min=0.0,
+        exclusive_min=True),
+    Key("dry_depth", "float", 1e-3, "depth below which a face is dry", "m", min=0.0,
+        exclusive_min=True),
+    Key("steady_at", "float", None, "freeze the flow at this time and treat it as steady", "s"),
+    Key("variables", "table", {}, "map of driftlog names (depth, level, u, v, hu, hv, bed) to "
+        "the variable names of an imported file"),
+    Key("time_range", "floats", None, "import only snapshots in [start, end]", "s", length=2),
+    Key("options", "table", {}, "options of the importer (driftlog.adapters): openfoam "
+        "decomposed, mode ('shallow_water' | 'vof'), raster ([x0, y0, dx, nx, ny]); ugrid and "
+        "cf_grid fill ('error' | 'dry'), units ({hu = 'm3 s-1'}); anuga use_centroids; "
+        "selafin depth_average",
+        when="source = auto, openfoam, ugrid, anuga, cf_grid, selafin"),
+], doc="the hydro source", check=_check_flow)

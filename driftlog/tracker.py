@@ -48,8 +48,9 @@ from driftlog.fused import FUSED_METHODS, euler_mesh_step, rk4_mesh_step
 from driftlog.integrators import RK4_C, make_integrator
 from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, WAITING
 from driftlog.physics import PhysicsOptions, log_parameters, rhs_kernel
+from driftlog.schema import Key, Section
 
-__all__ = ["Tracker", "StepOptions", "StepTooSmallError", "IntegrationError"]
+__all__ = ["Tracker", "StepOptions", "TIME_SECTION", "StepTooSmallError", "IntegrationError"]
 
 
 class StepTooSmallError(DriftlogError):
@@ -112,6 +113,25 @@ def _classify(F, flag, float_depth, status):
             changed += 1
         status[i] = s
     return changed
+
+
+def outside_error(flow, logs, out):
+    """The ScenarioError for logs ``out`` released outside the flow's mesh.
+
+    It names the first log's group, x and y, how many in all, and the mesh's extent.
+    """
+    i = int(out[0])
+    x, y = float(logs.state[i, X]), float(logs.state[i, Y])
+    mesh = getattr(flow, "mesh", None)
+    extent = ""
+    if mesh is not None:
+        x0, y0, x1, y1 = mesh.bounds
+        extent = (f"; the mesh spans x {x0:.6g} to {x1:.6g} m, y {y0:.6g} to {y1:.6g} m "
+                  "(holes such as piers excluded)")
+    return ScenarioError(f"logs[{logs.group[i]}]", f"x = {x:.6g}, y = {y:.6g}",
+                         f"log {i} starts outside the flow domain ({out.size} of "
+                         f"{len(logs)} logs are outside){extent}; logs must start inside the "
+                         "mesh")
 
 
 class Tracker:
@@ -402,11 +422,7 @@ class Tracker:
         s = self.flow.sample(L.state[due, X], L.state[due, Y], self.t)
         out = due[s.flag == OUTSIDE]
         if out.size:
-            i = int(out[0])
-            raise ScenarioError(f"logs[{L.group[i]}].x",
-                                [float(L.state[i, X]), float(L.state[i, Y])],
-                                f"log {i} is seeded outside the flow domain "
-                                f"({out.size} logs in all); logs must start inside the mesh")
+            raise outside_error(self.flow, L, out)
         L.face[due] = s.face
         st = np.full(due.size, WAITING, np.int8)
         _classify(s.values, s.flag, L.float_depth[due], st)
@@ -467,6 +483,10 @@ class Tracker:
             return
         if self.act.size:
             self._scatter()
+        if self.contact is not None:
+            # the hits of the interval that ends here go to the writer before its record: a
+            # flush that the record triggers writes both together (a kill loses neither alone)
+            self.writer.hits(self.contact.drain_hits())
         L = self.logs
         idx = np.flatnonzero((L.status != WAITING) & ~self._recorded_left)
         if idx.size == 0:
@@ -476,8 +496,6 @@ class Tracker:
         cols.update(status=L.status[idx], water_depth=s.h, flow_u=s.u, flow_v=s.v)
         self.writer.record(self.t, idx, cols)
         self._recorded_left[idx[L.status[idx] == LEFT]] = True
-        if self.contact is not None:
-            self.writer.hits(self.contact.drain_hits())
 
     # ----------------------------------------------------------------- the loop
     def run(self):
@@ -543,3 +561,20 @@ class Tracker:
                 bar.close()
             self.stats["wall_seconds"] = _time.perf_counter() - wall
         return self.logs
+
+
+# --------------------------------------------------------------------- the scenario section
+def _check_time(t, prefix, scen):
+    if t["end"] is not None and not t["end"] > t["start"]:
+        raise ScenarioError(f"{prefix}.end", t["end"],
+                            f"must be after time.start = {t['start']} s (time span reversed)")
+
+
+TIME_SECTION = Section("time", [
+    Key("start", "float", 0.0, "start of the debris run", "s"),
+    Key("end", "float", None, "end of the debris run (default: end of the flow)", "s"),
+    Key("output_interval", "float", 1.0, "interval between trajectory records", "s", min=0.0,
+        exclusive_min=True),
+    Key("hydro_step", "float", 1.0, "hydrodynamic step for flows without snapshots (analytic)",
+        "s", min=0.0, exclusive_min=True),
+], doc="the time span", check=_check_time)

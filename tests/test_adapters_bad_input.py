@@ -81,6 +81,10 @@ def test_truncated_netcdf3_is_refused(tmp_path, capsys, fraction):
     assert not (tmp_path / "out.nc").exists()
     with pytest.raises(FlowFileError, match="truncated NetCDF file"):
         open_flow_source("cf_grid", cut)
+    with pytest.raises(FlowFileError, match="truncated NetCDF file"):
+        open_flow_source("auto", cut)
+    assert main(["info", str(cut)]) == 2
+    assert "truncated NetCDF file" in capsys.readouterr().err
 
 
 def test_truncated_netcdf4_is_refused(tmp_path, capsys):

@@ -112,6 +112,8 @@ def test_lisflood_par_file(tmp_path):
     assert f.grid == (NX, NY, X0, Y0, DX, DX)
     np.testing.assert_allclose(f.times, SAVEINT * np.arange(NT))
     check_linear(f, np.random.default_rng(1))
+    g = open_flow_source("auto", tmp_path / "run")  # the run folder: its .par file
+    np.testing.assert_allclose(g.times, f.times)
     notes = f.attrs["import_notes"]
     assert ".Vx on cell faces" in notes and "Vy positive south" in notes
     assert "32631" in f.attrs["crs"]

@@ -177,18 +177,18 @@ def test_jam_moreau_keeps_the_pile(tmp_path):
     from driftlog.contact import model as model_mod
 
     made = []
-    orig = model_mod.ContactModel.from_scenario.__func__
+    orig = model_mod.ContactModel.from_sections.__func__
 
-    def spy(cls, scen, mesh=None):
-        m = orig(cls, scen, mesh)
+    def spy(cls, contact, obstacles, mesh=None):
+        m = orig(cls, contact, obstacles, mesh)
         made.append(m)
         return m
 
-    model_mod.ContactModel.from_scenario = classmethod(spy)
+    model_mod.ContactModel.from_sections = classmethod(spy)
     try:
         res = track(_channel("moreau", 30, _bridge_deck(), 40.0, eps=0.3, tmp=tmp_path))
     finally:
-        model_mod.ContactModel.from_scenario = classmethod(orig)
+        model_mod.ContactModel.from_sections = classmethod(orig)
     m = made[0]
     ds = res.dataset()
     last = ds.time.values == ds.time.values.max()

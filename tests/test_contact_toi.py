@@ -72,7 +72,7 @@ def test_walls_from_mesh_tags_open_boundaries_let_logs_leave(tmp_path):
     mesh.tag_boundary("inflow", (-1, -4, 0.5, 4))
     flow = on_mesh(UniformFlow(1.0, 0.3, depth=1.0), mesh)
     scen = load_scenario({"contact": {"enabled": True, "walls": True, "restitution": 0.5}})
-    model = ContactModel.from_scenario(scen, mesh=mesh)
+    model = ContactModel.from_sections(scen["contact"], scen["obstacles"], mesh=mesh)
     assert model.obstacle_names == ["walls"]
     walls = model.obstacles.capsules
     assert np.all((np.abs(walls[:, 1]) == 3.0) & (walls[:, 1] == walls[:, 3]))  # sides only
@@ -90,10 +90,10 @@ def test_scenario_obstacle_errors_name_key_value_rule():
 
     bad = load_scenario({"obstacles": [{"type": "circle", "center": [0, 0]}]})
     with pytest.raises(ScenarioError, match=r"obstacles\[0\]\.radius"):
-        ContactModel.from_scenario(bad)
+        ContactModel.from_sections(bad["contact"], bad["obstacles"])
     bad = load_scenario({"obstacles": [{"type": "polygon", "points": [[0, 0], [1, 0]]}]})
     with pytest.raises(ScenarioError, match=r"obstacles\[0\]\.points.*at least 3"):
-        ContactModel.from_scenario(bad)
+        ContactModel.from_sections(bad["contact"], bad["obstacles"])
     with pytest.raises(ScenarioError, match=r"contact\.rest_speed"):
         load_scenario({"contact": {"rest_speed": -1.0}})
     with pytest.raises(ScenarioError, match=r"contact\.method.*'event', 'moreau'"):

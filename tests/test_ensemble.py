@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from driftlog.analytic import UniformFlow, on_mesh
+from driftlog.api import logs_from_scenario
 from driftlog.ensemble import (
     Aggregate,
     MemberRecorder,
@@ -26,7 +27,7 @@ from driftlog.ensemble import (
 from driftlog.ensemble.summary import sweep_segments
 from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.flowfile import open_flow, write_flow
-from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, logs_from_scenario
+from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED
 from driftlog.mesh import Mesh
 from driftlog.mesher import channel_mesh, circle
 from driftlog.scenario import load_scenario

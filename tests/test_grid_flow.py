@@ -234,7 +234,7 @@ def test_contacts_and_land_on_a_grid():
     assert mesh.boundary_edges.size == 2 * (nx + ny)
     mesh.tag_boundary("outflow", (nx - 0.5, -1, nx + 1, ny + 1))
     scen = load_scenario({"contact": {"enabled": True, "walls": True, "restitution": 0.5}})
-    model = ContactModel.from_scenario(scen, mesh=mesh)
+    model = ContactModel.from_sections(scen["contact"], scen["obstacles"], mesh=mesh)
     logs = Logs([3.0], [4.0], [0.0], length=1.0, radius=0.1, density=700.0)
     Tracker(open_water, logs, PhysicsOptions(), contact=model, t_end=60.0).run()
     hits = model.drain_hits()
@@ -267,3 +267,35 @@ def test_mesh_built_only_when_asked():
     np.testing.assert_allclose(f.mesh.boundary_segments(), ref.boundary_segments())
     assert f.mesh.built
     np.testing.assert_array_equal(f.mesh.locate(x, y), f.sample(x, y, 3.0).face)
+
+
+def test_cf_grid_land_at_fill_values_keeps_a_finite_water_level(tmp_path):
+    """A CF grid whose land cells are fill values everywhere (bed too), read with fill = 'dry':
+    the land is dry, and the water level next to it is finite (the bed there is the nearest
+    valid one), so the full model's free-surface slope is never NaN."""
+    import netCDF4
+    from driftlog.adapters import open_flow_source
+
+    n = 6
+    path = tmp_path / "land.nc"
+    with netCDF4.Dataset(path, "w") as ds:
+        for name in ("x", "y"):
+            ds.createDimension(name, n)
+            var = ds.createVariable(name, "f8", (name,))
+            var[:] = np.arange(n) + 0.5
+            var.units = "m"
+        for name, val in (("bed", 0.2), ("depth", 1.0), ("u", 0.5), ("v", 0.0)):
+            var = ds.createVariable(name, "f8", ("y", "x"), fill_value=-9999.0)
+            if name == "bed":
+                var.standard_name = "altitude"
+            a = np.full((n, n), val)
+            a[2:4, 2:4] = -9999.0
+            var[:] = a
+    f = open_flow_source("cf_grid", path, fill="dry")
+    assert "4 bed cells at fill values" in f.attrs["import_notes"]
+    np.testing.assert_allclose(f.bed, 0.2)
+    rng = np.random.default_rng(7)
+    s = f.sample(n * rng.random(500), n * rng.random(500), 0.0)
+    assert np.all(np.isfinite(s.values))
+    land = f.sample(np.array([3.0]), np.array([3.0]), 0.0)
+    assert land.flag[0] == DRY and land.u[0] == 0.0

@@ -22,7 +22,7 @@ from driftlog.floodsetup import (
     read_observations,
     sea_faces,
 )
-from tests.conftest import malpasset_dir
+from conftest import malpasset_dir
 
 CASE = Path(__file__).resolve().parent.parent / "cases" / "malpasset" / "scenario.toml"
 END = 240.0  # s: the wave has passed P1, G6, P2, transformer A (observed 100 s) and G7 (102 s)

@@ -9,10 +9,10 @@ import pytest
 
 from driftlog.analytic import DriftingEddy, SolidBodyRotation, UniformFlow, on_mesh
 from driftlog.contact import BallisticLogs, ContactModel
-from driftlog.flow import FlowField, MeshFlowField
+from driftlog.flow import FlowField, MeshFlowField, MeshKernel
 from driftlog.logs import Logs
 from driftlog.mesh import Mesh
-from driftlog.protocols import ContactBodies, FlowFieldLike, MeshKernel
+from driftlog.protocols import ContactBodies, FlowFieldLike
 from driftlog.tracker import Tracker
 
 

@@ -34,6 +34,7 @@ from driftlog.contact.native import NativeBackend, end_contacts
 from driftlog.contact.obstacles import Obstacles
 from driftlog.contact.toi import conservative_step, motion_margin
 from driftlog.errors import DriftlogError, ScenarioError
+from driftlog.schema import Key, Section
 
 __all__ = ["ContactModel", "ContactJamError", "Contacts"]
 
@@ -143,14 +144,17 @@ class ContactModel:
         return list(self.obstacles.names)
 
     @classmethod
-    def from_scenario(cls, scen, mesh=None):
-        """From a validated scenario's [contact] and [[obstacles]] (walls from ``mesh``)."""
-        c = scen["contact"]
-        obs = Obstacles.from_scenario(scen, mesh)
-        return cls(obs, method=c["method"], time_of_impact=c["time_of_impact"],
-                   restitution=c["restitution"], backend=c["backend"],
-                   tolerance=c["tolerance"], max_events=c["max_events"],
-                   iterations=c.get("iterations", 200), rest_speed=c.get("rest_speed", 0.01))
+    def from_sections(cls, contact: dict, obstacles: list, mesh=None):
+        """From a validated ``[contact]`` table (``CONTACT_SECTION``) and ``[[obstacles]]`` list.
+
+        The mesh's wall boundaries become obstacles when ``contact["walls"]`` and a ``mesh``
+        is given.
+        """
+        obs = Obstacles.from_tables(obstacles, mesh if contact["walls"] else None)
+        return cls(obs, method=contact["method"], time_of_impact=contact["time_of_impact"],
+                   restitution=contact["restitution"], backend=contact["backend"],
+                   tolerance=contact["tolerance"], max_events=contact["max_events"],
+                   iterations=contact["iterations"], rest_speed=contact["rest_speed"])
 
     # ----------------------------------------------------------------- detection
     def detect(self, bodies, margin, S=None):
@@ -425,3 +429,27 @@ class ContactModel:
         self._active = key[on | (C.gap <= tol)]
         self._record(bodies, C, np.where(new, P, 0.0), t0)
         return dt
+
+
+# --------------------------------------------------------------------- the scenario section
+CONTACT_SECTION = Section("contact", [
+    Key("enabled", "bool", False, "contacts between logs and with walls and obstacles"),
+    Key("method", "str", "event", "event-driven impulses (the paper) or time-stepping "
+        "non-smooth contact (Moreau-Jean, for jams)", choices=("event", "moreau")),
+    Key("time_of_impact", "str", "conservative", "contact time: the paper's dichotomy or "
+        "conservative advancement on the capsule distance",
+        choices=("dichotomy", "conservative")),
+    Key("restitution", "float", 1.0, "coefficient of restitution eps", min=0.0, max=1.0),
+    Key("backend", "str", "native", "distance queries: numba kernels or python-fcl",
+        choices=("native", "fcl")),
+    Key("walls", "bool", True, "the mesh's wall boundaries are obstacles"),
+    Key("tolerance", "float", 1e-4, "contact distance tolerance, relative to the log radius",
+        min=0.0, exclusive_min=True),
+    Key("max_events", "int", 10000, "contact events per sub-step above which the event-driven "
+        "method stops with a jam message", min=1),
+    Key("rest_speed", "float", 0.01, "event-driven: approach speeds below this do not bounce "
+        "(resting contact: a log held on a wall by the flow would otherwise bounce ever less, "
+        "ever more often, and stall the method; 0 = the paper)", "m/s", min=0.0),
+    Key("iterations", "int", 200, "moreau: projected Gauss-Seidel sweeps at most per step",
+        min=1),
+], doc="contacts (MODEL.md section 7)")

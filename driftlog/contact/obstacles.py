@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from driftlog.errors import ScenarioError
+from driftlog.schema import Key, Section
 
 __all__ = ["Obstacles", "cut_triangles", "read_obstacle_mesh"]
 
@@ -133,10 +134,13 @@ class Obstacles:
         return self.add(name, "walls", np.column_stack([seg, np.zeros(len(seg))]))
 
     @classmethod
-    def from_scenario(cls, scen, mesh=None):
-        """The [[obstacles]] of a validated scenario, then the mesh walls if contact.walls."""
+    def from_tables(cls, tables: list, walls=None):
+        """Obstacles from validated ``[[obstacles]]`` tables (``OBSTACLES_SECTION``).
+
+        Then the wall boundaries of the mesh ``walls``, if given.
+        """
         obs = cls()
-        for i, o in enumerate(scen["obstacles"]):
+        for i, o in enumerate(tables):
             p = f"obstacles[{i}]"
             name = o["name"] or f"{o['type']}_{i}"
             kind = o["type"]
@@ -156,6 +160,23 @@ class Obstacles:
                 if not o["path"]:
                     raise ScenarioError(f"{p}.path", None, "type = 'mesh' needs a 3D mesh file")
                 obs.add_mesh(o["path"], o["z"], name, key=f"{p}.path")
-        if scen["contact"]["walls"] and mesh is not None:
-            obs.add_walls(mesh)
+        if walls is not None:
+            obs.add_walls(walls)
         return obs
+
+
+# --------------------------------------------------------------------- the scenario section
+OBSTACLES_SECTION = Section("obstacles", [
+    Key("name", "str", "", "label used in hit counts"),
+    Key("type", "str", "circle", "obstacle shape", choices=("circle", "polygon", "segments",
+                                                            "mesh")),
+    Key("center", "point", None, "circle centre", "m", when="type = circle"),
+    Key("radius", "float", None, "circle radius", "m", min=0.0, exclusive_min=True,
+        when="type = circle"),
+    Key("points", "points", None, "polygon vertices or polyline points", "m", length=2,
+        when="type = polygon, segments"),
+    Key("path", "path", "", "3D obstacle mesh file (meshio formats)", must_exist=True,
+        when="type = mesh"),
+    Key("z", "float", 0.0, "elevation of the plane that cuts 3D obstacle meshes", "m",
+        when="type = mesh"),
+], doc="bridge piers, walls and other obstacles", repeated=True)

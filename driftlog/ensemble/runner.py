@@ -41,13 +41,16 @@ from pathlib import Path
 import numpy as np
 
 from driftlog._version import __version__
+from driftlog.api import logs_from_scenario, track
 from driftlog.ensemble.aggregate import Aggregate
 from driftlog.ensemble.spec import Ensemble, describe_parameters, load_ensemble
 from driftlog.ensemble.summary import MemberRecorder, MemberSummary
 from driftlog.errors import DriftlogError, ScenarioError
+from driftlog.scenario import load_scenario
+from driftlog.schema import merge
 
 __all__ = ["run_ensemble", "run_member", "run_member_task", "EnsembleResult",
-           "aggregation_grid", "open_member"]
+           "aggregation_grid", "open_member", "summarize_trajectories"]
 
 MEMBER_FILE = re.compile(r"^member_(\d+)\.npz$")
 AGGREGATE_NAME = "ensemble.nc"
@@ -66,12 +69,14 @@ def _grid_mesh(grid):
                              grid["x0"], grid["y0"])
 
 
-def _worker_flow(flow_section: dict, grid: dict | None):
-    """The flow of a [flow] section and the mesh to aggregate on, opened once per worker.
+def _worker_flow(scenario, grid: dict | None):
+    """The flow of a member scenario and the mesh to aggregate on, opened once per worker.
 
-    Keyed by thread too: a MeshFlowField holds the snapshot pair it last read, so threads of
-    one process (``processes=False``) each get their own.
+    Cached by the ``[flow]`` section (the same for every member) and by thread too: a
+    MeshFlowField holds the snapshot pair it last read, so threads of one process
+    (``processes=False``) each get their own.
     """
+    flow_section = scenario["flow"]
     stamp = None
     if flow_section.get("path") and os.path.exists(flow_section["path"]):
         st = os.stat(flow_section["path"])  # a file rewritten in place is opened again
@@ -84,7 +89,7 @@ def _worker_flow(flow_section: dict, grid: dict | None):
             return _FLOWS[key]
     from driftlog.sources import flow_from_scenario
 
-    flow = flow_from_scenario({"flow": flow_section})
+    flow = flow_from_scenario(scenario)
     mesh = _grid_mesh(grid) if grid else flow.mesh
     with _FLOWS_LOCK:
         _FLOWS[key] = (flow, mesh)
@@ -96,35 +101,30 @@ def _worker_flow(flow_section: dict, grid: dict | None):
 def run_member_task(base: dict, member: int, overrides: dict, parameters: dict,
                     options: dict) -> MemberSummary:
     """Run one member and reduce it (the Dask task; also run in-process with workers = 0)."""
-    from driftlog.api import track
-    from driftlog.scenario import load_scenario, merge
     from driftlog.trajectory import TrajectoryWriter
 
     wall, cpu = time.perf_counter(), time.process_time()
     scen = load_scenario(merge(base, overrides))
-    flow, mesh = _worker_flow(scen["flow"], options.get("grid"))
+    flow, mesh = _worker_flow(scen, options.get("grid"))
     keep = options.get("trajectories")
     out = Path(keep) / f"member_{member:06d}.nc" if keep else Path(f"member_{member:06d}.nc")
-    made = []
 
-    def writer(path, logs, attrs=None, flush_interval=10, obstacle_names=()):
+    def recorder(path, logs, attrs=None, flush_interval=10, obstacle_names=()):
         inner = None
         if keep:
             a = dict(attrs or {}, ensemble_member=member,
                      ensemble_parameters=json.dumps(parameters, default=str))
             inner = TrajectoryWriter(path, logs, attrs=a, flush_interval=flush_interval,
                                      obstacle_names=obstacle_names)
-        rec = MemberRecorder(mesh, logs, scen["time"]["start"], obstacle_names, inner)
-        made.append(rec)
-        return rec
+        return MemberRecorder(mesh, logs, scen["time"]["start"], obstacle_names, inner)
 
-    res = track(scen, flow=flow, output=out, writer=writer)
+    res = track(scen, flow=flow, output=out, writer=recorder)
     info = dict(physics_level=res.physics["level"], rotation=bool(res.physics["rotation"]),
                 substeps=int(res.stats["substeps"]),
                 wall_seconds=time.perf_counter() - wall,
                 cpu_seconds=time.process_time() - cpu, driftlog_version=__version__,
                 worker_pid=os.getpid())
-    return made[0].summary(member, parameters, info)
+    return res.writer.summary(member, parameters, info)
 
 
 # --------------------------------------------------------------------- client side
@@ -187,15 +187,21 @@ def _write_json(path: Path, data: dict):
 
 
 def _prepare_flow(ensemble: Ensemble, base: dict, out: Path):
-    """The [flow] section the workers open, and the flow's mesh (None for analytic flows)."""
-    from driftlog.flowfile import open_flow, write_flow
+    """The [flow] section the members run on, and its mesh (None for analytic flows).
+
+    A flow file or an analytic field is used as it is.  A solved or imported flow is written
+    once to ``out/flow.nc`` and the members' ``[flow]`` names that file.  The mesh is read
+    from the file the members open (without its snapshots), so the maps are counted on the
+    mesh the members see.
+    """
+    from driftlog.flowfile import read_flow_mesh, write_flow
     from driftlog.sources import flow_from_scenario
 
     sec = base["flow"]
     if sec["source"] == "analytic":
         return sec, None
     if sec["source"] == "file":
-        return sec, open_flow(sec["path"], dry_depth=sec["dry_depth"]).mesh
+        return sec, read_flow_mesh(sec["path"])
     # solved or imported: once here, then every worker opens the flow file
     path = out / "flow.nc"
     if not path.is_file():
@@ -205,7 +211,7 @@ def _prepare_flow(ensemble: Ensemble, base: dict, out: Path):
                                 "an ensemble needs a flow file or an analytic flow")
         write_flow(path, field_, attrs={"source": f"{sec['source']} (for the ensemble)"})
     new = dict(sec, source="file", path=str(path), steady_at=None)
-    return new, open_flow(path, dry_depth=sec["dry_depth"]).mesh
+    return new, read_flow_mesh(path)
 
 
 def _finished(members_dir: Path, n: int) -> list[int]:
@@ -461,6 +467,41 @@ def run_ensemble(ensemble, workers=None, scheduler=None, client=None, resume=Fal
         figs = plot_ensemble(agg_path, out)
     return EnsembleResult(agg_path, out, n, agg.done, failures, ran, len(done_before), figs,
                           timings, agg)
+
+
+def summarize_trajectories(path, mesh, member=0, parameters=None) -> MemberSummary:
+    """Summarize a trajectory file as an ensemble member (the same numbers as the recorder).
+
+    The release points are re-seeded from the scenario stored in the file (seeding is
+    reproducible bit for bit); records are replayed in time order.
+    """
+    import netCDF4
+
+    with netCDF4.Dataset(path) as ds:
+        ds.set_auto_mask(False)
+        scen = load_scenario(json.loads(ds.getncattr("scenario_resolved")))
+        names = json.loads(ds.getncattr("obstacle_names")) if "obstacle_names" in ds.ncattrs() \
+            else []
+        t = ds["time"][:]
+        if "trajectory_index" in ds.variables:
+            ti = ds["trajectory_index"][:]
+        else:
+            ti = np.repeat(np.arange(len(ds.dimensions["trajectory"])), ds["rowSize"][:])
+        x, y, status = ds["x"][:], ds["y"][:], ds["status"][:]
+        hits = {}
+        if "hit" in ds.dimensions and len(ds.dimensions["hit"]):
+            hits = {"log_id": ds["hit_log"][:], "other": ds["hit_other"][:]}
+    logs = logs_from_scenario(scen)
+    rec = MemberRecorder(mesh, logs, scen["time"]["start"], obstacle_names=names)
+    order = np.lexsort((ti, t))  # by time, then log: the order the tracker records in
+    t, ti, x, y, status = t[order], ti[order], x[order], y[order], status[order]
+    bounds = np.flatnonzero(np.diff(t)) + 1
+    for a, b in zip(np.r_[0, bounds], np.r_[bounds, t.size], strict=True):
+        if b > a:
+            rec.record(t[a], ti[a:b], {"x": x[a:b], "y": y[a:b], "status": status[a:b]})
+    if hits:
+        rec.hits(hits)
+    return rec.summary(member, parameters)
 
 
 def _stderr(msg):

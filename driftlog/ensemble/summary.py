@@ -2,7 +2,8 @@
 
 A ``MemberRecorder`` takes the place of the trajectory writer in ``driftlog.api.track`` (the
 same interface: ``record``, ``hits``, ``flush``, ``set_attrs``, ``close``) and reduces the
-records as they come, so a member needs no trajectory file; ``summarize_trajectories`` replays
+records as they come, so a member needs no trajectory file; ``summarize_trajectories`` (in
+``driftlog.ensemble.runner``, which rebuilds the logs from the stored scenario) replays
 a trajectory file through the same recorder, so a member run on its own (``driftlog track``)
 summarizes to the same numbers, bit for bit.
 
@@ -37,8 +38,7 @@ import numpy as np
 from driftlog.locate import locate_one
 from driftlog.logs import RESTING, STRANDED, WAITING
 
-__all__ = ["MemberSummary", "MemberRecorder", "summarize_trajectories", "sweep_segments",
-           "METHOD"]
+__all__ = ["MemberSummary", "MemberRecorder", "sweep_segments", "METHOD"]
 
 METHOD = ("faces passed: each log's path between records is the straight segment between its "
           "positions (from its release point), walked face by face across the mesh; entry "
@@ -375,41 +375,3 @@ def unique_names(names) -> list:
     for k, name in enumerate(names):
         out.append(name if name and name not in out else f"obstacle_{k}")
     return out
-
-
-def summarize_trajectories(path, mesh, member=0, parameters=None) -> MemberSummary:
-    """Summarize a trajectory file as an ensemble member (the same numbers as the recorder).
-
-    The release points are re-seeded from the scenario stored in the file (seeding is
-    reproducible bit for bit); records are replayed in time order.
-    """
-    import netCDF4
-
-    from driftlog.logs import logs_from_scenario
-    from driftlog.scenario import load_scenario
-
-    with netCDF4.Dataset(path) as ds:
-        ds.set_auto_mask(False)
-        scen = load_scenario(json.loads(ds.getncattr("scenario_resolved")))
-        names = json.loads(ds.getncattr("obstacle_names")) if "obstacle_names" in ds.ncattrs() \
-            else []
-        t = ds["time"][:]
-        if "trajectory_index" in ds.variables:
-            ti = ds["trajectory_index"][:]
-        else:
-            ti = np.repeat(np.arange(len(ds.dimensions["trajectory"])), ds["rowSize"][:])
-        x, y, status = ds["x"][:], ds["y"][:], ds["status"][:]
-        hits = {}
-        if "hit" in ds.dimensions and len(ds.dimensions["hit"]):
-            hits = {"log_id": ds["hit_log"][:], "other": ds["hit_other"][:]}
-    logs = logs_from_scenario(scen)
-    rec = MemberRecorder(mesh, logs, scen["time"]["start"], obstacle_names=names)
-    order = np.lexsort((ti, t))  # by time, then log: the order the tracker records in
-    t, ti, x, y, status = t[order], ti[order], x[order], y[order], status[order]
-    bounds = np.flatnonzero(np.diff(t)) + 1
-    for a, b in zip(np.r_[0, bounds], np.r_[bounds, t.size], strict=True):
-        if b > a:
-            rec.record(t[a], ti[a:b], {"x": x[a:b], "y": y[a:b], "status": status[a:b]})
-    if hits:
-        rec.hits(hits)
-    return rec.summary(member, parameters)

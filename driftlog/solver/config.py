@@ -1,6 +1,6 @@
 """Solving a scenario's flow: the ``[solver]`` section's checks, mesh, solver and runs.
 
-The keys are registered in ``driftlog.scenario`` (``driftlog scenario keys --section solver``).
+The keys are declared here (``SOLVER_SECTION``, ``driftlog scenario keys --section solver``).
 
     [flow]
     source = "solver"
@@ -29,6 +29,11 @@ The keys are registered in ``driftlog.scenario`` (``driftlog scenario keys --sec
 A flow computed from a ``[solver]`` section stores a hash of the section in its attributes
 (``solver_hash``); ``flow_from_scenario`` reuses the file when the hash matches and it reaches
 the end time, resumes it when it stopped early, and recomputes it otherwise.
+
+``engine = "shallowWaterFoam"`` computes the same section with OpenFOAM instead
+(``driftlog.adapters.openfoam_engine``): its flow file is ``[flow] path`` with
+``_shallowWaterFoam`` added to the stem, reused by the same hash (the engine, ``n_procs`` and
+``openfoam_friction`` included), recomputed from scratch otherwise (no resuming).
 """
 
 from __future__ import annotations
@@ -40,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from driftlog.errors import ScenarioError
+from driftlog.schema import Key, Section
 from driftlog.solver.boundaries import KINDS, as_boundary
 
 __all__ = ["build_mesh", "build_solver", "solve_scenario", "flow_from_scenario",
@@ -50,7 +56,7 @@ INITIAL_KEYS = ("type", "value", "polygon", "outside", "velocity", "path", "time
 
 
 def check_solver_section(t, prefix, scen):
-    """Cross-key checks of the [solver] section (scenario.py registers the keys)."""
+    """Cross-key checks of the [solver] section (the ``check`` of ``SOLVER_SECTION``)."""
     flow = scen.get("flow") or {}
     if flow.get("source") != "solver" and t["end"] is None:
         return  # not used
@@ -97,10 +103,10 @@ def check_solver_section(t, prefix, scen):
         as_boundary(spec, f"{prefix}.boundaries.{tag}")
     _check_initial(t["initial"] or {}, f"{prefix}.initial")
     if t.get("sea"):
-        from driftlog.floodsetup import check_sea
+        from driftlog.solver.sea import check_sea
 
         check_sea(t["sea"], f"{prefix}.sea")
-    if t.get("engine", "driftlog") != "driftlog":
+    if t["engine"] != "driftlog":
         from driftlog.adapters.openfoam_engine import check_engine_section
 
         check_engine_section(t, prefix)
@@ -151,7 +157,7 @@ def _check_initial(ini, key):
 
 def solver_hash(section) -> str:
     """A hash of the validated [solver] section (what decides whether a stored flow is current)."""
-    if section.get("engine", "driftlog") == "driftlog":  # keys of OpenFOAM runs only
+    if section["engine"] == "driftlog":  # keys of OpenFOAM runs only
         section = {k: v for k, v in section.items()
                    if k not in ("engine", "n_procs", "openfoam_friction")}
     text = json.dumps(section, sort_keys=True, default=str)
@@ -201,7 +207,7 @@ def build_solver(sec, mesh=None):
     mesh = build_mesh(sec) if mesh is None else mesh
     boundaries, coast = sec["boundaries"], None
     if sec.get("sea"):  # a sea found from the bed: its coast tagged, its water filled below
-        from driftlog.floodsetup import apply_sea
+        from driftlog.solver.sea import apply_sea
 
         boundaries = dict(boundaries or {})
         coast = apply_sea(mesh, sec["sea"], boundaries)
@@ -224,7 +230,7 @@ def build_solver(sec, mesh=None):
     if "polygon" in ini:
         h = np.where(mesh.faces_in_polygon(ini["polygon"]), h, 0.0)
     if coast is not None:
-        from driftlog.floodsetup import fill_sea
+        from driftlog.solver.sea import fill_sea
 
         h = fill_sea(mesh, s.bed, h, float(sec["sea"]["level"]), coast)
     s.set_state(h, h * vel[0], h * vel[1], t=sec["start"])
@@ -241,7 +247,7 @@ def _default_path(scenario, engine=None):
 
     p = scenario["flow"].get("path") or ""
     path = Path(p) if p else scenario.base_dir / "solver_flow.nc"
-    return engine_flow_path(path, engine or scenario["solver"].get("engine", "driftlog"))
+    return engine_flow_path(path, engine or scenario["solver"]["engine"])
 
 
 def _stored(path, digest):
@@ -264,26 +270,94 @@ def solve_scenario(scenario, output=None, resume=False, progress=False):
     """Run the solver of a validated scenario; returns (SolveResult, path of the flow file)."""
     sec = scenario["solver"]
     if sec["end"] is None:
-        raise ScenarioError("solver.end", None, "is required to run the solver")
-    path = Path(output) if output else _default_path(scenario)
+        raise ScenarioError("solver.end", None, "is required to run the solver: the end time "
+                            "of the flow computation (s), in a [solver] section (driftlog "
+                            "scenario keys --section solver lists its keys)")
+    import os
+
+    from driftlog.files import check_output
+
+    path = check_output(Path(output) if output else _default_path(scenario), "flow file")
+    partial = partial_path(path)
     digest = solver_hash(sec)
     attrs = dict(scenario.attrs())
     attrs["solver_hash"] = digest
     attrs["title"] = scenario["title"] or "driftlog solver flow"
-    if sec.get("engine", "driftlog") != "driftlog":
+    if sec["engine"] != "driftlog":
         from driftlog.adapters.openfoam_engine import solve_with_shallow_water_foam
 
-        return solve_with_shallow_water_foam(scenario, path, attrs, progress=progress), path
-    resume = resume and path.exists()
-    if resume and _stored(path, digest)[0] is None:
-        from driftlog.errors import FlowFileError
+        return solve_with_shallow_water_foam(scenario, path, attrs, build_solver,
+                                             progress=progress), path
+    from driftlog.errors import FlowFileError
 
-        raise FlowFileError(f"{path}: cannot resume: it was not computed from this [solver] "
+    if resume and not partial.exists() and path.exists():
+        if _stored(path, digest)[0] is None:
+            raise FlowFileError(f"{path}: cannot resume: it was not computed from this "
+                                f"[solver] section (solver_hash differs from {digest}); run "
+                                "without --resume")
+        os.replace(path, partial)  # a finished flow extended to a later end
+    resume = resume and partial.exists()
+    if resume and _stored(partial, digest)[0] is None:
+        raise FlowFileError(f"{partial}: cannot resume: it was not computed from this [solver] "
                             f"section (solver_hash differs from {digest}); run without --resume")
+    estimate_mesh(sec)
+    if progress:
+        from driftlog._numba import announce_compile
+
+        announce_compile(["solver"])
     s = build_solver(sec)
-    res = s.run(sec["end"], output=path, output_interval=sec["output_interval"],
-                progress=progress, resume=resume, attrs=attrs)
+    try:
+        res = s.run(sec["end"], output=partial, output_interval=sec["output_interval"],
+                    progress=progress, resume=resume, attrs=attrs)
+    except KeyboardInterrupt as exc:
+        _, t_last = _stored(partial, digest)
+        exc.add_note(f"kept {partial}: the flow up to t = {t_last} s of {sec['end']} s; "
+                     "driftlog solve SCENARIO --resume continues it")
+        raise
+    os.replace(partial, path)  # complete: under its final name
+    res.path = path
     return res, path
+
+
+def partial_path(path) -> Path:
+    """Where the solver writes a flow file until it is complete (``NAME.partial``)."""
+    path = Path(path)
+    return path.with_name(path.name + ".partial")
+
+
+def estimate_mesh(sec, max_cells=None):
+    """Refuse (``SizeError``) a [solver] mesh too large to build, before the mesher runs.
+
+    Cells ~ 1.55 area / (sqrt(3)/4 cell_size^2) for the triangle mesher (area over the area of
+    an equilateral triangle of side cell_size, times 1.55 measured on the shipped cases); the
+    memory of a solver run is about 1.5 kB per
+    cell (mesh, state, fluxes, operators); the limit is half the machine's available memory,
+    or ``max_cells``.  Returns the estimated number of cells.
+    """
+    from driftlog.errors import SizeError
+    from driftlog.resources import available_memory
+
+    if sec["mesh"] == "file":
+        return None
+    if sec["mesh"] == "polygon":
+        o = np.asarray(sec["outline"], dtype=float)
+        area = 0.5 * abs(np.dot(o[:, 0], np.roll(o[:, 1], 1))
+                         - np.dot(o[:, 1], np.roll(o[:, 0], 1)))
+    else:
+        area = abs(sec["channel"][2] * sec["channel"][3])
+    h = float(sec["cell_size"])
+    # the mesher's triangles are smaller than equilateral ones of side cell_size (quality
+    # constraints, refinement at piers): 1.55 x more, calibrated on the shipped cases
+    # (river_piers 3562 cells, flume 16353)
+    cells = 1.55 * area / (np.sqrt(3) / 4 * h * h)
+    per_cell = 1500.0
+    limit = max_cells if max_cells is not None else 0.5 * available_memory() / per_cell
+    if cells > limit:
+        raise SizeError(f"[solver.cell_size] = {h:g} m: about {cells:.3g} cells on "
+                        f"{area:.4g} m2, more than this machine can hold ({limit:.3g} cells, "
+                        f"~{per_cell:g} bytes each, half of the available memory); use a "
+                        f"cell_size >= {h * np.sqrt(cells / limit):.3g} m")
+    return cells
 
 
 def flow_from_scenario(scenario, progress=False):
@@ -295,13 +369,86 @@ def flow_from_scenario(scenario, progress=False):
     from driftlog.flowfile import open_flow
 
     sec = scenario["solver"]
+    if sec["end"] is None:
+        raise ScenarioError("solver.end", None, "is required with [flow] source = 'solver': "
+                            "the end time of the flow computation (s)")
     path = _default_path(scenario)
-    state, t_last = _stored(path, solver_hash(sec))
-    if sec.get("engine", "driftlog") != "driftlog":  # no resuming an OpenFOAM run
+    digest = solver_hash(sec)
+    state, t_last = _stored(path, digest)
+    if sec["engine"] != "driftlog":  # no resuming an OpenFOAM run
         if state is None or t_last is None or t_last < sec["end"] - 1e-9 * abs(sec["end"]):
             solve_scenario(scenario, output=path, progress=progress)
         return open_flow(path, dry_depth=scenario["flow"]["dry_depth"])
     if state is None or t_last is None or t_last < sec["end"]:
-        solve_scenario(scenario, output=path, resume=state is not None and t_last is not None,
-                       progress=progress)
+        p_state, p_last = _stored(partial_path(path), digest)
+        resume = (p_state is not None and p_last is not None) or \
+            (state is not None and t_last is not None)
+        solve_scenario(scenario, output=path, resume=resume, progress=progress)
     return open_flow(path, dry_depth=scenario["flow"]["dry_depth"])
+
+
+# --------------------------------------------------------------------- the scenario section
+SOLVER_SECTION = Section("solver", [
+    Key("engine", "str", "driftlog", "what computes the flow: driftlog's solver, or "
+        "OpenFOAM's shallowWaterFoam on the same mesh, bed, initial state and boundaries "
+        "(flow file [flow] path + '_shallowWaterFoam', case folder beside it)",
+        choices=("driftlog", "shallowWaterFoam")),
+    Key("n_procs", "int", 1, "processes of an OpenFOAM engine run (decomposePar + mpirun when "
+        "> 1)", min=1),
+    Key("openfoam_friction", "str", "refuse", "shallowWaterFoam has no bed friction: refuse a "
+        "section with manning/strickler, or omit the friction in the OpenFOAM run (recorded in "
+        "the flow's attributes)", choices=("refuse", "omit")),
+    Key("mesh", "str", "channel", "the mesh: a channel built here, a polygon (outline with "
+        "tagged sides) built here, or a mesh file", choices=("channel", "polygon", "file")),
+    Key("outline", "points", None, "outer boundary [[x, y], ...] of mesh = 'polygon'; side i "
+        "runs from point i to point i + 1 (the last back to the first)", "m", length=3,
+        when="mesh = polygon"),
+    Key("side_tags", "table", {}, "boundary tags of outline sides: {tag = [side indices]}, "
+        "e.g. {inflow = [0], outflow = [5]}; untagged sides are walls", when="mesh = polygon"),
+    Key("channel", "floats", None, "channel [x0, y0, length, width]; x0 side tagged inflow, "
+        "the other end outflow, banks wall", "m", length=4),
+    Key("cell_size", "float", None, "target triangle edge length of the channel or polygon "
+        "mesh", "m",
+        min=0.0, exclusive_min=True),
+    Key("structured", "bool", False, "channel of squares instead of triangles (no holes)"),
+    Key("piers", "any", [], "circular piers [[x, y, radius], ...] cut out of the channel "
+        "(tagged wall)", "m"),
+    Key("holes", "any", [], "polygonal holes [[[x, y], ...], ...] cut out of the channel", "m"),
+    Key("mesh_file", "path", "", "mesh file read by driftlog.mesh.read_mesh (mesh = 'file')",
+        must_exist=True),
+    Key("bed", "str", "flat", "bed elevation: flat at bed_level, a slope falling along +x from "
+        "bed_level at x0, a piecewise-linear profile along x, or the mesh file's node "
+        "elevations", choices=("flat", "slope", "profile", "mesh")),
+    Key("bed_level", "float", 0.0, "bed level (flat) or bed level at x0 (slope)", "m"),
+    Key("slope", "float", 0.0, "bed slope, positive falling towards +x (bed = 'slope')", "m/m"),
+    Key("bed_profile", "points", None, "bed [[x, z], ...] along x, linear between points, "
+        "constant beyond (bed = 'profile')", "m"),
+    Key("manning", "float", None, "Manning coefficient n (or give strickler)", "s m-1/3",
+        min=0.0),
+    Key("strickler", "float", None, "Strickler coefficient K = 1/n", "m1/3 s-1", min=0.0,
+        exclusive_min=True),
+    Key("order", "int", 1, "1: first order (explicit Euler); 2: MUSCL + Heun", min=1, max=2),
+    Key("riemann", "str", "hllc", "Riemann solver", choices=("hllc", "hll")),
+    Key("cfl", "float", None, "fraction of the positivity-preserving time step (default 0.9 "
+        "at order 1, 0.8 at order 2)", min=0.0, max=1.0, exclusive_min=True),
+    Key("dry_depth", "float", 1e-6, "depth below which a face has no velocity", "m", min=0.0,
+        exclusive_min=True),
+    Key("arrival_depth", "float", 0.05, "depth marking the flood's arrival at a face "
+        "(arrival_time output)", "m", min=0.0, exclusive_min=True),
+    Key("start", "float", 0.0, "start time", "s"),
+    Key("end", "float", None, "end time of the computation (required with [flow] source = "
+        "'solver')", "s"),
+    Key("output_interval", "float", None, "time between snapshots of the flow file (default: "
+        "start and end only)", "s", min=0.0, exclusive_min=True),
+    Key("boundaries", "table", {}, "conditions by boundary tag: [solver.boundaries.<tag>] "
+        "type = wall | level | depth | discharge | froude | rating | free; "
+        "value = number or series = [[t, v], ...]; rating: "
+        "table = [[level, Q], ...]; tags not listed are walls"),
+    Key("initial", "table", {}, "initial state: type = dry | level | depth | file; value (m); "
+        "polygon = [[x, y], ...] (level or depth only inside); velocity = [u, v]; path and "
+        "time (file)"),
+    Key("sea", "table", {}, "a sea found from the bed: level = sea surface (m); boundary "
+        "edges at or below it are tagged (tag, default 'sea') with an imposed level (boundary "
+        "= 'level', default) or a free outflow ('free'); faces below it connected to them "
+        "start filled to it"),
+], doc="driftlog's shallow-water solver ([flow] source = 'solver')", check=check_solver_section)
