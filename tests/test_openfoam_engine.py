@@ -246,3 +246,22 @@ def test_compare_engines_command_line_errors(tmp_path, capsys):
                         '[time]\nend = 1.0\n[[logs]]\nx = [0.0]\ny = [0.0]\n')
     assert main(["compare", str(analytic), "--engines", "driftlog,shallowWaterFoam"]) == 2
     assert "[flow] source = 'solver'" in capsys.readouterr().err
+
+
+@needs_foam
+@pytest.mark.openfoam
+def test_case_folder_given_relative(tmp_path, monkeypatch):
+    """The tools run inside the case folder: a relative path must not be doubled."""
+    from driftlog.adapters.openfoam_case import run_shallow_water
+
+    from driftlog.mesh import Mesh
+
+    monkeypatch.chdir(tmp_path)
+    m = Mesh.regular_grid(8, 2, 0.5)
+    m.tag_boundary("inflow", lambda x, y: x < 1e-9)
+    m.tag_boundary("outflow", lambda x, y: x > 4.0 - 1e-9)
+    f = run_shallow_water("rel", m, depth=1.0, end_time=1.0, write_interval=1.0,
+                          boundaries={"inflow": {"type": "inflow", "discharge": 0.5},
+                                      "outflow": {"type": "outflow", "level": 1.0}})
+    assert (tmp_path / "rel" / "log.shallowWaterFoam").is_file()
+    np.testing.assert_allclose(f.times, [0.0, 1.0])
