@@ -227,17 +227,28 @@ def _ear_clip(start, ids, x, y, tri, owner):
     return t
 
 
+@nb.njit(cache=True)
+def _turn_kernel(start, ids, x, y, out):
+    for p in range(start.size - 1):
+        s, e = start[p], start[p + 1]
+        n = e - s
+        for k in range(n):
+            a = ids[s + (k - 1) % n]
+            b = ids[s + k]
+            c = ids[s + (k + 1) % n]
+            ax, ay = x[b] - x[a], y[b] - y[a]
+            bx, by = x[c] - x[b], y[c] - y[b]
+            norm = max(np.sqrt((ax * ax + ay * ay) * (bx * bx + by * by)), 1e-300)
+            out[s + k] = (ax * by - ay * bx) / norm
+
+
 def _turns(start, ids, x, y):
     """Sine of the turn at each polygon node (left > 0), flat like ``ids``, and its polygon."""
-    n = np.diff(start)
-    poly = np.repeat(np.arange(n.size), n)
-    local = np.arange(ids.size) - start[poly]
-    prv = ids[start[poly] + (local - 1) % n[poly]]
-    nxt = ids[start[poly] + (local + 1) % n[poly]]
-    ax, ay = x[ids] - x[prv], y[ids] - y[prv]
-    bx, by = x[nxt] - x[ids], y[nxt] - y[ids]
-    norm = np.maximum(np.hypot(ax, ay) * np.hypot(bx, by), 1e-300)
-    return (ax * by - ay * bx) / norm, poly
+    start = np.ascontiguousarray(start, np.int64)
+    out = np.empty(ids.size)
+    _turn_kernel(start, np.ascontiguousarray(ids, np.int64), np.ascontiguousarray(x, float),
+                 np.ascontiguousarray(y, float), out)
+    return out, np.repeat(np.arange(start.size - 1), np.diff(start))
 
 
 def _slices(start, sel):
@@ -313,6 +324,86 @@ def _units(f, path):
                         "'US Customary' or 'SI Units')")
 
 
+def _read_area(f, path, name, ncell, factor):
+    """One 2D area: polygon nodes per cell, face normals and lengths, least-squares weights.
+
+    (A function of its own so that its many temporaries are freed before the mesh is built.)
+    """
+    base = f"{_AREAS}/{name}"
+    fp = _read(f, base + "/FacePoints Coordinate", path).astype(np.float64) * factor
+    ffp = _read(f, base + "/Faces FacePoint Indexes", path).astype(np.int64)
+    info = _read(f, base + "/Cells Face and Orientation Info", path).astype(np.int64)
+    vals = _read(f, base + "/Cells Face and Orientation Values", path).astype(np.int64)
+    if f"{base}/Faces Perimeter Info" in f:
+        pinfo = _read(f, base + "/Faces Perimeter Info", path).astype(np.int64)
+        pv = _read(f, base + "/Faces Perimeter Values", path).astype(np.float64) * factor
+    else:
+        pinfo = np.zeros((ffp.shape[0], 2), np.int64)
+        pv = np.empty((0, 2))
+    nfp, nface = fp.shape[0], ffp.shape[0]
+    if ncell > info.shape[0] or ffp.size and (ffp.min() < 0 or ffp.max() >= nfp):
+        raise FlowFileError(f"{path}: area {name!r}: inconsistent geometry (cell count "
+                            f"{ncell}, {info.shape[0]} cell rows, face points "
+                            f"{nfp})")
+    # (cell, face, orientation) entries of the real cells, in HEC-RAS's (ccw) order
+    cnt = info[:ncell, 1]
+    e_cell = np.repeat(np.arange(ncell), cnt)
+    e_row = np.repeat(info[:ncell, 0] - np.cumsum(np.r_[0, cnt[:-1]]), cnt) + \
+        np.arange(cnt.sum())
+    e_face, e_or = vals[e_row, 0], vals[e_row, 1]
+    if np.any(cnt < 3):
+        bad = np.flatnonzero(cnt < 3)[:5]
+        raise FlowFileError(f"{path}: area {name!r}: cells {bad.tolist()} have fewer "
+                            "than 3 faces")
+    # polygon nodes: each face's start point, then its perimeter points (A -> B order)
+    pc = pinfo[e_face, 1]
+    n_e = 1 + pc
+    total = int(n_e.sum())
+    e_of = np.repeat(np.arange(e_face.size), n_e)
+    first = np.cumsum(np.r_[0, n_e[:-1]])
+    loc = np.arange(total) - first[e_of]
+    fwd = (e_or > 0)[e_of]
+    start_pt = np.where(e_or > 0, ffp[e_face, 0], ffp[e_face, 1])[e_of]
+    ps = pinfo[e_face, 0][e_of]
+    pcount = pc[e_of]
+    pidx = np.where(fwd, ps + loc - 1, ps + pcount - loc)
+    node = np.where(loc == 0, start_pt, nfp + pidx)
+    # drop perimeter points on a straight line (they would make a flat angle)
+    ax = np.r_[fp[:, 0], pv[:, 0]]
+    ay = np.r_[fp[:, 1], pv[:, 1]]
+    cstart = np.r_[0, np.cumsum(np.bincount(e_cell, weights=n_e, minlength=ncell))]
+    cstart = cstart.astype(np.int64)
+    flat = np.zeros(node.size, bool)
+    if pc.any():
+        turn, poly = _turns(cstart, node, ax, ay)
+        flat = (loc > 0) & (np.abs(turn) <= 1e-9)
+    if np.any(flat):
+        node = node[~flat]
+        cstart = np.r_[0, np.cumsum(np.bincount(poly[~flat], minlength=ncell))]
+    # face normals (cell 0 -> cell 1: right of A -> B) and lengths
+    d = fp[ffp[:, 1]] - fp[ffp[:, 0]]
+    L = np.hypot(d[:, 0], d[:, 1])
+    if np.any(L <= 0):
+        raise FlowFileError(f"{path}: area {name!r}: faces "
+                            f"{np.flatnonzero(L <= 0)[:5].tolist()} have zero length")
+    n = np.column_stack([d[:, 1], -d[:, 0]]) / L[:, None]
+    # least squares per cell: (sum L n n^T) u = sum L n v_n
+    nx, ny, le = n[e_face, 0], n[e_face, 1], L[e_face]
+    mxx = np.bincount(e_cell, le * nx * nx, ncell)
+    mxy = np.bincount(e_cell, le * nx * ny, ncell)
+    myy = np.bincount(e_cell, le * ny * ny, ncell)
+    det = mxx * myy - mxy * mxy
+    if np.any(det <= 1e-12 * (mxx + myy) ** 2):
+        bad = np.flatnonzero(det <= 1e-12 * (mxx + myy) ** 2)[:5]
+        raise FlowFileError(f"{path}: area {name!r}: cells {bad.tolist()} have "
+                            "parallel faces only (no velocity reconstruction)")
+    ixx, ixy, iyy = myy / det, -mxy / det, mxx / det
+    c = e_cell
+    return dict(ax=ax, ay=ay, node=node, cstart=cstart, normal=n, length=L, cell=e_cell,
+                face=e_face, wx=le * (ixx[c] * nx + ixy[c] * ny),
+                wy=le * (ixy[c] * nx + iyy[c] * ny), nface=nface)
+
+
 def read_geometry(path, areas=None, f=None) -> HecrasGeometry:
     """Read the 2D flow areas of a HEC-RAS plan or geometry HDF file as one driftlog mesh.
 
@@ -344,95 +435,39 @@ def read_geometry(path, areas=None, f=None) -> HecrasGeometry:
         node_off = poly_off = 0
         for ia in sel:
             name, ncell = names[ia], counts[ia]
-            base = f"{_AREAS}/{name}"
-            fp = _read(f, base + "/FacePoints Coordinate", path).astype(np.float64) * factor
-            ffp = _read(f, base + "/Faces FacePoint Indexes", path).astype(np.int64)
-            info = _read(f, base + "/Cells Face and Orientation Info", path).astype(np.int64)
-            vals = _read(f, base + "/Cells Face and Orientation Values", path).astype(np.int64)
-            if f"{base}/Faces Perimeter Info" in f:
-                pinfo = _read(f, base + "/Faces Perimeter Info", path).astype(np.int64)
-                pv = _read(f, base + "/Faces Perimeter Values", path).astype(np.float64) * factor
-            else:
-                pinfo = np.zeros((ffp.shape[0], 2), np.int64)
-                pv = np.empty((0, 2))
-            nfp, nface = fp.shape[0], ffp.shape[0]
-            if ncell > info.shape[0] or ffp.size and (ffp.min() < 0 or ffp.max() >= nfp):
-                raise FlowFileError(f"{path}: area {name!r}: inconsistent geometry (cell count "
-                                    f"{ncell}, {info.shape[0]} cell rows, face points "
-                                    f"{nfp})")
-            # (cell, face, orientation) entries of the real cells, in HEC-RAS's (ccw) order
-            cnt = info[:ncell, 1]
-            e_cell = np.repeat(np.arange(ncell), cnt)
-            e_row = np.repeat(info[:ncell, 0] - np.cumsum(np.r_[0, cnt[:-1]]), cnt) + \
-                np.arange(cnt.sum())
-            e_face, e_or = vals[e_row, 0], vals[e_row, 1]
-            if np.any(cnt < 3):
-                bad = np.flatnonzero(cnt < 3)[:5]
-                raise FlowFileError(f"{path}: area {name!r}: cells {bad.tolist()} have fewer "
-                                    "than 3 faces")
-            # polygon nodes: each face's start point, then its perimeter points (A -> B order)
-            pc = pinfo[e_face, 1]
-            n_e = 1 + pc
-            total = int(n_e.sum())
-            e_of = np.repeat(np.arange(e_face.size), n_e)
-            first = np.cumsum(np.r_[0, n_e[:-1]])
-            loc = np.arange(total) - first[e_of]
-            fwd = (e_or > 0)[e_of]
-            start_pt = np.where(e_or > 0, ffp[e_face, 0], ffp[e_face, 1])[e_of]
-            ps = pinfo[e_face, 0][e_of]
-            pcount = pc[e_of]
-            pidx = np.where(fwd, ps + loc - 1, ps + pcount - loc)
-            node = np.where(loc == 0, start_pt, nfp + pidx)
-            # drop perimeter points on a straight line (they would make a flat angle)
-            ax = np.r_[fp[:, 0], pv[:, 0]]
-            ay = np.r_[fp[:, 1], pv[:, 1]]
-            cstart = np.r_[0, np.cumsum(np.bincount(e_cell, weights=n_e, minlength=ncell))]
-            cstart = cstart.astype(np.int64)
-            turn, poly = _turns(cstart, node, ax, ay)
-            flat = (loc > 0) & (np.abs(turn) <= 1e-9)
-            if np.any(flat):
-                node = node[~flat]
-                cstart = np.r_[0, np.cumsum(np.bincount(poly[~flat], minlength=ncell))]
-            xs.append(ax)
-            ys.append(ay)
-            polys_ids.append(node + node_off)
-            polys_start.append(cstart[1:] + poly_off)
-            poly_off += node.size
-            node_off += ax.size
-            # face normals (cell 0 -> cell 1: right of A -> B) and lengths
-            d = fp[ffp[:, 1]] - fp[ffp[:, 0]]
-            L = np.hypot(d[:, 0], d[:, 1])
-            if np.any(L <= 0):
-                raise FlowFileError(f"{path}: area {name!r}: faces "
-                                    f"{np.flatnonzero(L <= 0)[:5].tolist()} have zero length")
-            n = np.column_stack([d[:, 1], -d[:, 0]]) / L[:, None]
-            normals.append(n)
-            lengths.append(L)
-            # least squares per cell: (sum L n n^T) u = sum L n v_n
-            nx, ny, le = n[e_face, 0], n[e_face, 1], L[e_face]
-            mxx = np.bincount(e_cell, le * nx * nx, ncell)
-            mxy = np.bincount(e_cell, le * nx * ny, ncell)
-            myy = np.bincount(e_cell, le * ny * ny, ncell)
-            det = mxx * myy - mxy * mxy
-            if np.any(det <= 1e-12 * (mxx + myy) ** 2):
-                bad = np.flatnonzero(det <= 1e-12 * (mxx + myy) ** 2)[:5]
-                raise FlowFileError(f"{path}: area {name!r}: cells {bad.tolist()} have "
-                                    "parallel faces only (no velocity reconstruction)")
-            ixx, ixy, iyy = myy / det, -mxy / det, mxx / det
-            c = e_cell
-            rows.append(c + cell_start[-1])
-            cols.append(e_face + face_start[-1])
-            wx.append(le * (ixx[c] * nx + ixy[c] * ny))
-            wy.append(le * (ixy[c] * nx + iyy[c] * ny))
+            a = _read_area(f, path, name, ncell, factor)
+            xs.append(a["ax"])
+            ys.append(a["ay"])
+            polys_ids.append(a["node"] + node_off)
+            polys_start.append(a["cstart"][1:] + poly_off)
+            poly_off += a["node"].size
+            node_off += a["ax"].size
+            normals.append(a["normal"])
+            lengths.append(a["length"])
+            rows.append(a["cell"] + cell_start[-1])
+            cols.append(a["face"] + face_start[-1])
+            wx.append(a["wx"])
+            wy.append(a["wy"])
+            nface = a["nface"]
+            del a
             cell_start.append(cell_start[-1] + ncell)
             face_start.append(face_start[-1] + nface)
+        nf_tot = int(face_start[-1])
+        nc = int(cell_start[-1])
+        r, c = np.concatenate(rows), np.concatenate(cols)
+        vx = sp.csr_matrix((np.concatenate(wx), (r, c)), shape=(nc, nf_tot))
+        vy = sp.csr_matrix((np.concatenate(wy), (r, c)), shape=(nc, nf_tot))
+        del rows, cols, wx, wy, r, c
         node_x, node_y = np.concatenate(xs), np.concatenate(ys)
+        del xs, ys
         pstart = np.concatenate([[0], *polys_start]).astype(np.int64)
         pids = np.concatenate(polys_ids).astype(np.int64)
         # compact: only the nodes used by a polygon
-        used, inverse = np.unique(pids, return_inverse=True)
-        node_x, node_y, pids = node_x[used], node_y[used], inverse.astype(np.int64)
-        nc = int(cell_start[-1])
+        used = np.zeros(node_x.size, bool)
+        used[pids] = True
+        remap = np.cumsum(used) - 1
+        node_x, node_y, pids = node_x[used], node_y[used], remap[pids].astype(np.int64)
+        del polys_ids, polys_start, used, remap
         nnode = np.diff(pstart)
         turn, poly = _turns(pstart, pids, node_x, node_y)
         convex = np.bincount(poly, turn <= 0, nc) == 0
@@ -461,17 +496,15 @@ def read_geometry(path, areas=None, f=None) -> HecrasGeometry:
             owner_faces.append(split[own_t[:nt]])
         face_nodes = np.concatenate(blocks)
         cell_of_face = np.concatenate(owner_faces)
+        del blocks, owner_faces, fn, turn, poly, pids, flat_k, lk
         order = np.argsort(cell_of_face, kind="stable")  # mesh faces in cell order
+        face_nodes = face_nodes[order]
         try:
-            mesh = Mesh(node_x, node_y, face_nodes[order], repair=False)
+            mesh = Mesh(node_x, node_y, face_nodes, repair=False)
         except MeshError as exc:
             raise FlowFileError(f"{path}: the HEC-RAS cells do not form a valid mesh: {exc}") \
                 from None
         cell_area = np.bincount(cell_of_face[order], mesh.face_area, nc)
-        nf_tot = int(face_start[-1])
-        r, c = np.concatenate(rows), np.concatenate(cols)
-        vx = sp.csr_matrix((np.concatenate(wx), (r, c)), shape=(nc, nf_tot))
-        vy = sp.csr_matrix((np.concatenate(wy), (r, c)), shape=(nc, nf_tot))
         attrs = {"hecras_file": str(path), "hecras_areas": ", ".join(names[i] for i in sel),
                  "hecras_units_system": system, "hecras_length_factor": factor}
         proj = f.attrs.get("Projection")
@@ -729,9 +762,9 @@ def open_hecras(path, time_range=None, variables=None, dry_depth=1e-3, areas=Non
         Times in seconds since the first output time; ``attrs`` holds ``time_reference``,
         ``crs_wkt``, the areas read and the bed's source.
     """
-    from driftlog.adapters._common import select_times
-
     from driftlog.flow import MeshFlowField
+
+    from ._common import select_times
 
     if variables:
         raise FlowFileError(f"{path}: [flow] variables do not apply to HEC-RAS files (the "

@@ -133,6 +133,14 @@ def main():
                      "cell-updates per CPU s": faces * res.steps / cpu,
                      "flow end (s)": res.t_end})
         results[engine] = dict(rows[-1], flow=str(path), cell_size=n["cell_size"])
+        # how steady: speed change between the last two snapshots (one output interval)
+        from driftlog.flowfile import open_flow
+
+        full = open_flow(path)
+        a, b = full.snapshot(full.times.size - 2), full.snapshot(full.times.size - 1)
+        change = np.hypot(b["u"], b["v"]) - np.hypot(a["u"], a["v"])
+        rows[-1]["speed change, last interval (RMS m/s)"] = float(np.sqrt(np.mean(change ** 2)))
+        results[engine]["unsteadiness_interval_s"] = float(full.times[-1] - full.times[-2])
         print(rows[-1], flush=True)
     ov = {k: v for k, v in size.items() if k != "solver"}
     ov["flow"] = {**ov.get("flow", {}), "path": str(tmp / "flow.nc")}
@@ -150,11 +158,13 @@ def main():
                                                                     default=float))
     md = [f"### river_piers on two engines{' (quick)' if args.quick else ''}", "",
           f"Measured on {info}.", "",
-          "| engine | faces | steps | wall (s) | CPU (s) | cell-updates per CPU s |",
-          "|---|---:|---:|---:|---:|---:|"]
+          "| engine | faces | steps | wall (s) | CPU (s) | cell-updates per CPU s | speed change "
+          "over the last output interval (RMS, m/s) |",
+          "|---|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         md.append(f"| {r['engine']} | {r['faces']} | {r['steps']} | {r['wall (s)']:.1f} | "
-                  f"{r['CPU (s)']:.1f} | {r['cell-updates per CPU s']:.3g} |")
+                  f"{r['CPU (s)']:.1f} | {r['cell-updates per CPU s']:.3g} | "
+                  f"{r['speed change, last interval (RMS m/s)']:.3g} |")
     md += ["", "Flows (steady, shallowWaterFoam minus driftlog):", "",
            f"- speed RMS difference within 3 pier radii: {diff['speed_rms_near_piers']:.3f} m/s "
            f"(max {diff['speed_max_abs_near_piers']:.3f}); elsewhere "

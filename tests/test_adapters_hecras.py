@@ -261,6 +261,7 @@ def test_describe():
     assert "37 outputs" in hecras.describe(SERIES)[-1]
 
 
+@pytest.mark.filterwarnings("ignore::PendingDeprecationWarning")  # rasterio's own affine use
 def test_terrain_bed_is_the_lowest_pixel_in_each_cell(tmp_path, muncie):
     rasterio = pytest.importorskip("rasterio")
     from rasterio.transform import from_origin
@@ -342,3 +343,96 @@ end = 1.0
 x = [0.0]
 y = [0.0]
 """)
+
+
+def _write_plan(path, n=6, snapshots=3, with_bed=True, with_results=True, si=True):
+    """A small HEC-RAS 6 layout file of one n x n area (SI), as HEC-RAS writes its datasets.
+
+    Water surface = bed + 1 + 0.01 k; face velocities: the normal projection of the linear
+    field u = 0.3 + 0.01 y, v = -0.2 (cells' least squares give it at the cell centres).
+    """
+    nn = n + 1
+    X, Y = np.meshgrid(np.arange(nn) * 10.0, np.arange(nn) * 10.0)
+    nid = np.arange(nn * nn).reshape(nn, nn)
+    h_a, h_b = nid[:, :-1].ravel(), nid[:, 1:].ravel()
+    v_a, v_b = nid[:-1, :].ravel(), nid[1:, :].ravel()
+    faces = np.column_stack([np.r_[h_a, v_a], np.r_[h_b, v_b]]).astype(np.int32)
+    hid = np.arange(h_a.size).reshape(nn, n)
+    vid = h_a.size + np.arange(v_a.size).reshape(n, nn)
+    cf = np.stack([hid[:-1, :], vid[:, 1:], hid[1:, :], vid[:, :-1]], -1).reshape(-1, 4)
+    orient = np.broadcast_to(np.array([1, 1, -1, -1]), cf.shape)
+    ncell = n * n
+    bed = 50.0 + 0.1 * np.arange(ncell)
+    xy = np.column_stack([X.ravel(), Y.ravel()])
+    mid = 0.5 * (xy[faces[:, 0]] + xy[faces[:, 1]])
+    d = xy[faces[:, 1]] - xy[faces[:, 0]]
+    nrm = np.column_stack([d[:, 1], -d[:, 0]]) / 10.0
+    with h5py.File(path, "w") as f:
+        f.attrs["File Type"] = np.bytes_("HEC-RAS Geometry" if not with_results else
+                                          "HEC-RAS Results")
+        f.attrs["Units System"] = np.bytes_("SI Units" if si else "US Customary")
+        att = np.zeros(1, dtype=[("Name", "S16"), ("Cell Count", "<i4")])
+        att["Name"], att["Cell Count"] = b"Main", ncell
+        g = f.create_group(AREAS)
+        g["Attributes"] = att
+        a = g.create_group("Main")
+        a["FacePoints Coordinate"] = xy
+        a["Faces FacePoint Indexes"] = faces
+        a["Cells Face and Orientation Info"] = np.column_stack(
+            [np.arange(ncell) * 4, np.full(ncell, 4)]).astype(np.int32)
+        a["Cells Face and Orientation Values"] = np.column_stack(
+            [cf.ravel(), orient.ravel()]).astype(np.int32)
+        if with_bed:
+            a["Cells Minimum Elevation"] = bed.astype(np.float32)
+        if with_results:
+            ts = f.create_group(TS)
+            ts["Time Date Stamp (ms)"] = np.array(
+                [f"01MAR2024 0{k}:00:00:000" for k in range(snapshots)], dtype="S22")
+            r = ts.create_group("2D Flow Areas/Main")
+            r["Water Surface"] = np.array([bed + 1.0 + 0.01 * k for k in range(snapshots)],
+                                          np.float32)
+            u, v = 0.3 + 0.01 * mid[:, 1], np.full(len(mid), -0.2)
+            r["Face Velocity"] = np.array([nrm[:, 0] * u + nrm[:, 1] * v] * snapshots,
+                                          np.float32)
+    return bed
+
+
+def test_plan_with_its_own_bed_and_a_geometry_file(tmp_path):
+    plan = tmp_path / "model.p01.hdf"
+    bed = _write_plan(plan)
+    fl = hecras.open(plan)
+    assert fl.attrs["hecras_bed"] == "Cells Minimum Elevation (plan)"
+    assert fl.attrs["time_reference"] == "seconds since 2024-03-01T00:00:00"
+    np.testing.assert_array_equal(fl.times, [0.0, 3600.0, 7200.0])
+    g = fl.source.geom
+    assert g.length_factor == 1.0 and g.mesh.n_faces == 36 and g.n_split == 0
+    np.testing.assert_allclose(fl.bed[np.argsort(g.cell_of_face)], bed.astype(np.float32))
+    ws, h, u, v = fl.source.cell_arrays(2)
+    np.testing.assert_allclose(h, 1.02, atol=1e-5)  # float32 water surface
+    # the linear field u = 0.3 + 0.01 y: exact at the centre of these square cells
+    cy = np.bincount(g.cell_of_face, g.mesh.face_y, g.n_cells)
+    np.testing.assert_allclose(u, 0.3 + 0.01 * cy, atol=1e-6)
+    np.testing.assert_allclose(v, -0.2, atol=1e-6)
+    # a plan without bed, with its geometry file named: the same flow
+    bare = tmp_path / "bare.p01.hdf"
+    _write_plan(bare, with_bed=False)
+    geo = tmp_path / "model.g01.hdf"
+    _write_plan(geo, with_results=False)
+    with pytest.raises(FlowFileError, match="no bed"):
+        hecras.open(bare)
+    fl2 = hecras.open(bare, geometry=geo)
+    assert fl2.attrs["hecras_bed"] == f"Cells Minimum Elevation of {geo}"
+    np.testing.assert_array_equal(fl2.bed, fl.bed)
+    np.testing.assert_array_equal(fl2.read_snapshot(1)[0], fl.read_snapshot(1)[0])
+    # a geometry file of another mesh is refused
+    other = tmp_path / "other.g01.hdf"
+    _write_plan(other, n=5, with_results=False)
+    with pytest.raises(FlowFileError, match="has 25 cells, the plan .* has 36"):
+        hecras.open(bare, geometry=other)
+    # US Customary: lengths and velocities in feet are converted
+    us = tmp_path / "us.p01.hdf"
+    _write_plan(us, si=False)
+    flu = hecras.open(us)
+    np.testing.assert_allclose(flu.mesh.face_area, fl.mesh.face_area * FT ** 2, rtol=1e-12)
+    np.testing.assert_allclose(flu.read_snapshot(0)[1], fl.read_snapshot(0)[1] * FT ** 2,
+                               rtol=1e-6)
