@@ -56,6 +56,22 @@ READERS = [file, hecras, openfoam, ugrid, anuga, cfgrid, selafin, mike, raster]
 KINDS = tuple(r.KIND for r in READERS)
 
 
+def _register_with_files():
+    """Tell ``driftlog.files.sniff`` about the readers of other models' files."""
+    from driftlog.adapters._netcdf import check_netcdf3_size
+
+    from driftlog import files
+
+    for r in READERS:
+        if r.KIND not in ("file", "ugrid", "cf_grid", "anuga"):  # NetCDF: sniffed by content
+            files.register_reader(r.KIND, r.can_open)
+    if check_netcdf3_size not in files.CONTENT_CHECKS:
+        files.CONTENT_CHECKS.append(check_netcdf3_size)
+
+
+_register_with_files()
+
+
 def reader(kind):
     """The reader module of a kind (FlowFileError naming the known kinds if none)."""
     for r in READERS:
@@ -173,8 +189,12 @@ def import_flow(source, output, kind="auto", compress=True, progress=None, keep_
     Returns (the written path, the field that was read); the field's source file is closed
     unless ``keep_open``.
     """
+    import os
+
+    from driftlog.files import check_output, temporary_name
     from driftlog.flowfile import FlowFileWriter
 
+    output = check_output(output, "flow file", inputs=[source], suffixes=(".nc", ".nc4"))
     field = open_flow_source(kind, source, **options)
     attrs = dict(field.attrs)
     attrs.setdefault("source", field.name)
@@ -183,8 +203,9 @@ def import_flow(source, output, kind="auto", compress=True, progress=None, keep_
     if getattr(field, "location", "face") == "node":
         note = "node values averaged on each face (a driftlog flow file holds face values)"
         attrs["import_notes"] = "; ".join(filter(None, [attrs.get("import_notes"), note]))
+    tmp = temporary_name(output)  # renamed when complete: never a truncated flow file
     try:
-        writer = FlowFileWriter(output, field.mesh, field.bed, attrs=attrs, compress=compress)
+        writer = FlowFileWriter(tmp, field.mesh, field.bed, attrs=attrs, compress=compress)
     except OSError as exc:
         raise FlowFileError(f"{output}: cannot write the flow file ({exc})") from None
     try:
@@ -194,7 +215,9 @@ def import_flow(source, output, kind="auto", compress=True, progress=None, keep_
                 w.write(float(t), h, hu=hu, hv=hv, dry_depth=field.dry_depth)
                 if progress is not None:
                     progress(i + 1, field.times.size)
+        os.replace(tmp, output)
     finally:
+        tmp.unlink(missing_ok=True)
         if not keep_open and hasattr(field.source, "close"):
             field.source.close()
     return Path(output), field

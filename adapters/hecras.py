@@ -762,9 +762,9 @@ def open_hecras(path, time_range=None, variables=None, dry_depth=1e-3, areas=Non
         Times in seconds since the first output time; ``attrs`` holds ``time_reference``,
         ``crs_wkt``, the areas read and the bed's source.
     """
-    from driftlog.adapters._common import select_times
-
     from driftlog.flow import MeshFlowField
+
+    from ._common import select_times
 
     if variables:
         raise FlowFileError(f"{path}: [flow] variables do not apply to HEC-RAS files (the "

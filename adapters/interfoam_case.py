@@ -32,11 +32,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from driftlog.adapters.foam_io import format_list, write_foam_file
-from driftlog.adapters.openfoam_case import _clean, _face_lines
 
 from driftlog.errors import FlowFileError
 from driftlog.mesh import Mesh
+
+from .foam_io import format_list, write_foam_file
+from .openfoam_case import _clean, _face_lines
 
 __all__ = ["channel_with_block", "write_extruded_polymesh", "write_interfoam_channel",
            "run_interfoam_channel"]
@@ -325,8 +326,8 @@ def run_interfoam_channel(case_dir, mesh: Mesh, timeout=600, dry_depth=1e-3, **o
     ``options`` are those of ``write_interfoam_channel``.  Each face of ``mesh`` gets the
     column of cells above it (the cells whose centroid lies in it): sum(h A) = sum(alpha V).
     """
-    from driftlog.adapters.openfoam import open_openfoam
-    from driftlog.adapters.openfoam_case import run_case
+    from .openfoam import open_openfoam
+    from .openfoam_case import run_case
 
     info = write_interfoam_channel(case_dir, mesh, **options)
     run_case(case_dir, solver="interFoam", timeout=timeout)

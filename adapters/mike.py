@@ -12,7 +12,9 @@ Depth is Total water depth, or Surface elevation minus the element bathymetry.  
 element bathymetry: Surface elevation - Total water depth of the first step when the file has
 both (the engine's own element value, to float32), else the mean of the element's node Z
 (mikeio's element coordinates).  Units are converted from the items' EUM units (meter, feet,
-US feet, cm, mm; m/s, ft/s, cm/s...) with a note; any other unit is an error.
+US feet, cm, mm; m/s, ft/s, cm/s...) with a note; any other unit is an error.  An element
+holding MIKE's delete value (or NaN) in any item of a step has no data there: it is read as
+dry (depth and discharge 0) for that step.
 
 Times are seconds since the first time step, kept as the reference epoch
 (``attrs["time_reference"]``); the projection string is kept in ``attrs["projection"]``.
@@ -149,6 +151,7 @@ class DfsuSnapshots:
         self.dry_depth = dry_depth
         self.name = str(path)
         self._file = None
+        self.deleted = None  # elements with MIKE's delete value in the last step read
 
     def _items(self, i, roles):
         """Item arrays of step i, read with mikecore (mikeio's engine) from a file kept open.
@@ -161,9 +164,15 @@ class DfsuSnapshots:
 
                 self._file = DfsFileFactory.DfsGenericOpen(str(self.path))
             out = []
+            dv = np.float32(self._file.FileInfo.DeleteValueFloat)
+            self.deleted = None
             for r in roles:
                 data = self._file.ReadItemTimeStep(self.roles[r] + 1, int(i)).Data
-                out.append(np.asarray(data, dtype=np.float64) * self.factors[r])
+                gone = (data == dv) | ~np.isfinite(data)
+                if gone.any():
+                    self.deleted = gone if self.deleted is None else self.deleted | gone
+                out.append(np.where(gone, 0.0, np.asarray(data, dtype=np.float64))
+                           * self.factors[r])
         except Exception as exc:
             raise FlowFileError(f"{self.path}: time step {i} unreadable "
                                 f"({type(exc).__name__}: {exc}); a truncated file?") from None
@@ -182,7 +191,12 @@ class DfsuSnapshots:
             h, a, b = self._items(i, ("depth", *vel))
         else:
             eta, a, b = self._items(i, ("level", *vel))
-            h = eta - self.bed
+            h = np.where(self.deleted if self.deleted is not None else False, 0.0,
+                         eta - self.bed)
+        if self.deleted is not None:  # MIKE's delete value: no data there, read as dry
+            h = np.where(self.deleted, 0.0, h)
+            a = np.where(self.deleted, 0.0, a)
+            b = np.where(self.deleted, 0.0, b)
         if h.size and h.min() < 0:
             if h.min() <= -self.dry_depth:
                 bad = np.flatnonzero(h <= -self.dry_depth)
@@ -294,6 +308,8 @@ def _open(dfs, path, time_range, mapping, dry_depth):
     if have_h is not None and have_s is not None:
         eta, h = src._items(0, ("level", "depth"))
         bed = eta - h
+        if src.deleted is not None:  # no data there at the first step: the node Z mean
+            bed = np.where(src.deleted, geo_bed, bed)
         notes.append("bed = Surface elevation - Total water depth of the first step (the "
                      "engine's element bathymetry; it differs from the mean of the node Z by "
                      f"{np.abs(bed - geo_bed).max():.3g} m at most)")

@@ -440,7 +440,7 @@ def run_case(case_dir, solver="shallowWaterFoam", n_procs=1, timeout=600, recons
     if env is None:
         raise OpenFOAMError(f"OpenFOAM is not installed (no {BASHRC}; on Debian: apt-get "
                             "install openfoam)")
-    case = Path(case_dir)
+    case = Path(case_dir).resolve()  # the tools run in it: a relative -case would double
     if n_procs <= 1:
         _run([solver, "-case", str(case)], case, solver, env, timeout)
         return case

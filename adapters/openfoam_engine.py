@@ -144,7 +144,7 @@ def _version(log_text, env):
 
 
 def _fail(engine, case, log, what, path):
-    from driftlog.adapters.openfoam_case import OpenFOAMError
+    from .openfoam_case import OpenFOAMError
 
     keep = (f"the stored flow {path} is untouched" if Path(path).exists()
             else f"no flow file written ({path})")
@@ -164,16 +164,16 @@ def solve_with_shallow_water_foam(scenario, path, attrs, build, progress=False, 
 
     Returns a ``SolveResult``; its ``volume_error`` is NaN (OpenFOAM keeps no balance here).
     """
-    from driftlog.adapters.openfoam import open_openfoam
-    from driftlog.adapters.openfoam_case import (
+    from driftlog.flowfile import FlowFileWriter
+    from driftlog.solver.run import SolveResult
+
+    from .openfoam import open_openfoam
+    from .openfoam_case import (
         OpenFOAMError,
         foam_env,
         run_case,
         write_shallow_water_case,
     )
-
-    from driftlog.flowfile import FlowFileWriter
-    from driftlog.solver.run import SolveResult
 
     sec = scenario["solver"]
     engine = sec["engine"]
@@ -182,7 +182,7 @@ def solve_with_shallow_water_foam(scenario, path, attrs, build, progress=False, 
     log = case / "log.shallowWaterFoam"
     env = foam_env()
     if env is None:
-        from driftlog.adapters.openfoam_case import BASHRC
+        from .openfoam_case import BASHRC
 
         raise _fail(engine, case, "none (nothing ran)", "OpenFOAM is not installed: no "
                     f"{BASHRC} and no shallowWaterFoam on PATH (Debian: apt-get install "

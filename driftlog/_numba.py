@@ -19,7 +19,7 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 import numba as nb  # noqa: E402
 
-__all__ = ["kernel", "PARALLEL_MIN"]
+__all__ = ["kernel", "PARALLEL_MIN", "announce_compile", "kernels_cached"]
 
 PARALLEL_MIN = 2048
 
@@ -52,3 +52,43 @@ def kernel(func=None, *, size_arg=0):
         return call
 
     return wrap(func) if func is not None else wrap
+
+
+# first-run compile times of each family of kernels (s, one core of the 2-core reference
+# machine, measured from a fresh clone: numba writes them to __pycache__ and loads them after)
+COMPILE_SECONDS = {"tracking": 30, "solver": 20, "contacts": 20}
+_PROBES = {"tracking": ("", "physics.rhs_kernel"), "solver": ("solver", "fluxes.edge_fluxes"),
+           "contacts": ("contact", "geometry.capsule_gap")}
+
+
+def kernels_cached(part: str) -> bool:
+    """Whether numba's cache holds the kernels of ``part`` ('tracking', 'solver', 'contacts')."""
+    from pathlib import Path
+
+    sub, probe = _PROBES[part]
+    here = Path(__file__).resolve().parent
+    dirs = [here / sub / "__pycache__" if sub else here / "__pycache__"]
+    for env in (os.environ.get("NUMBA_CACHE_DIR"), os.path.expanduser("~/.cache/numba")):
+        if env and os.path.isdir(env):
+            dirs.append(Path(env))
+    for d in dirs:
+        if d.is_dir() and (any(d.glob(f"{probe}-*.nbi")) or
+                           (d != dirs[0] and any(d.rglob(f"{probe}-*.nbi")))):
+            return True
+    return False
+
+
+def announce_compile(parts, stream=None) -> int:
+    """Print "compiling kernels, once, about N s" when ``parts`` are not in numba's cache yet.
+
+    The first run after an install compiles them, and a progress bar standing at 0 for that
+    long is explained.  Returns N (0: all cached, nothing printed).
+    """
+    import sys
+
+    missing = [p for p in parts if not kernels_cached(p)]
+    n = sum(COMPILE_SECONDS[p] for p in missing)
+    if missing:
+        print(f"driftlog: compiling kernels, once, about {n} s ({', '.join(missing)}; cached "
+              "for the next runs)", file=stream or sys.stderr, flush=True)
+    return n

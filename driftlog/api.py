@@ -15,16 +15,18 @@ import numpy as np
 
 from driftlog.contact import ContactModel
 from driftlog.errors import DriftlogError, ScenarioError
+from driftlog.files import check_output
 from driftlog.flow import WET
 from driftlog.logs import Logs, logs_from_groups
 from driftlog.physics import NLIN, PhysicsOptions, log_parameters, rhs_kernel
+from driftlog.preflight import check_flow_values, check_start, count_logs, estimate_run
 from driftlog.scenario import Scenario, load_scenario
 from driftlog.sources import flow_from_scenario
 from driftlog.tracker import StepOptions, Tracker
 from driftlog.trajectory import TrajectoryWriter, open_trajectories, write_vtk
 
 __all__ = ["track", "TrackResult", "choose_physics", "as_scenario", "logs_from_scenario",
-           "cases_dir", "find_case"]
+           "cases_dir", "find_case", "count_logs", "estimate_run"]
 
 
 @dataclass
@@ -38,6 +40,7 @@ class TrackResult:
     scenario: Scenario
     extra_files: list = field(default_factory=list)
     writer: object = None  # what received the records (a TrajectoryWriter, or the given one)
+    flow_name: str = ""
 
     def dataset(self):
         """The trajectories as an xarray Dataset (CF contiguous ragged array)."""
@@ -45,13 +48,27 @@ class TrackResult:
 
 
 def as_scenario(scenario, overrides=None) -> Scenario:
-    """A validated Scenario from a path, TOML text, dict or Scenario."""
+    """A validated Scenario from a path, a case name (``"vortex"``), TOML text, dict or Scenario.
+
+    A folder holding a ``scenario.toml`` stands for that file.
+    """
     if isinstance(scenario, Scenario):
         if overrides:
             from driftlog.scenario import merge
 
             return load_scenario(merge(json.loads(scenario.to_json()), overrides))
         return scenario
+    name = str(scenario) if isinstance(scenario, (str, Path)) else ""
+    if name and "\n" not in name and len(name) < 1024:  # a path or a name, not TOML text
+        looks_like_name = "=" not in name and "/" not in name and not name.endswith(".toml")
+        if looks_like_name and not Path(name).exists():
+            try:
+                scenario = find_case(name)  # a case by name, as on the command line
+            except ScenarioError as exc:
+                raise ScenarioError("scenario", name, "neither a file (not found), a case name "
+                                    f"({exc.allowed.split('; ')[-1]}) nor TOML text") from None
+        elif Path(name).is_dir() and (Path(name) / "scenario.toml").is_file():
+            scenario = Path(name) / "scenario.toml"
     return load_scenario(scenario, overrides)
 
 
@@ -180,9 +197,16 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         records as they come instead of (or beside) writing them.
     """
     scen = as_scenario(scenario, overrides)
+    out = Path(output or scen["output"]["path"])
+    if writer is None:
+        check_output(out, "trajectory file", suffixes=(".nc", ".nc4"))
+        estimate_run(scen, out)
     if flow is None:
         flow = flow_from_scenario(scen, progress=progress)
     logs = logs_from_scenario(scen)
+    check_start(scen, flow, logs, warn=writer is None)  # outside the mesh, in an obstacle
+    if writer is None and not resume:  # every snapshot the run reads: finite, sized, >= 0
+        check_flow_values(flow, scen["time"]["start"], scen["time"]["end"])
     tm = scen["time"]
     origin = run_clock_origin(flow, tm["start"], tm["end"])
     t_start = tm["start"] - origin
@@ -194,7 +218,6 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     level, rotation, reason = choose_physics(flow, logs, scen["physics"], contact is not None,
                                              t_end=t_end)
     physics = PhysicsOptions.from_scenario(scen["physics"], level=level, rotation=rotation)
-    out = Path(output or scen["output"]["path"])
     attrs = dict(scen.attrs())
     reference = (getattr(flow, "attrs", None) or {}).get("time_reference")
     if reference:
@@ -220,6 +243,10 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
                       t_start=t_start, t_end=t_end, output_interval=tm["output_interval"],
                       hydro_step=tm["hydro_step"], writer=writer, progress=progress,
                       initial_velocity=initial)
+    if progress:
+        from driftlog._numba import announce_compile
+
+        announce_compile(["tracking"] + (["contacts"] if contact is not None else []))
     if resume:
         from driftlog.trajectory import last_states
 
@@ -228,9 +255,14 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
             tracker.resume_from(*state)
     try:
         tracker.run()
-    except BaseException:
+    except BaseException as exc:
         writer.flush()
-        writer.close(finalize=False)  # keep the partial file: what was computed is not lost
+        kept = writer.close(finalize=False)  # keep the partial file: nothing computed is lost
+        if isinstance(kept, Path) and kept.exists():
+            exc.add_note(f"kept {kept}: {getattr(writer, 'nobs', '?')} observations and "
+                         f"{getattr(writer, 'nhit', '?')} contact hits up to t = "
+                         f"{tracker.t + origin:.6g} s of {tm['end']:g} s; driftlog track "
+                         f"SCENARIO -o {out} --resume continues it")
         raise
     writer.set_attrs(**{f"stats_{k}": v for k, v in tracker.stats.items()})
     if contact is not None:  # events, rejected steps, deepest overlap, Gauss-Seidel sweeps
@@ -241,7 +273,8 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     if scen["output"]["vtk"]:
         extra.append(write_vtk(path))
     result = TrackResult(path, logs, tracker.stats,
-                         dict(level=level, rotation=rotation, reason=reason), scen, extra, writer)
+                         dict(level=level, rotation=rotation, reason=reason), scen, extra, writer,
+                         flow_name=getattr(flow, "name", str(flow)))
     return result
 
 

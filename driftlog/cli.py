@@ -17,6 +17,7 @@ from driftlog.errors import DriftlogError
 __all__ = ["main", "build_parser"]
 
 COMMANDS = []  # (add function, run function)
+_default_showwarning = None
 
 
 def command(add):
@@ -38,7 +39,8 @@ def _sub(sub, name, help, example, description=None):
 # --------------------------------------------------------------------- scenario, info
 @command
 def add_scenario(sub):
-    p = _sub(sub, "scenario", "list the scenario keys, or check a scenario file",
+    p = _sub(sub, "scenario", "list the scenario keys, or check a scenario file (every check "
+             "a run makes before it starts: flow readable, logs inside the mesh, obstacles)",
              "driftlog scenario check cases/vortex/scenario.toml")
     p.add_argument("action", choices=("keys", "check"), help="keys: print every key with its "
                    "type, default, units and rule; check: validate a file")
@@ -55,63 +57,40 @@ def cmd_scenario(args):
         return 0
     if not args.file:
         raise DriftlogError("driftlog scenario check: give the scenario file to check")
-    scen = load_scenario(args.file)
-    print(f"{args.file}: valid ({len(scen['logs'])} log groups, flow source "
+    from driftlog.preflight import check_scenario
+
+    path, name = _scenario_path(args.file)
+    scen = load_scenario(path)
+    output = Path("driftlog-runs") / name / Path(scen["output"]["path"]).name \
+        if _in_cases(path) else None  # where driftlog track writes
+    from driftlog.api import logs_from_scenario
+    from driftlog.preflight import estimate_run
+
+    estimate_run(scen, output)  # before seeding: 1e7 logs are refused, not allocated
+    notes, done = check_scenario(scen, logs_from_scenario(scen), output=output)
+    for n in notes:
+        print(f"driftlog: warning: {n}", file=sys.stderr)
+    print(f"{path}: valid: the run will start ({len(scen['logs'])} log groups, flow source "
           f"{scen['flow']['source']!r})")
+    for d in done:
+        print(f"  {d}")
     return 0
 
 
 @command
 def add_info(sub):
-    p = _sub(sub, "info", "describe a flow file, a mesh, or a trajectory file",
-             "driftlog info flow.nc")
-    p.add_argument("file", help="NetCDF flow or trajectory file, another model's result file "
-                   "(TELEMAC Selafin, MIKE dfsu...), or a mesh file")
+    p = _sub(sub, "info", "describe any file driftlog reads or writes: flow, trajectories (and "
+             "their .partial), mesh, scenario, ensemble results, another model's output",
+             "driftlog info flow.nc\n  driftlog info trajectories.nc.partial\n"
+             "  driftlog info runs/squareBump      (an OpenFOAM case)")
+    p.add_argument("file", help="a file, or an OpenFOAM case directory")
     p.set_defaults(run=cmd_info)
 
 
 def cmd_info(args):
-    path = Path(args.file)
-    if not path.exists():
-        raise DriftlogError(f"{path}: file not found")
-    if path.suffix == ".nc":
-        from driftlog.adapters._netcdf import open_dataset
+    from driftlog.info import describe
 
-        with open_dataset(path) as ds:  # unreadable or truncated files refused here
-            if getattr(ds, "featureType", "") == "trajectory":
-                import xarray as xr
-
-                print(xr.open_dataset(path))
-                return 0
-    from driftlog.adapters import READERS
-
-    for r in READERS:  # flow files and other models' files: through the reader that opens them
-        if not r.can_open(path):
-            continue
-        if hasattr(r, "describe"):
-            print("\n".join(r.describe(path)))
-            return 0
-        try:
-            field = r.open(path)
-        except DriftlogError as exc:  # a mesh without flow data (a UGRID mesh file)
-            from driftlog.mesh import read_mesh
-
-            try:
-                mesh = read_mesh(path)
-            except Exception:  # noqa: BLE001 - the reader's message is the one to give
-                raise exc from None
-            print(mesh)
-            print(f"  no flow: {exc}")
-            return 0
-        print(field)
-        print(field.mesh)
-        for k in ("source", "title", "driftlog_version", "import_notes"):
-            if field.attrs.get(k):
-                print(f"  {k}: {field.attrs[k]}")
-        return 0
-    from driftlog.mesh import read_mesh
-
-    print(read_mesh(path))
+    print(describe(args.file))
     return 0
 
 
@@ -147,9 +126,12 @@ def _scenario_path(name):
             else "vortex"
         return find_case(default), default
     p = Path(name)
+    if p.is_dir() and (p / "scenario.toml").is_file():
+        p = p / "scenario.toml"
     if p.suffix == ".toml" or p.exists():
-        if not p.is_file():
-            raise DriftlogError(f"{p}: scenario file not found")
+        from driftlog.files import read_text
+
+        read_text(p, "scenario file")  # missing, a directory, empty, binary, not UTF-8
         return p, p.stem if p.stem != "scenario" else p.resolve().parent.name
     return find_case(name), name
 
@@ -180,11 +162,14 @@ def cmd_run(args):
     from driftlog.plots import animate, plot_trajectories
 
     path, name = _scenario_path(args.scenario)
-    out = Path(args.out or Path("driftlog-runs") / name)
-    out.mkdir(parents=True, exist_ok=True)
+    from driftlog.files import check_output_dir
+
+    out = check_output_dir(Path(args.out or Path("driftlog-runs") / name), "run folder")
     scen = as_scenario(path, _overrides(args.set))
     print(f"driftlog: running {path}")
     res = track(scen, output=out / "trajectories.nc", progress=not args.quiet)
+    if Path(res.flow_name).exists():
+        print(f"  flow: {res.flow_name}")
     print(f"  trajectories: {res.path}")
     for f in res.extra_files:
         print(f"  ParaView: {f}")
@@ -216,12 +201,32 @@ def add_track(sub):
     p.set_defaults(run=cmd_track)
 
 
+def _in_cases(path) -> bool:
+    """Whether a scenario file lies in the repository's cases/.
+
+    Outputs then go to a run folder, so that running the shipped cases does not write into
+    the clone.
+    """
+    from driftlog.api import cases_dir
+
+    try:
+        Path(path).resolve().relative_to(cases_dir().resolve())
+        return True
+    except (ValueError, DriftlogError):
+        return False
+
+
 def cmd_track(args):
     from driftlog.api import as_scenario, track
 
-    path, _ = _scenario_path(args.scenario)
-    res = track(as_scenario(path, _overrides(args.set)), output=args.output,
-                progress=not args.quiet, resume=args.resume)
+    path, name = _scenario_path(args.scenario)
+    scen = as_scenario(path, _overrides(args.set))
+    output = args.output
+    if output is None and _in_cases(path):
+        output = Path("driftlog-runs") / name / Path(scen["output"]["path"]).name
+    res = track(scen, output=output, progress=not args.quiet, resume=args.resume)
+    if Path(res.flow_name).exists():
+        print(f"flow: {res.flow_name}")
     print(f"trajectories: {res.path}")
     for f in res.extra_files:
         print(f"ParaView: {f}")
@@ -241,9 +246,12 @@ def add_plot(sub):
 
 
 def cmd_plot(args):
+    from driftlog.files import check_output, require
     from driftlog.plots import plot_trajectories
 
-    out = args.output or str(Path(args.file).with_suffix(".png"))
+    require(args.file, ("trajectories", "partial"), "trajectory file")
+    out = check_output(args.output or Path(args.file).with_suffix(".png"), "figure",
+                       inputs=[args.file], suffixes=(".png", ".pdf", ".svg", ".jpg"))
     plot_trajectories(args.file, background=args.background, show_mesh=args.mesh, out=out,
                       time=args.time)
     print(f"figure: {out}")
@@ -262,27 +270,51 @@ def add_animate(sub):
 
 
 def cmd_animate(args):
+    from driftlog.files import check_output, require
     from driftlog.plots import animate
 
-    out = animate(args.file, args.output or str(Path(args.file).with_suffix(".mp4")),
-                  background=args.background, fps=args.fps)
+    require(args.file, ("trajectories", "partial"), "trajectory file")
+    if not args.fps > 0:
+        raise DriftlogError(f"--fps {args.fps}: must be > 0 frames per second")
+    out = check_output(args.output or Path(args.file).with_suffix(".mp4"), "animation",
+                       inputs=[args.file], suffixes=(".mp4", ".gif"))
+    out = animate(args.file, out, background=args.background, fps=args.fps)
     print(f"animation: {out}")
     return 0
 
 
 @command
 def add_vtk(sub):
-    p = _sub(sub, "vtk", "write ParaView files (a .pvd time series of logs) for a trajectory file",
-             "driftlog vtk trajectories.nc --out paraview/")
-    p.add_argument("file", help="trajectory file")
+    p = _sub(sub, "vtk", "write ParaView files: a .pvd time series of the logs of a trajectory "
+             "file (radius as point data, for the Tube filter), and with --flow the flow on its "
+             "mesh", "driftlog vtk trajectories.nc --out paraview/\n"
+             "  driftlog vtk trajectories.nc --flow     (the logs and the flow they ran on)\n"
+             "  driftlog vtk --flow flow.nc             (a flow file alone)")
+    p.add_argument("file", help="trajectory file, or with --flow a flow file / model output")
     p.add_argument("--out", help="folder (default: beside the file)")
+    p.add_argument("--flow", action="store_true", help="also (or, for a flow file, only) "
+                   "export the flow: depth, velocity, level and bed on the mesh")
     p.set_defaults(run=cmd_vtk)
 
 
 def cmd_vtk(args):
-    from driftlog.trajectory import write_vtk
+    from driftlog.files import sniff
+    from driftlog.trajectory import write_flow_vtk, write_vtk
 
-    print(f"ParaView collection: {write_vtk(args.file, args.out)}")
+    kind = sniff(args.file).kind
+    if args.flow and kind in ("flow", "model_output", "openfoam"):
+        print(f"ParaView collection (flow): {write_flow_vtk(args.file, args.out)}")
+        return 0
+    pvd = write_vtk(args.file, args.out)
+    print(f"ParaView collection (logs): {pvd}")
+    if args.flow:
+        from driftlog.trajectory import open_trajectories
+
+        src = open_trajectories(args.file).attrs.get("flow_source", "")
+        if not Path(src).exists():
+            raise DriftlogError(f"{args.file}: its flow ({src or 'not named'}) is not a file "
+                                "that can be exported (an analytic flow has no mesh)")
+        print(f"ParaView collection (flow): {write_flow_vtk(src, pvd.parent / 'flow')}")
     return 0
 
 
@@ -331,10 +363,16 @@ def add_solve(sub):
 
 
 def cmd_solve(args):
-    from driftlog.scenario import load_scenario
+    from driftlog.scenario import load_scenario, read_toml
     from driftlog.solver import solve_scenario
 
-    scen = load_scenario(args.scenario, overrides={"flow": {"source": "solver"}})
+    path, _ = _scenario_path(args.scenario)
+    raw = read_toml(path)[0]
+    if "solver" not in raw:
+        raise DriftlogError(f"{path}: has no [solver] section: driftlog solve computes the flow "
+                            "that [solver] describes (mesh, bed, boundaries, end time); "
+                            "driftlog scenario keys --section solver lists its keys")
+    scen = load_scenario(path, overrides={"flow": {"source": "solver"}})
     res, path = solve_scenario(scen, output=args.output, resume=args.resume,
                                progress=not args.quiet)
     print(f"flow file: {path}")
@@ -497,7 +535,8 @@ def add_compare(sub):
                    help="a named line: arrival times of each log at it, per log")
     p.add_argument("--line", type=float, nargs=4, metavar=("X0", "Y0", "X1", "Y1"),
                    help="arrival line (default: arrival = leaving the domain)")
-    p.add_argument("--out", default="driftlog-compare", help="output folder")
+    p.add_argument("--out", help="output folder (default: driftlog-compare for a scenario; "
+                   "two trajectory files: printed only, unless --out is given)")
     p.set_defaults(run=cmd_compare)
 
 
@@ -518,6 +557,11 @@ def cmd_compare(args):
               f"{r['max_distance'].max():.4g} m")
         print(f"final statuses: {r['final_status_reference']} vs {r['final_status_other']}")
         print(f"hits: {json.dumps(r['hits_reference'])} vs {json.dumps(r['hits_other'])}")
+        if args.out is not None:
+            from driftlog.compare import write_trajectory_comparison
+
+            for f in write_trajectory_comparison(r, args.inputs[0], args.inputs[1], args.out):
+                print(f"written: {f}")
         return 0
     lines = dict(parse_line_spec(g) for g in args.gate or [])
     if len(args.inputs) == 1 and args.engines:
@@ -525,8 +569,8 @@ def cmd_compare(args):
             raise DriftlogError("driftlog compare: give --engines or --flow, not both")
         path, _ = _scenario_path(args.inputs[0])
         flows = engine_flows(path, args.engines, progress=True)
-        compare_runs(path, flows, args.out, args.line, progress=True, lines=lines)
-        out = Path(args.out)
+        out = Path(args.out or "driftlog-compare")
+        compare_runs(path, flows, out, args.line, progress=True, lines=lines)
         print((out / "compare.md").read_text())
         print(f"report: {out / 'compare.md'}, {out / 'compare.json'}; figure: "
               f"{out / 'compare.png'}")
@@ -535,9 +579,9 @@ def cmd_compare(args):
         raise DriftlogError("driftlog compare: give one scenario and two --flow NAME=SOURCE or "
                             "more (or --engines E1,E2), or two trajectory files")
     path, _ = _scenario_path(args.inputs[0])
-    compare_runs(path, [parse_flow_spec(f) for f in args.flow], args.out, args.line,
+    out = Path(args.out or "driftlog-compare")
+    compare_runs(path, [parse_flow_spec(f) for f in args.flow], out, args.line,
                  progress=True, lines=lines)
-    out = Path(args.out)
     print((out / "compare.md").read_text())
     print(f"report: {out / 'compare.md'}, {out / 'compare.json'}; figure: {out / 'compare.png'}")
     return 0
@@ -635,8 +679,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    from driftlog.errors import DriftlogWarning
+
+    if issubclass(category, DriftlogWarning):
+        print(f"driftlog: warning: {message}", file=sys.stderr)
+    else:
+        _default_showwarning(message, category, filename, lineno, file, line)
+
+
 def main(argv=None) -> int:
-    """Run the command line; returns the exit code (2 for errors about user input)."""
+    """Run the ``driftlog`` command line; returns the exit status.
+
+    ``DriftlogError`` (bad input): one line ``driftlog: error: ...`` and status 2; an ``OSError``
+    about a path likewise; Ctrl-C: what was kept, status 130; any other exception is a bug and
+    keeps its traceback.
+    """
+    import warnings
+
+    global _default_showwarning
+    if warnings.showwarning is not _show_warning:
+        _default_showwarning = warnings.showwarning
+        warnings.showwarning = _show_warning
     parser = build_parser()
     args = parser.parse_args(argv)
     if not hasattr(args, "run"):
@@ -646,10 +710,31 @@ def main(argv=None) -> int:
         return int(args.run(args) or 0)
     except DriftlogError as exc:
         print(f"driftlog: error: {exc}", file=sys.stderr)
+        for note in getattr(exc, "__notes__", ()):
+            print(f"  {note}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("driftlog: interrupted; outputs written so far are kept", file=sys.stderr)
+    except KeyboardInterrupt as exc:
+        notes = getattr(exc, "__notes__", ())
+        print("driftlog: interrupted" + ("" if notes else "; the files printed above are "
+                                          "complete, the one being written was removed (files "
+                                          "get their name only when complete)"),
+              file=sys.stderr)
+        for note in notes:
+            print(f"  {note}", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # output piped into head: not an error
+        sys.stderr.close()
+        return 0
+    except MemoryError:
+        print("driftlog: error: out of memory; reduce the run's size (logs, cells, output "
+              "records) or use a machine with more memory", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        if exc.filename is None:
+            raise  # not about a path: a bug, with its traceback
+        where = exc.filename + (f" -> {exc.filename2}" if exc.filename2 else "")
+        print(f"driftlog: error: {where}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -23,7 +23,8 @@ from driftlog.errors import DriftlogError
 from driftlog.logs import LEFT, STATUS_MEANINGS
 from driftlog.trajectory import open_trajectories
 
-__all__ = ["compare_runs", "compare_trajectories", "arrival_times", "parse_flow_spec"]
+__all__ = ["compare_runs", "compare_trajectories", "arrival_times", "parse_flow_spec",
+           "write_trajectory_comparison"]
 
 
 def parse_flow_spec(spec: str):
@@ -190,7 +191,9 @@ def _hits_per_obstacle(ds):
     for k in np.unique(other[other < 0]):
         i = -int(k) - 1
         out[names[i] if i < len(names) and names[i] else f"obstacle {i}"] = int(np.sum(other == k))
-    out["log-log"] = int(np.sum(other >= 0) // 2 if np.any(other >= 0) else 0)
+    # one record per log-log contact (the contact model writes one hit per pair, as the
+    # trajectory file, its figure and driftlog info count them)
+    out["log-log"] = int(np.sum(other >= 0))
     return out
 
 
@@ -292,6 +295,36 @@ def compare_runs(scenario, flows: list[tuple[str, str]], out_dir, line=None, pro
     return report
 
 
+def write_trajectory_comparison(result, ref_path, other_path, out_dir):
+    """Write a two-file comparison (``compare_trajectories``) as compare.json and compare.md.
+
+    Both go to ``out_dir`` (created); returns their paths.
+    """
+    from driftlog.files import atomic_output, check_output_dir
+
+    out_dir = check_output_dir(out_dir, "comparison folder")
+    data = {"reference": str(ref_path), "other": str(other_path),
+            "mean_distance_final": float(result["mean_distance"][-1]),
+            "max_distance": float(result["max_distance"].max()),
+            "arrival_difference_mean": _nanmean(result["arrival_difference"]),
+            "final_status": {"reference": result["final_status_reference"],
+                             "other": result["final_status_other"]},
+            "hits": {"reference": result["hits_reference"], "other": result["hits_other"]},
+            "series": {k: result[k] for k in ("times", "mean_distance", "max_distance")}}
+    md = "\n".join(["# Comparison of two trajectory files", "",
+                    f"- reference: {ref_path}", f"- other: {other_path}",
+                    f"- mean distance at the end: {data['mean_distance_final']:.4g} m, max over "
+                    f"the run: {data['max_distance']:.4g} m",
+                    f"- final statuses: {data['final_status']['reference']} vs "
+                    f"{data['final_status']['other']}",
+                    f"- hits: {data['hits']['reference']} vs {data['hits']['other']}", ""])
+    paths = []
+    for name, text in (("compare.json", json.dumps(data, indent=2, default=_jsonable)),
+                       ("compare.md", md)):
+        with atomic_output(out_dir / name) as tmp:
+            tmp.write_text(text)
+        paths.append(out_dir / name)
+    return paths
 def _count_mean(values):
     v = np.array([np.nan if x is None else x for x in values], float)
     ok = np.isfinite(v)

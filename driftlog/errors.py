@@ -1,6 +1,7 @@
 """Exceptions raised for bad input; each names the key or file, the value and what is allowed."""
 
-__all__ = ["DriftlogError", "MeshError", "FlowFileError", "ScenarioError", "FlowDomainError"]
+__all__ = ["DriftlogError", "MeshError", "FlowFileError", "ScenarioError", "FlowDomainError",
+           "InputFileError", "OutputPathError", "SizeError", "ArgumentError", "DriftlogWarning"]
 
 
 class DriftlogError(Exception):
@@ -26,3 +27,31 @@ class ScenarioError(DriftlogError, ValueError):
 
 class FlowDomainError(DriftlogError, ValueError):
     """A request outside the flow's time span or domain."""
+
+
+class InputFileError(DriftlogError, ValueError):
+    """An input file of the wrong kind.
+
+    A flow file where trajectories are expected, a directory, an empty, truncated, binary or
+    non-UTF-8 file.
+    """
+
+
+class OutputPathError(DriftlogError, OSError):
+    """An output path that cannot be written (parent is a file, read-only folder, the input)."""
+
+
+class SizeError(DriftlogError, ValueError):
+    """A run or a mesh too large for this machine's memory, estimated before allocating."""
+
+
+class ArgumentError(DriftlogError, ValueError):
+    """A bad argument of a public function or class (NaN, inf, negative, wrong shape)."""
+
+
+class DriftlogWarning(UserWarning):
+    """Something that lets a run start but that the user should know.
+
+    E.g. a log overlapping an obstacle at its release; the CLI prints it as
+    ``driftlog: warning: ...``.
+    """

@@ -263,8 +263,11 @@ def _read_edge_tags(ds, mesh: Mesh) -> None:
 
 
 def _read_mesh(path: Path) -> Mesh:
-    if not path.is_file():
+    from driftlog.files import require
+
+    if not path.is_file() and not path.is_dir():
         raise FlowFileError(f"{path}: flow file not found")
+    require(path, ("flow", "model_output", "netcdf"), "flow file", error=FlowFileError)
     try:
         return read_ugrid_mesh(path)
     except MeshError as exc:

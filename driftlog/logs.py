@@ -84,9 +84,20 @@ class Logs:
         self.water_density = float(water_density)
         for name in ("length", "radius", "density"):
             a = getattr(self, name)
-            if not np.all(a > 0):
-                i = int(np.flatnonzero(~(a > 0))[0])
-                raise ScenarioError(f"logs.{name}", float(a[i]), f"must be > 0 (log {i})")
+            if not np.all((a > 0) & np.isfinite(a)):
+                i = int(np.flatnonzero(~((a > 0) & np.isfinite(a)))[0])
+                raise ScenarioError(f"logs.{name}", float(a[i]),
+                                    f"must be a finite number > 0 (log {i})")
+        for k, name in enumerate(("x", "y", "theta", "u", "v", "omega")):
+            bad = ~np.isfinite(self.state[:, k])
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                raise ScenarioError(f"logs.{name}", float(self.state[i, k]),
+                                    f"must be a finite number (log {i}; {int(bad.sum())} logs)")
+        if not np.all(np.isfinite(self.release_time)):
+            i = int(np.flatnonzero(~np.isfinite(self.release_time))[0])
+            raise ScenarioError("logs.release_time", float(self.release_time[i]),
+                                f"must be a finite number (log {i})")
         self.volume = np.pi * self.radius ** 2 * self.length
         self.mass = self.density * self.volume
         self.inertia = self.mass * (self.length ** 2 / 12.0 + self.radius ** 2 / 4.0)

@@ -627,16 +627,23 @@ def read_mesh(path, **kwargs) -> Mesh:
     ``elevation``, ``bed`` or ``bed_level``, or from a non-zero third coordinate.  Line cells with
     gmsh physical names tag the boundary edges they cover.
     """
+    from driftlog.files import require
+
     path = Path(path)
     if not path.is_file():
         raise MeshError(f"{path}: mesh file not found")
+    fk = require(path, ("mesh", "flow", "model_output", "netcdf", "ensemble", "mesh_file",
+                        "text"), "mesh file", error=MeshError,
+                 expected="a UGRID NetCDF file or a mesh format meshio reads")
+    if fk.kind != "mesh_file" and fk.kind != "text":
+        return read_ugrid_mesh(path, **kwargs)
     if path.suffix.lower() in (".nc", ".nc4", ".cdf"):
         return read_ugrid_mesh(path, **kwargs)
     import meshio
 
     try:
         m = meshio.read(path)
-    except Exception as exc:  # meshio raises many types for bad files
+    except (Exception, SystemExit) as exc:  # meshio raises many types (ansys: SystemExit)
         raise MeshError(f"{path}: meshio cannot read it ({type(exc).__name__}: {exc})") from None
     polys, unsupported = [], []
     for block in m.cells:

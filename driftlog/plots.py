@@ -39,9 +39,15 @@ def flow_of_trajectories(ds):
     resolved = ds.attrs.get("scenario_resolved")
     if not resolved:
         return None
+    import warnings
+
+    from driftlog.errors import DriftlogError, DriftlogWarning
+
     try:
         return flow_from_scenario(load_scenario(json.loads(resolved)))
-    except Exception:  # noqa: BLE001 - the flow file may have moved; plot without background
+    except (DriftlogError, OSError) as exc:  # the flow file may have moved: no background
+        warnings.warn(f"drawn without the flow in the background: {exc}", DriftlogWarning,
+                      stacklevel=2)
         return None
 
 
@@ -129,11 +135,18 @@ def _bounds(ds, flow, margin=0.05):
     return x0 - dx, y0 - dy, x1 + dx, y1 + dy
 
 
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
+
+
 def plot_trajectories(path, flow=None, background="speed", show_mesh=False, out=None,
                       time=None, ax=None, title=None):
     """Figure of the trajectories in a file; saved to ``out`` (PNG) if given. Returns the figure."""
     plt = _mpl()
     ds = open_trajectories(path)
+    if out is not None:
+        from driftlog.files import check_output
+
+        check_output(out, "figure", inputs=[path], suffixes=FIGURE_SUFFIXES)
     if flow is None and background not in (None, "none"):
         flow = flow_of_trajectories(ds)
     t = ds["time"].values
@@ -194,7 +207,10 @@ def plot_trajectories(path, flow=None, background="speed", show_mesh=False, out=
         f"{ds.attrs.get('title', '')}: t = {t_show:.4g} s ({summary})", 90)), fontsize=10)
     ax.legend(loc="upper right", fontsize=8)
     if out is not None:
-        fig.savefig(out, dpi=130, bbox_inches="tight")
+        from driftlog.files import atomic_output
+
+        with atomic_output(out) as tmp:  # complete or absent: never a truncated figure
+            fig.savefig(tmp, dpi=130, bbox_inches="tight")
         plt.close(fig)
     return fig
 
@@ -210,6 +226,12 @@ def animate(path, out, flow=None, background="speed", fps=20, max_frames=300, dp
     from matplotlib.collections import PolyCollection
 
     ds = open_trajectories(path)
+    from driftlog.errors import ArgumentError
+    from driftlog.files import check_output
+
+    if not (isinstance(fps, (int, float)) and fps > 0 and np.isfinite(fps)):
+        raise ArgumentError(f"animate(fps={fps!r}): must be a number of frames per second > 0")
+    check_output(out, "animation", inputs=[path], suffixes=(".mp4", ".gif"))
     if flow is None and background not in (None, "none"):
         flow = flow_of_trajectories(ds)
     out = Path(out)
@@ -278,7 +300,12 @@ class _FrameSink:
     """RGBA frames to an MP4 (an ffmpeg process reading raw video) or a GIF (Pillow)."""
 
     def __init__(self, out, width, height, fps, mp4):
-        self.out, self.fps, self.mp4 = Path(out), fps, mp4
+        from driftlog.files import temporary_name
+
+        # frames go to a temporary file, renamed when the animation is complete: an
+        # interrupted animation leaves no truncated file under the final name
+        self.final, self.fps, self.mp4 = Path(out), fps, mp4
+        self.out = temporary_name(self.final)
         self.frames = []
         self.proc = None
         if mp4:
@@ -300,17 +327,29 @@ class _FrameSink:
             self.frames.append(Image.fromarray(rgba[..., :3].copy()).quantize(colors=128))
 
     def abort(self):
+        """Stop and remove the temporary file (an interrupted or failed animation)."""
         if self.proc is not None:
             self.proc.kill()
             self.proc.wait()
+        self.out.unlink(missing_ok=True)
 
     def close(self):
-        if self.proc is not None:
-            _, err = self.proc.communicate()
-            if self.proc.returncode != 0:
-                from driftlog.errors import DriftlogError
+        """Finish the file and give it its final name."""
+        import os
 
-                raise DriftlogError(f"ffmpeg failed writing {self.out}: {err.decode()[-500:]}")
-        elif self.frames:
-            self.frames[0].save(self.out, save_all=True, append_images=self.frames[1:],
-                                duration=int(1000 / self.fps), loop=0)
+        try:
+            if self.proc is not None:
+                _, err = self.proc.communicate()
+                if self.proc.returncode != 0:
+                    from driftlog.errors import DriftlogError
+
+                    raise DriftlogError(f"ffmpeg failed writing {self.final}: "
+                                        f"{err.decode()[-500:]}")
+            elif self.frames:
+                self.frames[0].save(self.out, save_all=True, append_images=self.frames[1:],
+                                    duration=int(1000 / self.fps), loop=0, format="GIF")
+        except BaseException:
+            self.abort()
+            raise
+        if self.out.exists():
+            os.replace(self.out, self.final)

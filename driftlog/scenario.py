@@ -28,6 +28,7 @@ section          declared in                      configures
 
 from __future__ import annotations
 
+import difflib
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +36,7 @@ from pathlib import Path
 from driftlog.contact.model import CONTACT_SECTION
 from driftlog.contact.obstacles import OBSTACLES_SECTION
 from driftlog.ensemble.vary import ENSEMBLE_SECTION
+from driftlog.errors import ScenarioError
 from driftlog.integrators import INTEGRATOR_SECTION
 from driftlog.logs import LOGS_SECTION
 from driftlog.physics import PHYSICS_SECTION
@@ -109,6 +111,16 @@ def load_scenario(source, overrides: dict | None = None) -> Scenario:
     ``overrides`` is a nested dict merged over the file (used by ensembles and the CLI's --set).
     """
     raw, path, text = read_toml(source)
+    try:
+        return _validate(raw, path, text, overrides)
+    except ScenarioError as exc:
+        if exc.source is None and path is not None:  # name the file in the message
+            shown = source if isinstance(source, (str, Path)) else path
+            raise ScenarioError(exc.key, exc.value, exc.allowed, source=str(shown)) from None
+        raise
+
+
+def _validate(raw, path, text, overrides):
     if overrides:
         raw = merge(raw, overrides)
     base = path.parent if path else Path.cwd()
@@ -121,5 +133,10 @@ def load_scenario(source, overrides: dict | None = None) -> Scenario:
 
 def describe_keys(section: str | None = None) -> str:
     """A text table of every key: name, type, default, units, rule, description."""
+    if section and section not in SECTIONS:
+        close = difflib.get_close_matches(section, list(SECTIONS), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ScenarioError("--section", section, f"unknown section{hint}; the sections are: "
+                            + ", ".join(SECTIONS))
     return describe_sections(SECTIONS.values(), section)
 

@@ -253,14 +253,19 @@ def read_toml(source, what: str = "scenario"):
     src = str(source)
     p = Path(src) if ("\n" not in src and len(src) < 4096) else None
     if p is not None and (p.suffix == ".toml" or p.exists()):
-        if not p.is_file():
+        if not p.exists():
             raise ScenarioError(what, str(p), "file not found")
-        path, text = p.resolve(), p.read_text()
+        from driftlog.files import read_text
+
+        path, text = p.resolve(), read_text(p, f"{what} file")
     else:
         text = src
     try:
         return tomllib.loads(text), path, text
     except tomllib.TOMLDecodeError as exc:
+        if path is None and p is not None and "=" not in src and "[" not in src:
+            raise ScenarioError(what, src, "neither a file (not found), a case name (driftlog "
+                                "cases list) nor TOML text") from None
         raise ScenarioError(what, str(path or "<text>"), f"is not valid TOML: {exc}") from None
 
 

@@ -100,6 +100,25 @@ def _classify(F, flag, float_depth, status):
     return changed
 
 
+def outside_error(flow, logs, out):
+    """The ScenarioError for logs ``out`` released outside the flow's mesh.
+
+    It names the first log's group, x and y, how many in all, and the mesh's extent.
+    """
+    i = int(out[0])
+    x, y = float(logs.state[i, X]), float(logs.state[i, Y])
+    mesh = getattr(flow, "mesh", None)
+    extent = ""
+    if mesh is not None:
+        x0, y0, x1, y1 = mesh.bounds
+        extent = (f"; the mesh spans x {x0:.6g} to {x1:.6g} m, y {y0:.6g} to {y1:.6g} m "
+                  "(holes such as piers excluded)")
+    return ScenarioError(f"logs[{logs.group[i]}]", f"x = {x:.6g}, y = {y:.6g}",
+                         f"log {i} starts outside the flow domain ({out.size} of "
+                         f"{len(logs)} logs are outside){extent}; logs must start inside the "
+                         "mesh")
+
+
 class Tracker:
     """Advance logs on a flow field (Algorithm 1) and record their trajectories.
 
@@ -376,10 +395,7 @@ class Tracker:
         s = self.flow.sample(L.state[due, X], L.state[due, Y], self.t)
         out = due[s.flag == OUTSIDE]
         if out.size:
-            i = int(out[0])
-            raise ScenarioError(f"logs[{L.group[i]}].x", [float(L.state[i, X]), float(L.state[i, Y])],
-                                f"log {i} is seeded outside the flow domain "
-                                f"({out.size} logs in all); logs must start inside the mesh")
+            raise outside_error(self.flow, L, out)
         L.face[due] = s.face
         st = np.full(due.size, WAITING, np.int8)
         _classify(s.values, s.flag, L.float_depth[due], st)
@@ -440,6 +456,10 @@ class Tracker:
             return
         if self.act.size:
             self._scatter()
+        if self.contact is not None:
+            # the hits of the interval that ends here go to the writer before its record: a
+            # flush that the record triggers writes both together (a kill loses neither alone)
+            self.writer.hits(self.contact.drain_hits())
         L = self.logs
         idx = np.flatnonzero((L.status != WAITING) & ~self._recorded_left)
         if idx.size == 0:
@@ -450,8 +470,6 @@ class Tracker:
                 "status": L.status[idx], "water_depth": s.h, "flow_u": s.u, "flow_v": s.v}
         self.writer.record(self.t, idx, cols)
         self._recorded_left[idx[L.status[idx] == LEFT]] = True
-        if self.contact is not None:
-            self.writer.hits(self.contact.drain_hits())
 
     # ----------------------------------------------------------------- the loop
     def run(self):

@@ -27,7 +27,7 @@ from driftlog.flowfile import TIME_UNITS, _attrs_for_netcdf
 from driftlog.logs import STATUS_MEANINGS
 from driftlog.schema import Key, Section
 
-__all__ = ["TrajectoryWriter", "open_trajectories", "write_vtk", "last_states"]
+__all__ = ["TrajectoryWriter", "open_trajectories", "write_vtk", "write_flow_vtk", "last_states"]
 
 OBS_VARS = {
     "x": ("f8", dict(standard_name="projection_x_coordinate", long_name="x of the log centre",
@@ -65,6 +65,10 @@ HIT_VARS = {
 }
 
 
+HIT_KEYS = (("time", "hit_time"), ("log_id", "hit_log"), ("other", "hit_other"),
+            ("impulse", "hit_impulse"), ("x", "hit_x"), ("y", "hit_y"))
+
+
 class TrajectoryWriter:
     """Write a trajectory file record by record (indexed ragged), contiguous at ``close()``.
 
@@ -87,11 +91,20 @@ class TrajectoryWriter:
         self.partial = self.path.with_name(self.path.name + ".partial")
         self.flush_interval = int(flush_interval)
         self._buf = []
+        self._hbuf = []
         if resume:
-            self.ds = netCDF4.Dataset(self.partial, "a")
+            try:
+                self.ds = netCDF4.Dataset(self.partial, "a")
+            except OSError:  # killed while open: HDF5 refuses to write it again, reads it
+                _recover(self.partial)
+                self.ds = netCDF4.Dataset(self.partial, "a")
             self.ds.set_auto_maskandscale(False)  # times are written on the run's clock
             self.nobs = len(self.ds.dimensions["obs"])
-            self.nhit = len(self.ds.dimensions["hit"])
+            # hits belong to the records up to their time: those after the last record are
+            # recomputed by the resumed run (and overwritten here)
+            t = self.ds["time"][:]
+            t_last = float(t.max()) if t.size else -np.inf
+            self.nhit = int(np.sum(self.ds["hit_time"][:] <= t_last)) if t.size else 0
             return
         self.path.parent.mkdir(parents=True, exist_ok=True)
         ds = self.ds = netCDF4.Dataset(self.partial, "w", format="NETCDF4")
@@ -167,20 +180,29 @@ class TrajectoryWriter:
             self.ds[name][sl] = np.concatenate([b[2][name] for b in self._buf])
         self.nobs += k
         self._buf = []
+        if self._hbuf:
+            k = sum(len(h["time"]) for h in self._hbuf)
+            sl = slice(self.nhit, self.nhit + k)
+            for key, name in HIT_KEYS:
+                self.ds[name][sl] = np.concatenate([np.asarray(h[key]) for h in self._hbuf])
+            self.nhit += k
+            self._hbuf = []
+        self.ds.hit_count = self.nhit
 
     def hits(self, hits: dict):
-        """Append contact events (dict of arrays time, log_id, other, impulse, x, y)."""
+        """Append contact events (dict of arrays time, log_id, other, impulse, x, y).
+
+        Buffered with the records and written with them, in the same flush: a run killed
+        between two flushes loses the records and the hits of the same intervals, which a
+        resumed run recomputes together.
+        """
         k = len(hits.get("time", ()))
         if k == 0:
             return
-        sl = slice(self.nhit, self.nhit + k)
-        for key, name in (("time", "hit_time"), ("log_id", "hit_log"), ("other", "hit_other"),
-                          ("impulse", "hit_impulse"), ("x", "hit_x"), ("y", "hit_y")):
-            self.ds[name][sl] = hits[key]
-        self.nhit += k
+        self._hbuf.append({key: np.asarray(hits[key]).copy() for key, _ in HIT_KEYS})
 
     def flush(self):
-        """Write buffered records and sync the file to disk."""
+        """Write buffered records and hits, and sync the file to disk."""
         self._write_buffer()
         self.ds.sync()
 
@@ -200,6 +222,36 @@ class TrajectoryWriter:
         return self.partial
 
 
+def _recover(partial):
+    """Copy a ``.partial`` file left by a killed process into a fresh one, in place.
+
+    HDF5 marks a file open for writing; after a SIGKILL the mark stays and the file can be
+    read but not opened for writing again.  Everything readable is copied (the records and
+    hits up to the last flush); the old file is kept as ``.partial.killed`` until the copy is
+    complete.
+    """
+    partial = Path(partial)
+    old = partial.with_name(partial.name + ".killed")
+    os.replace(partial, old)
+    tmp = partial.with_name(partial.name + ".tmp")
+    with netCDF4.Dataset(old) as a, netCDF4.Dataset(tmp, "w", format="NETCDF4") as b:
+        a.set_auto_maskandscale(False)
+        b.setncatts({k: a.getncattr(k) for k in a.ncattrs()})
+        for name, dim in a.dimensions.items():
+            b.createDimension(name, None if dim.isunlimited() else len(dim))
+        for name, var in a.variables.items():
+            attrs = {k: var.getncattr(k) for k in var.ncattrs() if k != "_FillValue"}
+            fill = var.getncattr("_FillValue") if "_FillValue" in var.ncattrs() else None
+            kw = dict(zlib=True, complevel=1) if var.dimensions == ("obs",) else {}
+            v = b.createVariable(name, var.dtype, var.dimensions, fill_value=fill, **kw)
+            v.setncatts(attrs)
+            v.set_auto_maskandscale(False)
+            if var.size:
+                v[:] = var[:]
+    os.replace(tmp, partial)
+    os.remove(old)
+
+
 def _to_contiguous(src, dst):
     """Rewrite an indexed ragged trajectory file as a contiguous ragged one (stable by time)."""
     tmp = Path(str(dst) + ".tmp")
@@ -208,10 +260,12 @@ def _to_contiguous(src, dst):
         idx = a["trajectory_index"][:]
         order = np.argsort(idx, kind="stable")
         ntraj = len(a.dimensions["trajectory"])
-        b.setncatts({k: a.getncattr(k) for k in a.ncattrs()})
+        b.setncatts({k: a.getncattr(k) for k in a.ncattrs() if k != "hit_count"})
         b.createDimension("trajectory", ntraj)
         b.createDimension("obs", idx.size)
-        b.createDimension("hit", len(a.dimensions["hit"]))
+        nhit = int(a.getncattr("hit_count")) if "hit_count" in a.ncattrs() else \
+            len(a.dimensions["hit"])  # rows after hit_count: stale, from before a resume
+        b.createDimension("hit", nhit)
         for name, var in a.variables.items():
             if name == "trajectory_index":
                 continue
@@ -221,7 +275,11 @@ def _to_contiguous(src, dst):
             v.setncatts(attrs)
             v.set_auto_maskandscale(False)
             data = var[:]
-            v[:] = data[order] if var.dimensions == ("obs",) else data
+            if var.dimensions == ("obs",):
+                data = data[order]
+            elif var.dimensions == ("hit",):
+                data = data[:nhit]
+            v[:] = data
         rs = b.createVariable("rowSize", "i8", ("trajectory",))
         rs.setncatts(dict(long_name="number of observations for this trajectory",
                           sample_dimension="obs"))
@@ -237,10 +295,16 @@ def open_trajectories(path):
     """
     import xarray as xr
 
+    from driftlog.files import require
+
     path = Path(path)
     if not path.exists() and Path(str(path) + ".partial").exists():
         path = Path(str(path) + ".partial")
+    require(path, ("trajectories", "partial"), "trajectory file")
     ds = xr.open_dataset(path, decode_times=False)
+    nhit = ds.attrs.get("hit_count")
+    if nhit is not None and int(nhit) < ds.sizes.get("hit", 0):  # a partial file's stale rows
+        ds = ds.isel(hit=slice(0, int(nhit)))
     if "trajectory_index" not in ds and "rowSize" in ds:
         ds = ds.assign_coords(trajectory_index=("obs", np.repeat(
             np.arange(ds.sizes["trajectory"]), ds["rowSize"].values)))
@@ -269,18 +333,42 @@ def last_states(path):
         return float(t.max()), ti[last], cols
 
 
-def write_vtk(path, out_dir=None, every=1):
-    """ParaView files for a trajectory file: one .vtu per record time (logs as line segments
-    with radius, status and velocity as cell data) and a .pvd collection indexing them by time.
+def _write_vtu(path, mesh):
+    """Write a meshio Mesh as .vtu under a temporary name, renamed when complete."""
+    import meshio
 
-    In ParaView, open the .pvd and apply a Tube filter (radius by the 'radius' array) to draw
-    the logs as cylinders.  Returns the .pvd path.
+    from driftlog.files import atomic_output
+
+    with atomic_output(path) as tmp:
+        meshio.write(tmp, mesh, file_format="vtu")
+
+
+def _write_pvd(pvd, entries):
+    from driftlog.files import atomic_output
+
+    with atomic_output(pvd) as tmp:
+        tmp.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
+                       "  <Collection>\n" + "\n".join(entries)
+                       + "\n  </Collection>\n</VTKFile>\n")
+
+
+def write_vtk(path, out_dir=None, every=1):
+    """ParaView files for a trajectory file: one .vtu per record time and a .pvd collection.
+
+    The logs are line segments (their axis); ``radius``, ``log_id``, ``status`` and ``speed``
+    are point data (on both ends of each segment: what ParaView's Tube filter, "Vary Radius:
+    By Absolute Scalar" with the ``radius`` array, and pyvista's
+    ``tube(scalars="radius", absolute=True)`` use to draw the logs as cylinders), and also
+    cell data.  Each file is written under a temporary name and renamed when complete; the
+    .pvd last.  Returns the .pvd path.
     """
     import meshio
 
+    from driftlog.files import check_output_dir
+
     ds = open_trajectories(path)
-    out_dir = Path(out_dir or Path(path).with_suffix("")).resolve()
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = check_output_dir(Path(out_dir or Path(path).with_suffix("")).resolve(),
+                               "ParaView folder")
     t = ds["time"].values
     ti = ds["trajectory_index"].values
     x, y, th = ds["x"].values, ds["y"].values, ds["theta"].values
@@ -295,15 +383,78 @@ def write_vtk(path, out_dir=None, every=1):
         pts[0::2, 0], pts[0::2, 1] = x[sel] - hx, y[sel] - hy
         pts[1::2, 0], pts[1::2, 1] = x[sel] + hx, y[sel] + hy
         cells = [("line", np.arange(2 * sel.size).reshape(-1, 2))]
-        cd = {"log_id": [ti[sel].astype(np.int64)], "radius": [r[sel]],
-              "status": [ds["status"].values[sel].astype(np.int32)],
-              "speed": [np.hypot(ds["u"].values[sel], ds["v"].values[sel])]}
+        per_log = {"log_id": ti[sel].astype(np.int64), "radius": r[sel],
+                   "status": ds["status"].values[sel].astype(np.int32),
+                   "speed": np.hypot(ds["u"].values[sel], ds["v"].values[sel])}
+        cd = {k2: [v] for k2, v in per_log.items()}
+        pd = {k2: np.repeat(v, 2) for k2, v in per_log.items()}
         name = f"logs_{k:06d}.vtu"
-        meshio.write(out_dir / name, meshio.Mesh(pts, cells, cell_data=cd))
+        _write_vtu(out_dir / name, meshio.Mesh(pts, cells, point_data=pd, cell_data=cd))
         entries.append(f'    <DataSet timestep="{tk:.9g}" part="0" file="{name}"/>')
     pvd = out_dir / "logs.pvd"
-    pvd.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
-                   "  <Collection>\n" + "\n".join(entries) + "\n  </Collection>\n</VTKFile>\n")
+    _write_pvd(pvd, entries)
+    return pvd
+
+
+def write_flow_vtk(path, out_dir=None, every=1):
+    """ParaView files for a flow file (or any hydro source): the flow on its mesh.
+
+    One .vtu per snapshot (polygons of the mesh, the bed ``z`` as the nodes' third
+    coordinate): cell data ``depth``, ``velocity`` (3 components), ``speed``, ``level`` and
+    ``bed``; and a .pvd collection by time.  Returns the .pvd path.
+    """
+    import meshio
+
+    from driftlog.files import check_output_dir, require
+
+    fk = require(path, ("flow", "model_output", "openfoam"), "flow file",
+                 hint="driftlog vtk --flow exports a flow file or another model's output")
+    if fk.kind == "flow":
+        from driftlog.flowfile import open_flow
+
+        field = open_flow(path)
+    else:
+        from driftlog.adapters import open_flow_source
+
+        field = open_flow_source("auto", path)
+    mesh = field.mesh
+    src = Path(path)
+    default = src.with_name((src.stem if src.is_file() else src.name) + "_vtk")
+    out_dir = check_output_dir(Path(out_dir or default).resolve(), "ParaView folder")
+    z = mesh.node_z if mesh.node_z is not None else np.zeros(mesh.n_nodes)
+    pts = np.column_stack([mesh.node_x, mesh.node_y, z])
+    fn = mesh.face_nodes
+    cells, order = [], []
+    for n, kind in ((3, "triangle"), (4, "quad")):
+        sel = np.flatnonzero(mesh.face_n == n)
+        if sel.size:
+            cells.append((kind, fn[sel, :n]))
+            order.append(sel)
+    for n in np.unique(mesh.face_n):
+        if n > 4:
+            sel = np.flatnonzero(mesh.face_n == n)
+            cells.append(("polygon", fn[sel, :n]))
+            order.append(sel)
+    order = np.concatenate(order)
+    entries = []
+    for k, i in enumerate(range(0, field.times.size, every)):
+        snap = field.snapshot(i)
+        h, u, v = snap["h"], snap["u"], snap["v"]
+        data = {"depth": h, "speed": np.hypot(u, v), "level": h + field.bed, "bed": field.bed,
+                "velocity": np.column_stack([u, v, np.zeros_like(u)])}
+        cd = {}
+        for name, arr in data.items():
+            start = 0
+            parts = []
+            for _, block in cells:
+                parts.append(arr[order[start:start + len(block)]])
+                start += len(block)
+            cd[name] = parts
+        name = f"flow_{k:06d}.vtu"
+        _write_vtu(out_dir / name, meshio.Mesh(pts, cells, cell_data=cd))
+        entries.append(f'    <DataSet timestep="{field.times[i]:.9g}" part="0" file="{name}"/>')
+    pvd = out_dir / "flow.pvd"
+    _write_pvd(pvd, entries)
     return pvd
 
 

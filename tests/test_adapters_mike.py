@@ -223,3 +223,22 @@ def test_no_time_axis(tmp_path):
     ds.to_dfs(str(tmp_path / "mesh.dfsu"))
     with pytest.raises(FlowFileError, match="mesh.dfsu: no depth.*Bathymetry"):
         mike.open(tmp_path / "mesh.dfsu")
+
+
+def test_delete_values_read_as_dry(tmp_path):
+    """Elements without data (MIKE's delete value; mikeio writes NaN as it) are dry."""
+    p = write_dfsu(tmp_path / "a.dfsu")
+    ds = mikeio.read(str(p))
+    gone = np.zeros(GEOM.n_elements, bool)
+    gone[[3, 17, 30]] = True
+    for item in ("Surface elevation", "Total water depth", "U velocity", "V velocity"):
+        vals = ds[item].values.copy()
+        vals[1:, gone] = np.nan  # from the second step on
+        ds[item].values[:] = vals
+    ds.to_dfs(str(tmp_path / "b.dfsu"))
+    f = mike.open(tmp_path / "b.dfsu")
+    np.testing.assert_allclose(f.bed, ZE, atol=1e-6)  # the first step has data everywhere
+    h, hu, hv = f.read_snapshot(2)
+    assert np.all(h[gone] == 0) and np.all(hu[gone] == 0) and np.all(hv[gone] == 0)
+    eta, u, v = linear(XE, YE, 3600.0)
+    np.testing.assert_allclose(h[~gone], (eta - ZE)[~gone], atol=1e-6)

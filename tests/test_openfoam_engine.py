@@ -1,7 +1,7 @@
 """[solver] engine = "shallowWaterFoam": one scenario, two engines, one comparison.
 
 The river_piers scene of ``cases/river_piers/compare_engines.toml`` at a reduced size (50 m
-triangles, 2400 s of flow, 600 s of logs) on driftlog's solver and on OpenFOAM's
+triangles, 2400 s of flow, 400 s of logs) on driftlog's solver and on OpenFOAM's
 shallowWaterFoam; then what is refused, and what a failed OpenFOAM run leaves behind.
 """
 
@@ -27,7 +27,7 @@ def reduced(tmp, **solver):
     ov = {"flow": {"path": str(tmp / "flow.nc")},
           "solver": dict({"cell_size": 50.0, "end": 2400.0, "output_interval": 1200.0},
                          **solver),
-          "time": {"end": 600.0}}
+          "time": {"end": 400.0}}
     return load_scenario(CASE, overrides=ov)
 
 
@@ -105,10 +105,10 @@ def test_provenance_and_reuse(engines):
 @needs_foam
 @pytest.mark.openfoam
 def test_decomposed_run_matches_serial(tmp_path):
-    """Two processes (decomposePar, mpirun) give the serial run's flow; 2 minutes of it."""
+    """Two processes (decomposePar, mpirun) give the serial run's flow; 40 s of it."""
     from driftlog.solver.config import flow_from_scenario
 
-    short = dict(engine="shallowWaterFoam", end=120.0, output_interval=60.0)
+    short = dict(engine="shallowWaterFoam", end=40.0, output_interval=20.0)
     serial = flow_from_scenario(reduced(tmp_path / "serial", **short))
     par = flow_from_scenario(reduced(tmp_path / "par", n_procs=2, **short))
     assert (tmp_path / "par" / "flow_shallowWaterFoam" / "processor1").is_dir()
@@ -246,3 +246,22 @@ def test_compare_engines_command_line_errors(tmp_path, capsys):
                         '[time]\nend = 1.0\n[[logs]]\nx = [0.0]\ny = [0.0]\n')
     assert main(["compare", str(analytic), "--engines", "driftlog,shallowWaterFoam"]) == 2
     assert "[flow] source = 'solver'" in capsys.readouterr().err
+
+
+@needs_foam
+@pytest.mark.openfoam
+def test_case_folder_given_relative(tmp_path, monkeypatch):
+    """The tools run inside the case folder: a relative path must not be doubled."""
+    from driftlog.adapters.openfoam_case import run_shallow_water
+
+    from driftlog.mesh import Mesh
+
+    monkeypatch.chdir(tmp_path)
+    m = Mesh.regular_grid(8, 2, 0.5)
+    m.tag_boundary("inflow", lambda x, y: x < 1e-9)
+    m.tag_boundary("outflow", lambda x, y: x > 4.0 - 1e-9)
+    f = run_shallow_water("rel", m, depth=1.0, end_time=1.0, write_interval=1.0,
+                          boundaries={"inflow": {"type": "inflow", "discharge": 0.5},
+                                      "outflow": {"type": "outflow", "level": 1.0}})
+    assert (tmp_path / "rel" / "log.shallowWaterFoam").is_file()
+    np.testing.assert_allclose(f.times, [0.0, 1.0])

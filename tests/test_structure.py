@@ -23,7 +23,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 LAYERS = [
-    ("base", ["driftlog._version", "driftlog._numba", "driftlog.errors", "driftlog.schema"]),
+    ("base", ["driftlog._version", "driftlog._numba", "driftlog.errors", "driftlog.schema",
+              "driftlog.files", "driftlog.resources"]),
     ("mesh", ["driftlog.locate", "driftlog.mesh", "driftlog.mesher"]),
     ("flow field", ["driftlog.flow", "driftlog.gridflow", "driftlog.nodal", "driftlog.analytic",
                     "driftlog.protocols"]),
@@ -166,6 +167,20 @@ def test_no_module_imports_one_downstream():
     up = upward_edges(import_graph())
     assert not up, "imports of a downstream layer: " + ", ".join(
         f"{a} ({LAYERS[layer_of(a)][0]}) -> {b} ({LAYERS[layer_of(b)][0]})" for a, b in up)
+
+
+def test_adapters_import_each_other_relatively():
+    """Inside adapters/ (imported as driftlog.adapters by a finder) the readers name each other
+    relatively, so that ordinary static tools resolve the imports."""
+    bad = []
+    for f in sorted((ROOT / "adapters").rglob("*.py")):
+        for node in ast.walk(ast.parse(f.read_text(), str(f))):
+            names = [node.module or ""] if isinstance(node, ast.ImportFrom) else \
+                [a.name for a in node.names] if isinstance(node, ast.Import) else []
+            if any(n == "driftlog.adapters" or n.startswith("driftlog.adapters.")
+                   for n in names) and not getattr(node, "level", 0):
+                bad.append(f"{f.relative_to(ROOT)}:{node.lineno}")
+    assert not bad, "import the other adapters relatively (from . import x): " + ", ".join(bad)
 
 
 def test_graph_sees_lazy_and_relative_imports():

@@ -104,7 +104,8 @@ def test_release_times_and_seeding_outside(tmp_path):
     assert logs.x[0] == pytest.approx(2.0 + 0.5 * 6.0)
     assert logs.x[1] == pytest.approx(2.0 + 0.5 * (6.0 - 3.3))
     logs = Logs([25.0], [1.0], 0.0, 0.5, 0.05, 600.0)
-    with pytest.raises(ScenarioError, match=r"\[logs\[0\]\.x\].*outside the flow domain"):
+    with pytest.raises(ScenarioError, match=r"\[logs\[0\]\] = 'x = 25, y = 1': log 0 starts "
+                       r"outside the flow domain.*x 0 to 20 m, y 0 to 4 m"):
         Tracker(flow, logs, PhysicsOptions(), "rk4", t_end=6.0).run()
 
 

@@ -25,10 +25,27 @@ class BallisticLogs:
     """
 
     def __init__(self, state, length, radius, density=720.0, t=0.0):
+        from driftlog.errors import ArgumentError
+
         self.state = np.ascontiguousarray(state, dtype=float).copy()
+        if self.state.ndim != 2 or self.state.shape[1] != 6:
+            raise ArgumentError(f"BallisticLogs(state=...): shape {self.state.shape}; must be "
+                                "(n, 6): x, y, theta, u, v, omega")
+        if not np.all(np.isfinite(self.state)):
+            raise ArgumentError("BallisticLogs(state=...): holds NaN or inf values; must be "
+                                "finite")
         n = self.state.shape[0]
         self.length = np.broadcast_to(np.asarray(length, float), n).copy()
         self.radius = np.broadcast_to(np.asarray(radius, float), n).copy()
+        dens = np.broadcast_to(np.asarray(density, float), n)
+        for name, a in (("length", self.length), ("radius", self.radius), ("density", dens)):
+            bad = ~((a > 0) & np.isfinite(a))
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                raise ArgumentError(f"BallisticLogs({name}={float(a[i])!r}) (log {i}): must be a "
+                                    "finite number > 0")
+        if not np.isfinite(t):
+            raise ArgumentError(f"BallisticLogs(t={t!r}): must be a finite time (s)")
         volume = np.pi * self.radius ** 2 * self.length
         self.mass = np.broadcast_to(np.asarray(density, float), n) * volume
         self.inertia = self.mass * (self.length ** 2 / 12.0 + self.radius ** 2 / 4.0)

@@ -82,6 +82,10 @@ class Boundary:
             if (self.value is None) == (self.series is None):
                 raise ScenarioError(f"{key}.value", self.value, f"a {self.kind} boundary needs "
                                     "either value or series (not both)")
+            if self.value is not None and (isinstance(self.value, bool) or not isinstance(
+                    self.value, (int, float)) or not math.isfinite(self.value)):
+                raise ScenarioError(f"{key}.value", self.value, f"a {self.kind} boundary value "
+                                    "must be a finite number")
             if self.series is not None:
                 s = _table(self.series, f"{key}.series", "[[t, value], ...]")
                 if np.any(np.diff(s[:, 0]) <= 0):

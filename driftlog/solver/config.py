@@ -274,8 +274,15 @@ def solve_scenario(scenario, output=None, resume=False, progress=False):
     """Run the solver of a validated scenario; returns (SolveResult, path of the flow file)."""
     sec = scenario["solver"]
     if sec["end"] is None:
-        raise ScenarioError("solver.end", None, "is required to run the solver")
-    path = Path(output) if output else _default_path(scenario)
+        raise ScenarioError("solver.end", None, "is required to run the solver: the end time "
+                            "of the flow computation (s), in a [solver] section (driftlog "
+                            "scenario keys --section solver lists its keys)")
+    import os
+
+    from driftlog.files import check_output
+
+    path = check_output(Path(output) if output else _default_path(scenario), "flow file")
+    partial = partial_path(path)
     digest = solver_hash(sec)
     attrs = dict(scenario.attrs())
     attrs["solver_hash"] = digest
@@ -285,16 +292,76 @@ def solve_scenario(scenario, output=None, resume=False, progress=False):
 
         return solve_with_shallow_water_foam(scenario, path, attrs, build_solver,
                                              progress=progress), path
-    resume = resume and path.exists()
-    if resume and _stored(path, digest)[0] is None:
-        from driftlog.errors import FlowFileError
+    from driftlog.errors import FlowFileError
 
-        raise FlowFileError(f"{path}: cannot resume: it was not computed from this [solver] "
+    if resume and not partial.exists() and path.exists():
+        if _stored(path, digest)[0] is None:
+            raise FlowFileError(f"{path}: cannot resume: it was not computed from this "
+                                f"[solver] section (solver_hash differs from {digest}); run "
+                                "without --resume")
+        os.replace(path, partial)  # a finished flow extended to a later end
+    resume = resume and partial.exists()
+    if resume and _stored(partial, digest)[0] is None:
+        raise FlowFileError(f"{partial}: cannot resume: it was not computed from this [solver] "
                             f"section (solver_hash differs from {digest}); run without --resume")
+    estimate_mesh(sec)
+    if progress:
+        from driftlog._numba import announce_compile
+
+        announce_compile(["solver"])
     s = build_solver(sec)
-    res = s.run(sec["end"], output=path, output_interval=sec["output_interval"],
-                progress=progress, resume=resume, attrs=attrs)
+    try:
+        res = s.run(sec["end"], output=partial, output_interval=sec["output_interval"],
+                    progress=progress, resume=resume, attrs=attrs)
+    except KeyboardInterrupt as exc:
+        _, t_last = _stored(partial, digest)
+        exc.add_note(f"kept {partial}: the flow up to t = {t_last} s of {sec['end']} s; "
+                     "driftlog solve SCENARIO --resume continues it")
+        raise
+    os.replace(partial, path)  # complete: under its final name
+    res.path = path
     return res, path
+
+
+def partial_path(path) -> Path:
+    """Where the solver writes a flow file until it is complete (``NAME.partial``)."""
+    path = Path(path)
+    return path.with_name(path.name + ".partial")
+
+
+def estimate_mesh(sec, max_cells=None):
+    """Refuse (``SizeError``) a [solver] mesh too large to build, before the mesher runs.
+
+    Cells ~ 1.55 area / (sqrt(3)/4 cell_size^2) for the triangle mesher (area over the area of
+    an equilateral triangle of side cell_size, times 1.55 measured on the shipped cases); the
+    memory of a solver run is about 1.5 kB per
+    cell (mesh, state, fluxes, operators); the limit is half the machine's available memory,
+    or ``max_cells``.  Returns the estimated number of cells.
+    """
+    from driftlog.errors import SizeError
+    from driftlog.resources import available_memory
+
+    if sec["mesh"] == "file":
+        return None
+    if sec["mesh"] == "polygon":
+        o = np.asarray(sec["outline"], dtype=float)
+        area = 0.5 * abs(np.dot(o[:, 0], np.roll(o[:, 1], 1))
+                         - np.dot(o[:, 1], np.roll(o[:, 0], 1)))
+    else:
+        area = abs(sec["channel"][2] * sec["channel"][3])
+    h = float(sec["cell_size"])
+    # the mesher's triangles are smaller than equilateral ones of side cell_size (quality
+    # constraints, refinement at piers): 1.55 x more, calibrated on the shipped cases
+    # (river_piers 3562 cells, flume 16353)
+    cells = 1.55 * area / (np.sqrt(3) / 4 * h * h)
+    per_cell = 1500.0
+    limit = max_cells if max_cells is not None else 0.5 * available_memory() / per_cell
+    if cells > limit:
+        raise SizeError(f"[solver.cell_size] = {h:g} m: about {cells:.3g} cells on "
+                        f"{area:.4g} m2, more than this machine can hold ({limit:.3g} cells, "
+                        f"~{per_cell:g} bytes each, half of the available memory); use a "
+                        f"cell_size >= {h * np.sqrt(cells / limit):.3g} m")
+    return cells
 
 
 def flow_from_scenario(scenario, progress=False):
@@ -306,15 +373,21 @@ def flow_from_scenario(scenario, progress=False):
     from driftlog.flowfile import open_flow
 
     sec = scenario["solver"]
+    if sec["end"] is None:
+        raise ScenarioError("solver.end", None, "is required with [flow] source = 'solver': "
+                            "the end time of the flow computation (s)")
     path = _default_path(scenario)
-    state, t_last = _stored(path, solver_hash(sec))
+    digest = solver_hash(sec)
+    state, t_last = _stored(path, digest)
     if sec["engine"] != "driftlog":  # no resuming an OpenFOAM run
         if state is None or t_last is None or t_last < sec["end"] - 1e-9 * abs(sec["end"]):
             solve_scenario(scenario, output=path, progress=progress)
         return open_flow(path, dry_depth=scenario["flow"]["dry_depth"])
     if state is None or t_last is None or t_last < sec["end"]:
-        solve_scenario(scenario, output=path, resume=state is not None and t_last is not None,
-                       progress=progress)
+        p_state, p_last = _stored(partial_path(path), digest)
+        resume = (p_state is not None and p_last is not None) or \
+            (state is not None and t_last is not None)
+        solve_scenario(scenario, output=path, resume=resume, progress=progress)
     return open_flow(path, dry_depth=scenario["flow"]["dry_depth"])
 
 

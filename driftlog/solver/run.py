@@ -57,6 +57,10 @@ class SolveResult:
 
     def summary(self) -> str:
         """A few lines for the command line."""
+        if not math.isfinite(self.volume_error):  # an engine that keeps no balance (OpenFOAM)
+            return (f"t = {self.t_end:g} s, {self.steps} steps in {self.wall_time:.2f} s "
+                    f"({self.cell_updates_per_s:.3g} cell-updates/s), volume {self.volume:.6g} "
+                    f"m3 (no volume balance from this engine), {self.snapshots} snapshots")
         return (f"t = {self.t_end:g} s, {self.steps} steps in {self.wall_time:.2f} s "
                 f"({self.cell_updates_per_s:.3g} cell-updates/s), volume {self.volume:.6g} m3, "
                 f"volume error {self.volume_error:.3g} m3 ({self.relative_volume_error:.2g} "
@@ -110,6 +114,14 @@ def _create(path, solver, attrs):
 
 
 def _write(w, solver):
+    for name, arr in (("h", solver.h), ("hu", solver.hu), ("hv", solver.hv)):
+        if not np.all(np.isfinite(arr)):
+            bad = np.flatnonzero(~np.isfinite(arr))
+            x, y = solver.mesh.face_x[bad[0]], solver.mesh.face_y[bad[0]]
+            raise FlowFileError(f"{w.path}: the solver's {name} is not finite at t = "
+                                f"{solver.t:.6g} s on {bad.size} faces (first at x = {x:.6g}, "
+                                f"y = {y:.6g} m); nothing non-finite is written: check the "
+                                "boundary values, the initial state and cfl")
     w.write(solver.t, solver.h, hu=solver.hu, hv=solver.hv, dry_depth=solver.dry_depth,
             **_series_values(solver))
     ex = solver.extremes.arrays()

@@ -1,0 +1,267 @@
+"""The checks a run makes before it starts.
+
+Shared by ``driftlog track`` and ``driftlog scenario check``, so that "valid" means "the run
+will start".  In order: the output path can be written; the run fits in memory and on
+disk; the flow can be read (its mesh built, every snapshot of the run's time window finite);
+the logs can be seeded (finite positions and properties); every log starts inside the flow's
+mesh; and logs against obstacles at the start, by this rule:
+
+- **error**: a log's centre lies inside an obstacle (a circle pier or a polygon) while contacts
+  are on; the contact model has no side to push it out to.
+- **warning**: a log's body (its capsule) overlaps an obstacle or a wall while its centre is
+  outside it; the contact model separates them on the first step, with an impulse that does
+  not come from the flow.
+- **warning**: obstacles are given but ``[contact] enabled = false``: the logs pass through them.
+
+Warnings are ``DriftlogWarning`` (the CLI prints ``driftlog: warning: ...``); errors are
+``DriftlogError`` subclasses naming the key, the value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from driftlog.errors import DriftlogWarning, ScenarioError
+
+__all__ = ["check_start", "check_scenario", "check_flow_values", "count_logs", "estimate_run"]
+
+
+def _log_capsules(logs):
+    x, y, th = logs.state[:, 0], logs.state[:, 1], logs.state[:, 2]
+    hx, hy = 0.5 * logs.length * np.cos(th), 0.5 * logs.length * np.sin(th)
+    return np.column_stack([x - hx, y - hy, x + hx, y + hy, logs.radius])
+
+
+def _segment_distance(px, py, caps):
+    """Distance from points (n,) to segments caps (m, 4): (n, m)."""
+    ax, ay, bx, by = (caps[:, k][None, :] for k in range(4))
+    dx, dy = bx - ax, by - ay
+    ll = dx * dx + dy * dy
+    t = np.clip(((px[:, None] - ax) * dx + (py[:, None] - ay) * dy) / np.where(ll > 0, ll, 1.0),
+                0.0, 1.0)
+    return np.hypot(px[:, None] - (ax + t * dx), py[:, None] - (ay + t * dy))
+
+
+def _capsule_gaps(logs, caps):
+    """Smallest gap between each log capsule and the obstacle capsules (n,).
+
+    Each log axis is sampled at 9 points: exact for circles and at the axis ends; a segment
+    crossing the axis between two samples is found as an overlap all the same (its distance
+    to the nearest sample is below L/16).
+    """
+    lc = _log_capsules(logs)
+    best = np.full(len(logs), np.inf)
+    if caps.shape[0] == 0:
+        return best
+    for s in np.linspace(0.0, 1.0, 9):
+        px = lc[:, 0] + s * (lc[:, 2] - lc[:, 0])
+        py = lc[:, 1] + s * (lc[:, 3] - lc[:, 1])
+        for k0 in range(0, caps.shape[0], 2048):  # bounded memory: (n, 2048) at a time
+            c = caps[k0:k0 + 2048]
+            d = _segment_distance(px, py, c) - c[:, 4][None, :] - lc[:, 4][:, None]
+            best = np.minimum(best, d.min(axis=1))
+    return best
+
+
+def _inside_obstacle(scen, x, y):
+    """(n,) index of the [[obstacles]] entry holding each point (circle or polygon), or -1."""
+    from matplotlib.path import Path as MplPath
+
+    where = np.full(x.size, -1)
+    for i, o in enumerate(scen["obstacles"]):
+        if o["type"] == "circle" and o["center"] is not None and o["radius"] is not None:
+            inside = np.hypot(x - o["center"][0], y - o["center"][1]) < o["radius"]
+        elif o["type"] == "polygon" and o["points"] and len(o["points"]) >= 3:
+            inside = MplPath(np.asarray(o["points"], float)).contains_points(
+                np.column_stack([x, y]))
+        else:
+            continue
+        where = np.where((where < 0) & inside, i, where)
+    return where
+
+
+def check_start(scen, flow, logs, mesh=None, warn=True):
+    """Logs against the flow's mesh and the obstacles at the start (the module's rule).
+
+    Parameters
+    ----------
+    scen : Scenario
+    flow : FlowField or None
+        The run's flow (its ``mesh`` locates the logs); None with ``mesh`` given.
+    logs : Logs
+    mesh : Mesh, optional
+        The mesh when the flow is not computed yet (a solver flow checked before solving).
+    warn : bool
+        Issue the warnings (``DriftlogWarning``); they are returned either way.
+
+    Returns
+    -------
+    list of str
+        The warnings.
+    """
+    from driftlog.tracker import outside_error
+
+    mesh = mesh if mesh is not None else getattr(flow, "mesh", None)
+    if mesh is not None:
+        face = mesh.locate(logs.state[:, 0], logs.state[:, 1])
+        out = np.flatnonzero(face < 0)
+        if out.size:
+            raise outside_error(flow if flow is not None else _MeshOnly(mesh), logs, out)
+    notes = []
+    obst = scen["obstacles"]
+    contact = scen["contact"]["enabled"]
+    if obst and not contact:
+        notes.append(f"{len(obst)} [[obstacles]] are given but [contact] enabled = false: the "
+                     "logs pass through them")
+    if contact:
+        where = _inside_obstacle(scen, logs.state[:, 0], logs.state[:, 1])
+        bad = np.flatnonzero(where >= 0)
+        if bad.size:
+            i, k = int(bad[0]), int(where[bad[0]])
+            name = obst[k]["name"] or f"{obst[k]['type']}_{k}"
+            raise ScenarioError(f"logs[{logs.group[i]}]", f"x = {logs.state[i, 0]:.6g}, "
+                                f"y = {logs.state[i, 1]:.6g}",
+                                f"log {i} starts with its centre inside obstacles[{k}] "
+                                f"({name!r}; {bad.size} logs in all); move the logs out of "
+                                "the obstacles")
+        from driftlog.contact.obstacles import Obstacles
+
+        obs = Obstacles.from_tables(scen["obstacles"],
+                                    walls=mesh if scen["contact"]["walls"] else None)
+        gap = _capsule_gaps(logs, obs.capsules)
+        over = np.flatnonzero(gap < 0)
+        if over.size:
+            i = int(over[np.argmin(gap[over])])
+            notes.append(f"{over.size} logs overlap an obstacle or a wall at their release "
+                         f"(log {i} of logs[{logs.group[i]}] at x = {logs.state[i, 0]:.6g}, "
+                         f"y = {logs.state[i, 1]:.6g} by {-gap[i]:.3g} m); the contact model "
+                         "pushes them apart on the first step")
+    if warn:
+        for n in notes:
+            warnings.warn(n, DriftlogWarning, stacklevel=2)
+    return notes
+
+
+class _MeshOnly:
+    def __init__(self, mesh):
+        self.mesh = mesh
+
+
+def check_flow_values(flow, t0, t1):
+    """Read every snapshot of ``flow`` that a run from t0 to t1 uses.
+
+    A non-finite, negative or ill-sized snapshot raises ``FlowFileError``.  Returns the number
+    of snapshots read.
+    """
+    times = np.asarray(getattr(flow, "times", ()), float)
+    if times.size == 0 or not hasattr(flow, "read_snapshot"):
+        return 0
+    lo = max(int(np.searchsorted(times, t0, side="right")) - 1, 0)
+    hi = min(int(np.searchsorted(times, t1, side="left")), times.size - 1)
+    for i in range(lo, hi + 1):
+        flow.read_snapshot(i)
+    return hi - lo + 1
+
+
+def check_scenario(scen, logs, output=None, read_flow=True):
+    """Every check ``track`` makes before it starts, without tracking (``scenario check``).
+
+    ``logs``: the scenario's seeded logs (``driftlog.api.logs_from_scenario``).  Returns
+    (warnings, what was checked: a list of short phrases).  A solver flow not computed yet is
+    not computed: its mesh is built (after a size estimate) and the logs located on it.
+    """
+    from driftlog.files import check_output
+    done = []
+    out = Path(output or scen["output"]["path"])
+    check_output(out, "trajectory file", suffixes=(".nc", ".nc4"), create=False)
+    n, nobs, mem = estimate_run(scen, out)
+    done.append(f"output {out} writable; {n} logs, {nobs:.3g} observations, about "
+                f"{mem / 2**20:.3g} MiB")
+    src = scen["flow"]["source"]
+    flow = mesh = None
+    if src == "solver":
+        from driftlog.solver.config import _default_path, _stored, solver_hash
+
+        sec = scen["solver"]
+        if sec["end"] is None:
+            raise ScenarioError("solver.end", None, "is required with [flow] source = 'solver':"
+                                " the end time of the flow computation (s)")
+        path = _default_path(scen)
+        state, t_last = _stored(path, solver_hash(sec))
+        if state is not None and t_last is not None and t_last >= sec["end"]:
+            from driftlog.sources import flow_from_scenario
+
+            flow = flow_from_scenario(scen)
+            done.append(f"solver flow {path} stored and up to date")
+        else:
+            from driftlog.solver.config import build_mesh, estimate_mesh
+
+            cells = estimate_mesh(sec)
+            mesh = build_mesh(sec)
+            done.append(f"solver mesh built ({mesh.n_faces} cells"
+                        + (f", estimated {cells:.3g}" if cells else "") + "); the flow is "
+                        "computed by the run")
+    else:
+        from driftlog.sources import flow_from_scenario
+
+        flow = flow_from_scenario(scen)
+        done.append(f"flow {getattr(flow, 'name', src)} readable")
+    if flow is not None and read_flow:
+        k = check_flow_values(flow, scen["time"]["start"], scen["time"]["end"])
+        if k:
+            done.append(f"{k} snapshots finite")
+    notes = check_start(scen, flow, logs, mesh=mesh, warn=False)
+    done.append("logs inside the mesh" if (mesh is not None or getattr(flow, "mesh", None)
+                                          is not None) else "logs seeded")
+    return notes, done
+
+
+def count_logs(scen) -> int:
+    """The number of logs a validated scenario seeds, without seeding them."""
+    n = 0
+    for g in scen["logs"]:
+        if g.get("seeding", "list") == "list":
+            x = g.get("x")
+            n += len(x) if isinstance(x, (list, tuple)) else 1
+        else:
+            n += int(g.get("count") or 0)
+    return n
+
+
+def estimate_run(scen, output=None):
+    """Refuse (``SizeError``) a run too large for this machine, before anything is allocated.
+
+    Memory: about 2 kB per log for the tracker (state, integrator stages, flow samples,
+    contacts) and the buffered records (``flush_interval`` records of 85 bytes per log), and
+    the final rewrite of the trajectory file, 32 bytes per observation (one variable at a
+    time, with its sort order).  Disk: 85 bytes per observation, twice (the ``.partial`` file
+    and the final file).  Returns (logs, observations, bytes of memory).
+    """
+    import shutil
+
+    from driftlog.resources import check_fits
+
+    n = count_logs(scen)
+    tm = scen["time"]
+    records = int((tm["end"] - tm["start"]) / tm["output_interval"]) + 2
+    nobs = float(n) * records
+    mem = n * (2000.0 + 85.0 * scen["output"]["flush_interval"]) + 32.0 * nobs
+    advice = ("fewer logs (count), a longer [time] output_interval, or an ensemble "
+              "(driftlog ensemble) that runs the logs in members")
+    check_fits(mem, f"tracking {n:.3g} logs over {records} records ({nobs:.3g} observations)",
+               advice)
+    out = Path(output or scen["output"]["path"])
+    try:
+        free = shutil.disk_usage(out.parent if out.parent.exists() else Path.cwd()).free
+    except OSError:
+        free = None
+    if free is not None and 2 * 85.0 * nobs > 0.9 * free:
+        from driftlog.errors import SizeError
+
+        raise SizeError(f"tracking {n:.3g} logs over {records} records writes about "
+                        f"{2 * 85 * nobs / 2**30:.3g} GiB, more than the {free / 2**30:.3g} GiB "
+                        f"free on the disk of {out.parent}; {advice}")
+    return n, nobs, mem
