@@ -35,12 +35,17 @@ ITEMS = [
     ("ensemble", "ensemble_benchmark.py", ["--quick"], "ensembles on Dask: members per minute"),
     ("import", "import_benchmark.py", ["--snapshots", "10", "--skip-openfoam"],
      "importing flows from other models"),
+    ("grid_peers", "grid_peers.py", ["--quick"],
+     "regular grids: bilinear sampling beside Parcels (error, CPU time, sampling speed)"),
+    ("import_raster", "raster_import_benchmark.py", ["--quick"],
+     "importing regular grids: GeoTIFF series, LISFLOOD-FP ASCII, CF grid"),
     ("stability", "stability_figures.py", ["--quick"],
      "stability where methods fail (stiff drag, jams, dry fronts) and the remedies"),
 ]
 
 
 def benchmarks_dir() -> Path:
+    """The repository's ``benchmarks`` folder (DriftlogError outside a checkout)."""
     d = Path(__file__).resolve().parents[1] / "benchmarks"
     if not d.is_dir():
         raise DriftlogError(f"benchmarks folder not found at {d}: driftlog report runs from a "
