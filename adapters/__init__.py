@@ -58,9 +58,9 @@ KINDS = tuple(r.KIND for r in READERS)
 
 def _register_with_files():
     """Tell ``driftlog.files.sniff`` about the readers of other models' files."""
-    from driftlog.adapters._netcdf import check_netcdf3_size
-
     from driftlog import files
+
+    from ._netcdf import check_netcdf3_size
 
     for r in READERS:
         if r.KIND not in ("file", "ugrid", "cf_grid", "anuga"):  # NetCDF: sniffed by content

@@ -210,10 +210,14 @@ def solve_with_shallow_water_foam(scenario, path, attrs, build, progress=False, 
     if progress:
         print(f"engine {engine}: running {case} ({mesh.n_faces} cells, dt {info['dt']:.4g} s, "
               f"{n_procs} process{'es' if n_procs > 1 else ''}; log {log})", flush=True)
+    watch = _LogProgress(log, end - start) if progress else None
     try:
         run_case(case, n_procs=n_procs, timeout=timeout)
     except OpenFOAMError as exc:
         raise _fail(engine, case, log, f"shallowWaterFoam failed: {exc}", path) from None
+    finally:
+        if watch is not None:
+            watch.stop()
     wall, cpu = time.perf_counter() - wall0, _children_cpu() - cpu0
     log_text = log.read_text(errors="replace") if log.is_file() else ""
     if not re.search(r"^End\s*$", log_text, re.M):
@@ -268,6 +272,40 @@ def solve_with_shallow_water_foam(scenario, path, attrs, build, progress=False, 
                        cell_updates_per_s=mesh.n_faces * steps / max(wall, 1e-12),
                        volume=float(np.sum(last * mesh.face_area)), volume_error=float("nan"),
                        relative_volume_error=float("nan"), snapshots=len(times))
+
+
+class _LogProgress:
+    """A progress bar of simulated time, read from the solver's log every second."""
+
+    _TIME = re.compile(rb"^\s*Time = ([0-9.eE+-]+)\s*$", re.M)
+
+    def __init__(self, log: Path, total):
+        import threading
+
+        from tqdm import tqdm
+
+        self.log, self.done = log, threading.Event()
+        self.bar = tqdm(total=float(total), unit="s", unit_scale=True, desc="shallowWaterFoam",
+                        leave=False)
+        self.thread = threading.Thread(target=self._poll, daemon=True)
+        self.thread.start()
+
+    def _poll(self):
+        while not self.done.wait(1.0):
+            try:
+                with open(self.log, "rb") as f:
+                    f.seek(max(f.seek(0, 2) - 4096, 0))
+                    times = self._TIME.findall(f.read())
+            except OSError:
+                continue
+            if times:
+                self.bar.n = min(float(times[-1]), self.bar.total)
+                self.bar.refresh()
+
+    def stop(self):
+        self.done.set()
+        self.thread.join()
+        self.bar.close()
 
 
 def _children_cpu():

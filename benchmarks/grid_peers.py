@@ -17,7 +17,7 @@ the distance between driftlog and Parcels, and the run's CPU time (process time,
 
     python benchmarks/grid_peers.py [--quick]
 
-writes benchmarks/results/grid_peers.{json,md}.
+writes benchmarks/results/grid_peers.{json,md} (grid_peers_quick.* with --quick).
 """
 
 from __future__ import annotations
@@ -143,7 +143,8 @@ def main(quick=False):
     speed = sampling_speed(300 if quick else 1000, 100_000 if quick else 1_000_000)
     info = dict(machine=machine(), versions=", ".join(f"{k} {v}" for k, v in vers.items()),
                 duration=pt.DURATION, dt=DT, snapshot=pt.SNAPSHOT, particles=n)
-    (RESULTS / "grid_peers.json").write_text(json.dumps(
+    stem = "grid_peers_quick" if quick else "grid_peers"  # --quick keeps the full results
+    (RESULTS / f"{stem}.json").write_text(json.dumps(
         {"info": info, "rows": rows, "pairs": pairs, "sampling": speed}, indent=1))
 
     def g(v):
@@ -176,7 +177,7 @@ def main(quick=False):
         lines.append(f"| {r['tool']} | {r['cells']} | {r['points']} | {g(r['cpu_s'])} | "
                      f"{g(r['samples_per_cpu_s'])} |")
     text = "\n".join(lines) + "\n"
-    (RESULTS / "grid_peers.md").write_text(text)
+    (RESULTS / f"{stem}.md").write_text(text)
     print(text)
 
 

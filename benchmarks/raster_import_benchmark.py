@@ -17,9 +17,9 @@ ESRI ASCII is text (about 10 bytes a value) and slow to write and parse; its ser
 (``--ascii-snapshots``, default 10): its per-snapshot cost is what the table compares.
 
     python benchmarks/raster_import_benchmark.py [--work DIR] [--snapshots 100]
-        [--ascii-snapshots 10] [--n 1000]
+        [--ascii-snapshots 10] [--n 1000] [--quick]
 
-Writes benchmarks/results/import_raster.json and import_raster.md.
+Writes benchmarks/results/import_raster.json and import_raster.md (``*_quick`` with --quick).
 """
 
 from __future__ import annotations
@@ -140,7 +140,11 @@ def main():
     ap.add_argument("--n", type=int, default=1000)
     ap.add_argument("--snapshots", type=int, default=100)
     ap.add_argument("--ascii-snapshots", type=int, default=10)
+    ap.add_argument("--quick", action="store_true",
+                    help="300 x 300 cells, 10 snapshots (3 ASCII): *_quick result files")
     a = ap.parse_args()
+    if a.quick:
+        a.n, a.snapshots, a.ascii_snapshots = 300, 10, 3
     work = Path(a.work)
     work.mkdir(parents=True, exist_ok=True)
     results = {"machine": machine(), "cells": a.n * a.n, "cases": {}}
@@ -157,9 +161,10 @@ def main():
             r[action] = measure(kind, src, action, work / f"{name}.nc")
         r["sample"] = measure(kind, src, "sample", snapshots=min(snaps, 11))
     RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "import_raster.json").write_text(json.dumps(results, indent=2))
+    stem = "import_raster_quick" if a.quick else "import_raster"
+    (RESULTS / f"{stem}.json").write_text(json.dumps(results, indent=2))
     text = report(results)
-    (RESULTS / "import_raster.md").write_text(text)
+    (RESULTS / f"{stem}.md").write_text(text)
     print(text)
 
 

@@ -96,20 +96,33 @@ def per_log(ref_path, other_path, lines=None):
         return x, y, st
 
     def hits(ds):
+        """Per trajectory index: {obstacle name or 'log-log': contact records}."""
         n = ds.sizes["trajectory"]
         out = [dict() for _ in range(n)]
         if not ds.sizes.get("hit", 0):
             return out
         obst = json.loads(ds.attrs.get("obstacle_names", "[]") or "[]")
-        logs, other = ds["hit_log"].values, ds["hit_other"].values
-        for lg, o in zip(logs, other, strict=True):  # one entry per contact event: few
-            if o < 0:
-                i = -int(o) - 1
-                key = obst[i] if i < len(obst) and obst[i] else f"obstacle {i}"
-            else:
-                key = "log-log"
-            if 0 <= lg < n:
-                out[lg][key] = out[lg].get(key, 0) + 1
+        ids = ds["trajectory"].values if "trajectory" in ds.variables else np.arange(n)
+        order = np.argsort(ids)
+
+        def index(log_ids):  # hit records name logs by id; rows are trajectory indices
+            pos = np.clip(np.searchsorted(ids[order], log_ids), 0, n - 1)
+            return np.where(ids[order][pos] == log_ids, order[pos], -1)
+
+        lg, other = index(ds["hit_log"].values), ds["hit_other"].values
+        counts = {}
+        for k in np.unique(other[other < 0]):
+            i = -int(k) - 1
+            name = obst[i] if i < len(obst) and obst[i] else f"obstacle {i}"
+            sel = (other == k) & (lg >= 0)
+            counts[name] = np.bincount(lg[sel], minlength=n)
+        pair = other >= 0
+        if pair.any():  # one record per pair of logs: counted for both
+            both = np.concatenate([lg[pair], index(other[pair])])
+            counts["log-log"] = np.bincount(both[both >= 0], minlength=n)
+        for name, c in counts.items():
+            for row in np.flatnonzero(c):
+                out[row][name] = int(c[row])
         return out
 
     xa, ya, sa = ends(a)
@@ -325,6 +338,8 @@ def write_trajectory_comparison(result, ref_path, other_path, out_dir):
             tmp.write_text(text)
         paths.append(out_dir / name)
     return paths
+
+
 def _count_mean(values):
     v = np.array([np.nan if x is None else x for x in values], float)
     ok = np.isfinite(v)

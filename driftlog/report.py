@@ -31,16 +31,25 @@ ITEMS = [
     ("solver", "solver_throughput.py", ["--quick"], "solver throughput and peers"),
     ("shallow_water_peers", "solver_peers.py", ["--quick"],
      "the solver beside ANUGA and shallowWaterFoam: same meshes, wall time and error"),
+    ("openfoam_engines", "openfoam_engines.py", ["--quick"],
+     "river_piers on driftlog's solver and shallowWaterFoam: cost, flows, the logs' fates"),
+    ("interfoam_channel", "interfoam_channel.py", ["--quick"],
+     "the 3D route: interFoam depth-averaged against driftlog's solver"),
     ("contact", "contact_benchmark.py", ["--quick"], "contact detection and contact times"),
     ("ensemble", "ensemble_benchmark.py", ["--quick"], "ensembles on Dask: members per minute"),
     ("import", "import_benchmark.py", ["--snapshots", "10", "--skip-openfoam"],
      "importing flows from other models"),
+    ("grid_peers", "grid_peers.py", ["--quick"],
+     "regular grids: bilinear sampling beside Parcels (error, CPU time, sampling speed)"),
+    ("import_raster", "raster_import_benchmark.py", ["--quick"],
+     "importing regular grids: GeoTIFF series, LISFLOOD-FP ASCII, CF grid"),
     ("stability", "stability_figures.py", ["--quick"],
      "stability where methods fail (stiff drag, jams, dry fronts) and the remedies"),
 ]
 
 
 def benchmarks_dir() -> Path:
+    """The repository's ``benchmarks`` folder (DriftlogError outside a checkout)."""
     d = Path(__file__).resolve().parents[1] / "benchmarks"
     if not d.is_dir():
         raise DriftlogError(f"benchmarks folder not found at {d}: driftlog report runs from a "

@@ -11,6 +11,8 @@ import numpy as np
 import pytest
 
 pytest.importorskip("rioxarray")
+# rioxarray 0.19 / affine: "Use `@` matmul instead of `*`" (their code, not ours)
+pytestmark = pytest.mark.filterwarnings("ignore::PendingDeprecationWarning")
 import xarray as xr  # noqa: E402
 from driftlog.adapters import detect_format, open_flow_source  # noqa: E402
 

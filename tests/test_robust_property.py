@@ -137,7 +137,7 @@ SCEN_COUNTS = {}
 @settings(max_examples=200, **SETTINGS)
 @given(scen=scenarios())
 def test_random_scenario_values_give_a_scenario_error_or_a_valid_scenario(scen):
-    from driftlog.logs import logs_from_scenario
+    from driftlog.api import logs_from_scenario
     from driftlog.scenario import load_scenario
 
     try:

@@ -186,7 +186,7 @@ def test_cli_import_and_info(flows, capsys):
     out = capsys.readouterr().out
     assert "TELEMAC Selafin, 2D, double precision" in out and "WATER DEPTH [M]" in out
     assert main(["info", str(d / "flow.dfsu")]) == 0
-    assert "MIKE dfsu (Dfsu2DH)" in capsys.readouterr().out
+    assert "MIKE dfsu (Dfsu2D)" in capsys.readouterr().out
     assert main(["import", str(d / "flow.dfsu.bin"), "-o", str(d / "back.nc")]) == 0
     back = open_flow(d / "back.nc")
     h, hu, _ = back.read_snapshot(3)
@@ -244,3 +244,35 @@ def test_cli_export(flows, capsys, rng):
     assert "give --format selafin or --format dfsu" in capsys.readouterr().err
     assert main(["export", src, "-o", str(d / "nodir" / "a.slf")]) == 2
     assert "cannot write the selafin file" in capsys.readouterr().err
+
+
+def test_ensemble_members_read_node_data_from_the_source(flows, tmp_path):
+    """An ensemble on a Selafin source does not convert it to a (face-valued) flow file."""
+    from driftlog.ensemble import load_ensemble, run_member
+    from driftlog.ensemble.runner import _prepare_flow
+
+    text = f"""
+[flow]
+source = "selafin"
+path = "{flows['dir'] / 'flow.slf'}"
+[time]
+start = 10.0
+end = 20.0
+[[logs]]
+x = [2.0, 2.0]
+y = [1.0, 3.0]
+length = 1.0
+radius = 0.08
+[ensemble]
+members = 2
+output = "{tmp_path / 'out'}"
+[ensemble.vary]
+"logs.density" = {{ uniform = [500.0, 900.0] }}
+"""
+    ens = load_ensemble(text)
+    sec, mesh = _prepare_flow(ens, ens.scenario, tmp_path / "out")
+    assert sec["source"] == "selafin" and mesh.n_faces == flows["orig"].mesh.n_faces
+    assert not (tmp_path / "out" / "flow.nc").exists()
+    (tmp_path / "e.toml").write_text(text)
+    summary = run_member(tmp_path / "e.toml", 1)
+    assert summary.n_logs == 2 and summary.faces.size >= 2

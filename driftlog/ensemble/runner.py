@@ -190,7 +190,8 @@ def _prepare_flow(ensemble: Ensemble, base: dict, out: Path):
     """The [flow] section the members run on, and its mesh (None for analytic flows).
 
     A flow file or an analytic field is used as it is.  A solved or imported flow is written
-    once to ``out/flow.nc`` and the members' ``[flow]`` names that file.  The mesh is read
+    once to ``out/flow.nc`` and the members' ``[flow]`` names that file, except node-located
+    data (TELEMAC Selafin), which the members read from the source itself.  The mesh is read
     from the file the members open (without its snapshots), so the maps are counted on the
     mesh the members see.
     """
@@ -209,6 +210,12 @@ def _prepare_flow(ensemble: Ensemble, base: dict, out: Path):
         if getattr(field_, "mesh", None) is None:
             raise ScenarioError("flow.source", sec["source"], "gives a flow without a mesh; "
                                 "an ensemble needs a flow file or an analytic flow")
+        if getattr(field_, "location", "face") == "node":
+            # node-located data (TELEMAC Selafin): a flow file holds face values, so the
+            # members open the source itself and sample its own nodes, as `track` does
+            if hasattr(field_.source, "close"):
+                field_.source.close()
+            return sec, field_.mesh
         write_flow(path, field_, attrs={"source": f"{sec['source']} (for the ensemble)"})
     new = dict(sec, source="file", path=str(path), steady_at=None)
     return new, read_flow_mesh(path)

@@ -16,7 +16,12 @@ frame (normal pointing out of the domain):
   Fr = 0.18 downstream).
 - ``rating``: outflow Q(level) from a table, the level being the tag's mean wet water level,
   shared by conveyance like a discharge.
-- ``free``: zero-gradient (transmissive) outflow: the ghost copies the inside state.
+- ``free``: zero-gradient (transmissive) outflow: the ghost copies the inside state where
+  the water at the edge leaves (``u_n >= 0``); where it flows inwards (an eddy reaching the
+  boundary) the ghost is the mirror state, as at a wall, so that no water enters that the
+  outside does not carry (OpenFOAM's ``inletOutlet`` with a zero inlet value does the same).
+  A zero-gradient ghost would let in whatever the eddy draws: on a channel whose outlet
+  crosses the wake of a block, 7 % of the inflow at second order (1.5 % at first).
 """
 
 from __future__ import annotations
@@ -266,5 +271,7 @@ def boundary_flux(kind, value, hL, zL, unL, utL, g, hdry, riemann):
         unR = unL + 2.0 * (math.sqrt(g * hL) - math.sqrt(g * hR))
         return riemann_flux(riemann, hL, unL, utL, hR, unR, utL, g)
     if kind == FREE:
+        if unL < 0.0:  # flowing in: the outside carries nothing, so no water enters
+            return riemann_flux(riemann, hL, unL, utL, hL, -unL, utL, g)
         return riemann_flux(riemann, hL, unL, utL, hL, unL, utL, g)
     return riemann_flux(riemann, hL, unL, utL, hL, -unL, utL, g)  # wall: mirror state
