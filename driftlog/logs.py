@@ -65,7 +65,8 @@ class Logs:
                  release_time=0.0, group=0, u=0.0, v=0.0, omega=0.0, water_density=1000.0):
         x = np.atleast_1d(np.asarray(x, dtype=np.float64))
         n = x.size
-        b = lambda a, dt=np.float64: np.ascontiguousarray(np.broadcast_to(np.asarray(a, dt), n))  # noqa: E731
+        # writable copies (waterlogging changes densities; broadcast_to views are read-only)
+        b = lambda a, dt=np.float64: np.array(np.broadcast_to(np.asarray(a, dt), n))  # noqa: E731
         self.id = np.arange(n, dtype=np.int64)
         self.state = np.zeros((n, 6))
         self.state[:, X] = x
