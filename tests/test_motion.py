@@ -84,7 +84,7 @@ def soak_run(depth, tau=100.0, rho0=700.0, rho_sat=1100.0, t_end=150.0, dt_out=0
 
     Tracker(flow, logs, ph, "rk4", t_end=t_end, output_interval=dt_out, hydro_step=dt_out,
             writer=Spy()).run()
-    t, st, rho_b = (np.array(c) for c in zip(*rec))
+    t, st, rho_b = (np.array(c) for c in zip(*rec, strict=True))
     return t, st, rho_b, logs
 
 
