@@ -54,9 +54,11 @@ def kernel(func=None, *, size_arg=0):
     return wrap(func) if func is not None else wrap
 
 
-# first-run compile times of each family of kernels (s, one core of the 2-core reference
-# machine, measured from a fresh clone: numba writes them to __pycache__ and loads them after)
-COMPILE_SECONDS = {"tracking": 30, "solver": 20, "contacts": 20}
+# first-run compile times of each family of kernels (CPU s on the 2-core reference machine;
+# measured: river_piers with an empty NUMBA_CACHE_DIR and a stored flow, tracking and contacts
+# compiled, 45 CPU s for the whole run against about 10 s warm; numba writes the kernels to
+# __pycache__ and loads them on the next runs)
+COMPILE_SECONDS = {"tracking": 20, "solver": 20, "contacts": 15}
 _PROBES = {"tracking": ("", "physics.rhs_kernel"), "solver": ("solver", "fluxes.edge_fluxes"),
            "contacts": ("contact", "geometry.capsule_gap")}
 
@@ -67,15 +69,14 @@ def kernels_cached(part: str) -> bool:
 
     sub, probe = _PROBES[part]
     here = Path(__file__).resolve().parent
-    dirs = [here / sub / "__pycache__" if sub else here / "__pycache__"]
-    for env in (os.environ.get("NUMBA_CACHE_DIR"), os.path.expanduser("~/.cache/numba")):
-        if env and os.path.isdir(env):
-            dirs.append(Path(env))
-    for d in dirs:
-        if d.is_dir() and (any(d.glob(f"{probe}-*.nbi")) or
-                           (d != dirs[0] and any(d.rglob(f"{probe}-*.nbi")))):
-            return True
-    return False
+    env = os.environ.get("NUMBA_CACHE_DIR")
+    if env:  # numba then caches there only
+        return os.path.isdir(env) and any(Path(env).rglob(f"{probe}-*.nbi"))
+    d = here / sub / "__pycache__" if sub else here / "__pycache__"
+    if d.is_dir() and any(d.glob(f"{probe}-*.nbi")):
+        return True
+    user = Path(os.path.expanduser("~/.cache/numba"))  # a read-only install caches here
+    return user.is_dir() and any(user.rglob(f"{probe}-*.nbi"))
 
 
 def announce_compile(parts, stream=None) -> int:

@@ -168,8 +168,9 @@ def cmd_run(args):
     scen = as_scenario(path, _overrides(args.set))
     print(f"driftlog: running {path}")
     res = track(scen, output=out / "trajectories.nc", progress=not args.quiet)
-    if Path(res.flow_name).exists():
-        print(f"  flow: {res.flow_name}")
+    flow = _flow_file(scen)
+    if flow is not None and flow.exists():
+        print(f"  flow: {flow}")
     print(f"  trajectories: {res.path}")
     for f in res.extra_files:
         print(f"  ParaView: {f}")
@@ -216,6 +217,16 @@ def _in_cases(path) -> bool:
         return False
 
 
+def _flow_file(scen):
+    """The flow file a scenario reads or computes (None for an analytic flow)."""
+    sec = scen["flow"]
+    if sec["source"] == "solver":
+        from driftlog.solver.config import _default_path
+
+        return _default_path(scen)  # with the engine's suffix
+    return Path(sec["path"]) if sec["source"] != "analytic" and sec["path"] else None
+
+
 def cmd_track(args):
     from driftlog.api import as_scenario, track
 
@@ -225,8 +236,9 @@ def cmd_track(args):
     if output is None and _in_cases(path):
         output = Path("driftlog-runs") / name / Path(scen["output"]["path"]).name
     res = track(scen, output=output, progress=not args.quiet, resume=args.resume)
-    if Path(res.flow_name).exists():
-        print(f"flow: {res.flow_name}")
+    flow = _flow_file(scen)
+    if flow is not None and flow.exists():
+        print(f"flow: {flow}")
     print(f"trajectories: {res.path}")
     for f in res.extra_files:
         print(f"ParaView: {f}")

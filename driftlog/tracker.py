@@ -221,6 +221,10 @@ class Tracker:
                          + 4.0 * float(np.spacing(max(abs(self.t), abs(self.t_end)))))
         self.output_interval = float(output_interval)
         self.hydro_step = float(hydro_step)
+        for key, v in (("time.output_interval", self.output_interval),
+                       ("time.hydro_step", self.hydro_step)):
+            if not (np.isfinite(v) and v > 0):
+                raise ScenarioError(key, v, "must be a finite number > 0 s")
         self.writer = writer
         self.progress = progress
         self.initial_velocity = (np.broadcast_to(np.asarray(initial_velocity), len(logs))

@@ -188,7 +188,7 @@ def test_mapping_to_a_missing_item(tmp_path):
 
 
 def test_3d_file():
-    with pytest.raises(FlowFileError, match=r"basin_3d.dfsu: a Dfsu3D file \(10 layers\); "
+    with pytest.raises(FlowFileError, match=r"basin_3d.dfsu: a Dfsu3DSigma file \(10 layers\); "
                                             "driftlog reads 2D horizontal"):
         mike.open(DATA / "basin_3d.dfsu")
 
@@ -242,3 +242,12 @@ def test_delete_values_read_as_dry(tmp_path):
     assert np.all(h[gone] == 0) and np.all(hu[gone] == 0) and np.all(hv[gone] == 0)
     eta, u, v = linear(XE, YE, 3600.0)
     np.testing.assert_allclose(h[~gone], (eta - ZE)[~gone], atol=1e-6)
+
+
+def test_non_equidistant_times(tmp_path):
+    times = pd.DatetimeIndex(["2021-06-01 12:00:00", "2021-06-01 12:10:00",
+                              "2021-06-01 13:00:30"])
+    f = mike.open(write_dfsu(tmp_path / "a.dfsu", times=times))
+    np.testing.assert_array_equal(f.times, [0.0, 600.0, 3630.0])
+    h = f.read_snapshot(2)[0]
+    np.testing.assert_allclose(h, linear(XE, YE, 3630.0)[0] - ZE, atol=1e-6)

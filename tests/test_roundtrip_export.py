@@ -186,7 +186,7 @@ def test_cli_import_and_info(flows, capsys):
     out = capsys.readouterr().out
     assert "TELEMAC Selafin, 2D, double precision" in out and "WATER DEPTH [M]" in out
     assert main(["info", str(d / "flow.dfsu")]) == 0
-    assert "MIKE dfsu (Dfsu2DH)" in capsys.readouterr().out
+    assert "MIKE dfsu (Dfsu2D)" in capsys.readouterr().out
     assert main(["import", str(d / "flow.dfsu.bin"), "-o", str(d / "back.nc")]) == 0
     back = open_flow(d / "back.nc")
     h, hu, _ = back.read_snapshot(3)
