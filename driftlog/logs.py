@@ -65,7 +65,8 @@ class Logs:
                  release_time=0.0, group=0, u=0.0, v=0.0, omega=0.0, water_density=1000.0):
         x = np.atleast_1d(np.asarray(x, dtype=np.float64))
         n = x.size
-        b = lambda a, dt=np.float64: np.ascontiguousarray(np.broadcast_to(np.asarray(a, dt), n))  # noqa: E731
+        # writable copies (waterlogging changes densities; broadcast_to views are read-only)
+        b = lambda a, dt=np.float64: np.array(np.broadcast_to(np.asarray(a, dt), n))  # noqa: E731
         self.id = np.arange(n, dtype=np.int64)
         self.state = np.zeros((n, NSTATE))
         self.state[:, X] = x
@@ -116,7 +117,7 @@ class Logs:
 
     @classmethod
     def concatenate(cls, parts):
-        """One ``Logs`` of the logs of ``parts`` in order (ids renumbered from 0)."""
+        """One Logs from several (their non-empty parts, in order, ids renumbered)."""
         parts = [p for p in parts if len(p)]
         out = cls.__new__(cls)
         for name in ("state", "length", "radius", "density", "release_time", "group", "status",
@@ -129,19 +130,19 @@ class Logs:
     def __repr__(self):
         counts = np.bincount(self.status, minlength=5)
         names = STATUS_MEANINGS.split()
-        kinds = ", ".join(f"{c} {n}" for c, n in zip(counts, names, strict=False) if c)
-        return f"<Logs {len(self)}: {kinds}>"
+        parts = ", ".join(f"{c} {n}" for c, n in zip(counts, names, strict=False) if c)
+        return f"<Logs {len(self)}: " + parts + ">"
 
 
 # --------------------------------------------------------------------- seeding
 def _polygon_area_sampler(poly, n, rng):
-    """Draw n points uniformly in a simple polygon (triangle fan by ear clipping)."""
+    """Draw n points uniformly in a simple polygon (triangulated, area-weighted)."""
     import triangle
 
     poly = np.asarray(poly, dtype=float)
     m = len(poly)
-    ring = np.column_stack([np.arange(m), (np.arange(m) + 1) % m])
-    tri = triangle.triangulate({"vertices": poly, "segments": ring}, "p")
+    segments = np.column_stack([np.arange(m), (np.arange(m) + 1) % m])
+    tri = triangle.triangulate({"vertices": poly, "segments": segments}, "p")
     v, t = tri["vertices"], tri["triangles"]
     a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
     area = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])

@@ -20,11 +20,12 @@ import scipy.sparse as sp
 
 from driftlog.errors import MeshError
 from driftlog.locate import Locator, build_bin_grid, locate_points
+from driftlog.nodal import lsq_node_operators
+from driftlog.seams import FILL, SEAM_TOLERANCE, merge_coincident_nodes
 
 __all__ = ["Mesh", "read_mesh", "read_ugrid_mesh", "merge_coincident_nodes", "mesh_merging_seams",
            "SEAM_TOLERANCE"]
 
-FILL = -1
 DEFAULT_TAG = "wall"
 
 
@@ -415,77 +416,8 @@ class Mesh:
         continuous gradient (exact for linear fields) once interpolated P1 between nodes.
         """
         if self._node_interp is None:
-            self._node_interp = _lsq_node_operators(self)
+            self._node_interp = lsq_node_operators(self)
         return self._node_interp
-
-
-def _node_face_pairs(mesh):
-    valid = mesh.face_nodes >= 0
-    nodes = mesh.face_nodes[valid]
-    faces = np.broadcast_to(np.arange(mesh.n_faces)[:, None], mesh.face_nodes.shape)[valid]
-    return nodes, faces
-
-
-def _lsq_weights(nodes, faces, mesh):
-    """Least-squares weights (value, d/dx, d/dy) for (node, face) stencil pairs; nodes that fit."""
-    dx = mesh.face_x[faces] - mesh.node_x[nodes]
-    dy = mesh.face_y[faces] - mesh.node_y[nodes]
-    nn = mesh.n_nodes
-    cnt = np.bincount(nodes, minlength=nn).astype(float)
-    s2 = np.bincount(nodes, weights=dx * dx + dy * dy, minlength=nn) / np.maximum(cnt, 1)
-    s = np.sqrt(np.maximum(s2, 1e-300))
-    dx, dy = dx / s[nodes], dy / s[nodes]
-    M = np.zeros((nn, 3, 3))
-    cols = [np.ones_like(dx), dx, dy]
-    for i in range(3):
-        for j in range(i, 3):
-            M[:, i, j] = np.bincount(nodes, weights=cols[i] * cols[j], minlength=nn)
-            M[:, j, i] = M[:, i, j]
-    # well conditioned when the smallest eigenvalue is a fair share of the stencil size
-    ev = np.linalg.eigvalsh(M)
-    ok = ev[:, 0] > 1e-6 * np.maximum(cnt, 1)
-    Minv = np.zeros_like(M)
-    Minv[ok] = np.linalg.inv(M[ok])
-    w = [Minv[nodes, r, 0] + Minv[nodes, r, 1] * dx + Minv[nodes, r, 2] * dy for r in range(3)]
-    w[1] = w[1] / s[nodes]  # undo the scaling of the coordinates
-    w[2] = w[2] / s[nodes]
-    return w, ok
-
-
-def _lsq_node_operators(mesh):
-    nn, nf = mesh.n_nodes, mesh.n_faces
-    nodes, faces = _node_face_pairs(mesh)
-    w, ok = _lsq_weights(nodes, faces, mesh)
-    keep = ok[nodes]
-    rows, cols, vals = [nodes[keep]], [faces[keep]], [[wk[keep]] for wk in w]
-    bad = np.flatnonzero(~ok)
-    if bad.size:
-        # second ring: faces that share a node with a face around the node
-        n2f = sp.csr_matrix((np.ones(nodes.size), (nodes, faces)), shape=(nn, nf))
-        ring2 = ((n2f[bad] @ n2f.T) @ n2f).tocoo()
-        bn, bf = bad[ring2.row], ring2.col
-        w2, ok2 = _lsq_weights(bn, bf, mesh)
-        keep2 = ok2[bn]
-        rows.append(bn[keep2])
-        cols.append(bf[keep2])
-        for k in range(3):
-            vals[k].append(w2[k][keep2])
-        worst = np.setdiff1d(bad, bn[keep2])
-        if worst.size:  # collinear even so: plain average of the faces around the node
-            sel = np.isin(nodes, worst)
-            cnt = np.bincount(nodes[sel], minlength=nn)
-            rows.append(nodes[sel])
-            cols.append(faces[sel])
-            vals[0].append(1.0 / cnt[nodes[sel]])
-            vals[1].append(np.zeros(sel.sum()))
-            vals[2].append(np.zeros(sel.sum()))
-    r, c = np.concatenate(rows), np.concatenate(cols)
-    ops = []
-    for k in range(3):
-        P = sp.csr_matrix((np.concatenate(vals[k]), (r, c)), shape=(nn, nf))
-        P.sum_duplicates()
-        ops.append(P)
-    return tuple(ops)
 
 
 # --------------------------------------------------------------------- readers
@@ -528,75 +460,6 @@ def read_ugrid_mesh(path, topology: str | None = None) -> Mesh:
         node_y = np.asarray(ds.variables[yname][:], np.float64)
     return mesh_merging_seams(node_x, node_y, face_nodes, fill_value=int(fill),
                               start_index=start, node_z=z)
-
-
-#: nodes closer than this fraction of their shortest edge are one node (``merge_coincident``)
-SEAM_TOLERANCE = 1e-6
-
-
-def merge_coincident_nodes(node_x, node_y, face_nodes, fill_value=FILL, start_index=0,
-                           rel_tol=SEAM_TOLERANCE):
-    """Merge nodes that coincide: the seams of partitioned meshes (D-Flow FM, ANUGA, HEC-RAS).
-
-    Two nodes are one when their distance is at most ``rel_tol`` times the shortest edge
-    touching either of them (a tolerance relative to the local edge length, so a fine mesh in
-    millimetres and a coarse one in kilometres are treated alike; two real nodes are never
-    that close on a valid mesh).  Faces keep their node order; each merged group keeps the
-    coordinates of its lowest-numbered node.
-
-    Returns
-    -------
-    keep : int array
-        The original index of each node of the merged mesh.
-    face_nodes : int array
-        The faces on the merged nodes (0-based, padding ``FILL``).
-    n_merged : int
-        Nodes removed (0 when there was no seam).
-    """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-
-    x = np.asarray(node_x, np.float64)
-    y = np.asarray(node_y, np.float64)
-    fn = np.asarray(face_nodes, np.int64)
-    pad = (fn == fill_value) | (fn < start_index)
-    fn = np.where(pad, FILL, fn - start_index)
-    n = x.size
-    if n < 2 or fn.size == 0 or fn.max() >= n:
-        return np.arange(n), fn, 0
-    # candidates: pairs within rel_tol of the domain's diagonal (no edge is longer), then each
-    # pair against its own nodes' shortest edges, computed for the candidates only (a mesh
-    # without seams costs one tree query)
-    diag = float(np.hypot(np.ptp(x), np.ptp(y)))
-    tree = cKDTree(np.column_stack([x, y]))
-    pairs = tree.query_pairs(rel_tol * diag, output_type="ndarray")
-    if pairs.size:
-        cand = np.unique(pairs)
-        nxt = np.roll(fn, -1, axis=1)
-        nxt = np.where(nxt < 0, fn[:, :1], nxt)  # the last real node closes on the first
-        valid = fn >= 0
-        a, b = fn[valid], nxt[valid]
-        touch = np.isin(a, cand) | np.isin(b, cand)
-        a, b = a[touch], b[touch]
-        length = np.hypot(x[a] - x[b], y[a] - y[b])
-        local = np.full(n, np.inf)
-        np.minimum.at(local, a, length)
-        np.minimum.at(local, b, length)
-        d = np.hypot(x[pairs[:, 0]] - x[pairs[:, 1]], y[pairs[:, 0]] - y[pairs[:, 1]])
-        lim = rel_tol * np.minimum(local[pairs[:, 0]], local[pairs[:, 1]])
-        pairs = pairs[d <= lim]
-    if pairs.size == 0:
-        return np.arange(n), fn, 0
-    g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    _, label = connected_components(g, directed=False)
-    # representative: the lowest node of each group, numbered in the order of the nodes
-    rep = np.full(label.max() + 1, n, np.int64)
-    np.minimum.at(rep, label, np.arange(n))
-    keep = np.sort(rep)
-    new_of_old = np.searchsorted(keep, rep[label])
-    out = np.where(fn >= 0, new_of_old[np.maximum(fn, 0)], FILL)
-    return keep, out, int(n - keep.size)
 
 
 def mesh_merging_seams(node_x, node_y, face_nodes, fill_value=FILL, start_index=0,

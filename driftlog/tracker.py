@@ -33,7 +33,9 @@ from driftlog.columns import (
     NVAR,
     OMEGA,
     OUTSIDE,
+    P_HSTAR,
     STATE_NAMES,
+    THETA,
     UB,
     VB,
     VELOCITY,
@@ -47,7 +49,14 @@ from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.fused import FUSED_METHODS, euler_mesh_step, rk4_mesh_step
 from driftlog.integrators import RK4_C, make_integrator
 from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, WAITING
-from driftlog.physics import PhysicsOptions, log_parameters, rhs_kernel
+from driftlog.physics import (
+    PhysicsOptions,
+    log_parameters,
+    rest_drive,
+    rhs_kernel,
+    sample_row,
+    soak_kernel,
+)
 from driftlog.schema import Key, Section
 
 __all__ = ["Tracker", "StepOptions", "TIME_SECTION", "StepTooSmallError", "IntegrationError"]
@@ -107,6 +116,32 @@ def _classify(F, flag, float_depth, status):
             s = STRANDED
         elif F[i, H] < float_depth[i]:
             s = RESTING
+        else:
+            s = FLOATING
+        if s != status[i]:
+            changed += 1
+        status[i] = s
+    return changed
+
+
+@nb.njit(cache=True)
+def _classify_motion(F, flag, S, P, opt, status):
+    """As ``_classify``, with initial motion on the bed (``physics.motion = "friction"``).
+
+    A wet log below its flotation depth moves (status floating: transported) when the flow's
+    forces on it at rest overcome bed friction (``physics.rest_drive``, MODEL.md 6.1), and
+    rests otherwise.
+    """
+    changed = 0
+    for i in range(F.shape[0]):
+        if flag[i] == OUTSIDE:
+            s = LEFT
+        elif flag[i] == DRY:
+            s = STRANDED
+        elif F[i, H] < P[i, P_HSTAR]:
+            fx, fy, ff = rest_drive(S[i, THETA], sample_row(F, i), P[i], opt)
+            f = np.sqrt(fx * fx + fy * fy)
+            s = FLOATING if (f > 0.0 and f >= ff) else RESTING
         else:
             s = FLOATING
         if s != status[i]:
@@ -197,6 +232,10 @@ class Tracker:
                          + 4.0 * float(np.spacing(max(abs(self.t), abs(self.t_end)))))
         self.output_interval = float(output_interval)
         self.hydro_step = float(hydro_step)
+        for key, v in (("time.output_interval", self.output_interval),
+                       ("time.hydro_step", self.hydro_step)):
+            if not (np.isfinite(v) and v > 0):
+                raise ScenarioError(key, v, "must be a finite number > 0 s")
         self.writer = writer
         self.progress = progress
         self.initial_velocity = (np.broadcast_to(np.asarray(initial_velocity), len(logs))
@@ -370,6 +409,36 @@ class Tracker:
         return dt
 
     # ----------------------------------------------------------------- statuses
+    def _classify(self, F, flag, idx, status, S=None, P=None):
+        """Statuses of the logs ``idx`` from the flow at them; how many changed.
+
+        ``S``, ``P``: their state and parameter rows when already gathered.
+        """
+        L = self.logs
+        if self.physics.motion == "floating":
+            return _classify(F, flag, L.float_depth[idx], status)
+        S = L.state[idx] if S is None else S
+        P = self.P_all[idx] if P is None else P
+        return _classify_motion(F, flag, S, P, self.opt, status)
+
+    def _soak(self, dt):
+        """Waterlogging (MODEL.md 6.2): the density of every wet log rises over dt."""
+        if self.physics.waterlogging == "off" or dt <= 0.0:
+            return
+        L = self.logs
+        wet = np.flatnonzero((L.status == FLOATING) | (L.status == RESTING))
+        if wet.size == 0:
+            return
+        ph = self.physics
+        soak_kernel(wet, dt, ph.saturated_density, ph.waterlogging_time, L.water_density,
+                    L.density, L.volume, L.length, L.radius, L.mass, L.inertia, L.float_depth,
+                    self.P_all)
+        if self.act.size:
+            self.P[:] = self.P_all[self.act]
+            self.mass = L.mass[self.act]
+            self.inertia = L.inertia[self.act]
+            self._d0_valid = False  # the first stage depends on the density
+
     def _update_status(self):
         """Re-classify floating logs (left, stranded, resting) and the resting ones (refloat)."""
         L = self.logs
@@ -377,7 +446,7 @@ class Tracker:
         if self.act.size:
             self._sample_current()
             st = np.full(self.act.size, FLOATING, np.int8)
-            if _classify(self.F, self.flag, L.float_depth[self.act], st):
+            if self._classify(self.F, self.flag, self.act, st, self.state, self.P):
                 self._scatter()
                 scattered = changed = True
                 L.status[self.act] = st
@@ -385,7 +454,9 @@ class Tracker:
                 L.state[self.act[st != FLOATING], VELOCITY] = 0.0
         idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
         # on a steady flow an idle log can only change when it has just stopped
-        if idle.size and (not self._steady or changed or self._first_check):
+        # (waterlogging changes the logs themselves)
+        if idle.size and (not self._steady or changed or self._first_check
+                          or self.physics.waterlogging != "off"):
             changed |= self._check_idle(idle)
         self._first_check = False
         if changed:
@@ -398,7 +469,7 @@ class Tracker:
         s = self.flow.sample(L.state[idx, X], L.state[idx, Y], self.t, face=L.face[idx])
         L.face[idx] = s.face
         st = L.status[idx].copy()
-        n = _classify(s.values, s.flag, L.float_depth[idx], st)
+        n = self._classify(s.values, s.flag, idx, st)
         if n:
             lifted = idx[(st == FLOATING)]
             L.state[lifted, VELOCITY] = 0.0  # a lifted log starts from rest
@@ -425,11 +496,13 @@ class Tracker:
             raise outside_error(self.flow, L, out)
         L.face[due] = s.face
         st = np.full(due.size, WAITING, np.int8)
-        _classify(s.values, s.flag, L.float_depth[due], st)
+        self._classify(s.values, s.flag, due, st)
         L.status[due] = st
         fl = st == FLOATING
-        L.state[due[fl & (self.initial_velocity[due] == "rest")], VELOCITY] = 0.0
-        with_flow = fl & (self.initial_velocity[due] == "flow")
+        # a log set moving on the bed (motion = friction) starts from rest
+        on_bed = fl & (s.h < L.float_depth[due])
+        L.state[due[fl & ((self.initial_velocity[due] == "rest") | on_bed)], VELOCITY] = 0.0
+        with_flow = fl & (self.initial_velocity[due] == "flow") & ~on_bed
         L.state[due[with_flow], UB] = s.u[with_flow]
         L.state[due[with_flow], VB] = s.v[with_flow]
         if self.physics.rotation:
@@ -542,6 +615,7 @@ class Tracker:
                     if stop - self.t <= self.time_tol:
                         self.t = stop  # land exactly
                     taken = self.t - t_before
+                    self._soak(taken)
                     st = self.stats
                     st["substeps"] += 1
                     st["min_dt"] = min(st["min_dt"], taken)

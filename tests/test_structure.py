@@ -25,8 +25,9 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS = [
     ("base", ["driftlog._version", "driftlog._numba", "driftlog.errors", "driftlog.schema",
               "driftlog.files", "driftlog.resources", "driftlog.columns"]),
-    ("mesh", ["driftlog.locate", "driftlog.mesh", "driftlog.mesher"]),
-    ("flow field", ["driftlog.flow", "driftlog.gridflow", "driftlog.nodal", "driftlog.analytic",
+    ("mesh", ["driftlog.locate", "driftlog.seams", "driftlog.nodal", "driftlog.mesh",
+              "driftlog.mesher"]),
+    ("flow field", ["driftlog.flow", "driftlog.gridflow", "driftlog.analytic",
                     "driftlog.protocols"]),
     ("hydro source", ["driftlog.flowfile", "driftlog.adapters", "driftlog.solver",
                       "driftlog.seas", "driftlog.floodsetup", "driftlog.malpasset"]),
