@@ -165,3 +165,36 @@ def test_fused_path_carries_bed_friction_and_waterlogging_bit_for_bit(method):
     assert np.any((st1 == FLOATING) & on_bed)
     assert np.any(st1 == RESTING)
     assert np.all(d1 > 600.0) and np.all(d1 < 1050.0)
+
+
+def test_scenario_run_sinks_a_waterlogged_log_and_friction_holds_it(tmp_path):
+    from driftlog.api import track
+    from driftlog.trajectory import open_trajectories
+
+    scen = """
+[flow]
+source = "analytic"
+kind = "uniform"
+velocity = [0.0, 0.0]
+depth = 1.0
+[time]
+end = 200.0
+output_interval = 1.0
+[[logs]]
+x = [0.0]
+y = [0.0]
+length = 1.0
+radius = 0.1
+density = 700.0
+[physics]
+motion = "friction"
+waterlogging = "exponential"
+saturated_density = 1100.0
+waterlogging_time = 100.0
+"""
+    track(scen, output=tmp_path / "t.nc")
+    ds = open_trajectories(tmp_path / "t.nc")
+    t, st = ds["time"].values, ds["status"].values  # one log: one record per time
+    t_star = 100.0 * np.log(4.0)  # rho_b reaches rho = 1000 kg/m3
+    assert np.all(st[t < t_star] == FLOATING) and np.all(st[t > t_star] == RESTING)
+    assert np.all(ds["x"].values == 0.0)  # still water: held on the bed by friction
