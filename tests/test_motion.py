@@ -198,3 +198,13 @@ waterlogging_time = 100.0
     t_star = 100.0 * np.log(4.0)  # rho_b reaches rho = 1000 kg/m3
     assert np.all(st[t < t_star] == FLOATING) and np.all(st[t > t_star] == RESTING)
     assert np.all(ds["x"].values == 0.0)  # still water: held on the bed by friction
+
+
+def test_a_waterlogged_run_is_not_resumed_with_fresh_densities():
+    logs = Logs([0.0], [0.0], 0.0, 1.0, 0.1, 700.0)
+    ph = PhysicsOptions(waterlogging="exponential", waterlogging_time=100.0)
+    tr = Tracker(UniformFlow(0.0, 0.0, 1.0), logs, ph, "rk4", t_end=10.0)
+    cols = {k: np.zeros(1) for k in ("x", "y", "theta", "u", "v", "omega")}
+    cols["status"] = np.array([FLOATING], np.int8)
+    with pytest.raises(ScenarioError, match="physics.waterlogging.*cannot be resumed"):
+        tr.resume_from(5.0, np.array([0]), cols)
