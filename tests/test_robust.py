@@ -139,6 +139,10 @@ def test_wrong_kind_of_file_is_named(files, capsys, tmp_path):
         open_flow(files["traj"])
     err = _err(capsys, ["import", files["dir"], "-o", tmp_path / "x.nc"])
     assert "not an OpenFOAM case" in err
+    err = _err(capsys, ["import", files["traj"], "-o", tmp_path / "x.nc"])
+    assert "a driftlog trajectory file; a hydro source must be" in err
+    err = _err(capsys, ["ensemble", files["flow"]])
+    assert "a driftlog flow file, not an ensemble file" in err
 
 
 # ----------------------------------------------------------------- class 2: empty files
