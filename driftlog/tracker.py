@@ -498,6 +498,10 @@ class Tracker:
         time restarts at ``t`` (an output time, where a sub-step always ends), so the resumed
         run continues exactly as the uninterrupted one would have.
         """
+        if self.physics.waterlogging != "off":
+            raise ScenarioError("physics.waterlogging", self.physics.waterlogging,
+                                "a run with waterlogging cannot be resumed: the logs' densities "
+                                "are not in the trajectory file; rerun it from the start")
         L = self.logs
         for k, name in enumerate(("x", "y", "theta", "u", "v", "omega")):
             L.state[index, k] = columns[name]
