@@ -93,6 +93,14 @@ def detect_format(path) -> str:
     for r in READERS:
         if r.can_open(p):
             return r.KIND
+    from driftlog.files import sniff
+
+    fk = sniff(p)  # what it is, when no reader opens it: a clearer message than "unknown"
+    if fk.kind in ("trajectories", "partial", "scenario", "empty", "binary", "ensemble",
+                   "mesh"):  # (truncated NetCDF and text: the NetCDF opener says why below)
+        raise FlowFileError(f"{p}: {fk.describe()}; a hydro source must be a driftlog flow "
+                            "file, another model's output (" + ", ".join(KINDS[1:])
+                            + ") or an OpenFOAM case")
     if p.is_dir():
         raise FlowFileError(f"{p}: unknown layout: a directory that is not an OpenFOAM case "
                             "(no system/controlDict, constant/polyMesh or processor*)")

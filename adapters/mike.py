@@ -1,5 +1,9 @@
 """MIKE 21 FM (DHI) ``.dfsu`` results as driftlog flows, read with ``mikeio``.
 
+Read with mikeio's engine, ``mikecore`` (header, mesh and items in one pass; each step from
+the file kept open), item types and units as mikeio's ``EUMType`` / ``EUMUnit``; written
+(``write``, ``driftlog export``) with mikeio's ``Dataset.to_dfs`` and ``Dfsu.append``.
+
 A 2D horizontal dfsu file holds a flexible mesh of triangles and quadrilaterals (mixed), node
 coordinates with the bathymetry Z at the nodes, and per time step one value per element of
 each item.  MIKE 21 FM is a cell-centred finite-volume model: element values are face values
@@ -11,7 +15,7 @@ V velocity (u/v_velocity_component), or P flux and Q flux (m3/s/m) for unit disc
 Depth is Total water depth, or Surface elevation minus the element bathymetry.  The bed is the
 element bathymetry: Surface elevation - Total water depth of the first step when the file has
 both (the engine's own element value, to float32), else the mean of the element's node Z
-(mikeio's element coordinates).  Units are converted from the items' EUM units (meter, feet,
+(as mikeio's element coordinates).  Units are converted from the items' EUM units (meter, feet,
 US feet, cm, mm; m/s, ft/s, cm/s...) with a note; any other unit is an error.  An element
 holding MIKE's delete value (or NaN) in any item of a step has no data there: it is read as
 dry (depth and discharge 0) for that step.

@@ -104,6 +104,11 @@ class AnalyticField(FlowField):
 
     def __init__(self, params, name):
         self.params = np.asarray(params, dtype=np.float64)
+        if not np.all(np.isfinite(self.params)):
+            from driftlog.errors import ArgumentError
+
+            raise ArgumentError(f"{type(self).__name__}: parameters must be finite numbers; "
+                                f"got {name}")
         self.name = name
 
     def sample_into(self, x, y, t, face, out, flag):

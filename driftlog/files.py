@@ -271,6 +271,10 @@ def require(path, kinds, role: str, hint: str = "", error=InputFileError,
                          + (f": {extra}" if extra else ""))
 
 
+def _a(noun: str) -> str:
+    return ("an " if noun[:1].lower() in "aeiou" else "a ") + noun
+
+
 def read_text(path, role: str = "scenario file") -> str:
     """The UTF-8 text of a file, or one clear error.
 
@@ -292,11 +296,12 @@ def read_text(path, role: str = "scenario file") -> str:
         raise InputFileError(f"{p}: the {role} is empty ({len(data)} bytes)")
     if data.startswith(NETCDF_MAGIC):
         fk = sniff(p)
-        raise InputFileError(f"{p}: {fk.describe()}, not a {role} (a TOML text file)"
+        raise InputFileError(f"{p}: {fk.describe()}, not {_a(role)} (a TOML text file)"
                              + (f": {_HINTS.get((fk.kind, 'scenario'))}"
                                 if (fk.kind, "scenario") in _HINTS else ""))
     if b"\0" in data[:65536]:
-        raise InputFileError(f"{p}: a binary file (NUL bytes), not a {role} (a TOML text file)")
+        raise InputFileError(f"{p}: a binary file (NUL bytes), not {_a(role)} (a TOML text "
+                             "file)")
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:

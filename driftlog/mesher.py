@@ -59,8 +59,19 @@ def polygon_mesh(outer, cell_size, holes=(), side_tags=None, min_angle=30.0, ref
     outer = np.asarray(outer, dtype=float)
     if outer.ndim != 2 or outer.shape[0] < 3 or outer.shape[1] != 2:
         raise MeshError(f"outer polygon must be (n >= 3, 2), got shape {outer.shape}")
-    if not cell_size > 0:
-        raise MeshError(f"cell_size must be > 0, got {cell_size}")
+    if not (cell_size > 0 and np.isfinite(cell_size)):
+        raise MeshError(f"cell_size must be a finite number > 0, got {cell_size}")
+    if not np.all(np.isfinite(outer)):
+        raise MeshError("outer polygon holds NaN or inf coordinates")
+    # refuse before Triangle runs out of memory (it fails after minutes with "Triangulation
+    # failed"): 1.55 x area / equilateral-triangle area, ~1.5 kB a triangle while meshing
+    x, y = outer[:, 0], outer[:, 1]
+    est = 1.55 * 0.5 * abs(np.dot(x, np.roll(y, 1)) - np.dot(y, np.roll(x, 1))) / (
+        np.sqrt(3) / 4 * cell_size ** 2)
+    from driftlog.resources import check_fits
+
+    check_fits(est * 1500.0, f"meshing with cell_size = {cell_size:g} m (about {est:.3g} "
+               "triangles)", "use a larger cell_size")
     tags = ["wall"]
     side_tags = side_tags or {}
     verts, segs, marks = [], [], []
@@ -98,7 +109,12 @@ def polygon_mesh(outer, cell_size, holes=(), side_tags=None, min_angle=30.0, ref
     # positional notation: Triangle reads "a6.8e-05" as area 6.8 followed by its -e switch
     a = np.format_float_positional(area, precision=10, unique=False, fractional=False,
                                    trim="-")
-    out = triangle.triangulate(data, f"pq{min_angle:g}a{a}")
+    try:
+        out = triangle.triangulate(data, f"pq{min_angle:g}a{a}")
+    except RuntimeError as exc:  # Triangle: self-intersecting outline, holes outside...
+        raise MeshError(f"the mesher cannot triangulate this outline with cell_size = "
+                        f"{cell_size:g} m ({exc}); check that the outline does not cross "
+                        "itself and the holes (piers) lie inside it without overlapping") from None
     if refine is not None:
         tri = out["triangles"]
         c = out["vertices"][tri].mean(axis=1)
@@ -145,6 +161,9 @@ def channel_mesh(length, width, cell_size, x0=0.0, y0=0.0, holes=(), structured=
     The left side (x = x0) is tagged ``inflow``, the right side ``outflow``, the banks and any
     holes ``wall``.  ``structured`` gives a grid of squares (no holes allowed).
     """
+    for name, v in (("length", length), ("width", width), ("cell_size", cell_size)):
+        if not (np.isfinite(v) and v > 0):
+            raise MeshError(f"channel {name} = {v}: must be a finite number > 0 (m)")
     if structured:
         if holes:
             raise MeshError("a structured channel cannot have holes; use structured = false")

@@ -139,6 +139,10 @@ def test_wrong_kind_of_file_is_named(files, capsys, tmp_path):
         open_flow(files["traj"])
     err = _err(capsys, ["import", files["dir"], "-o", tmp_path / "x.nc"])
     assert "not an OpenFOAM case" in err
+    err = _err(capsys, ["import", files["traj"], "-o", tmp_path / "x.nc"])
+    assert "a driftlog trajectory file; a hydro source must be" in err
+    err = _err(capsys, ["ensemble", files["flow"]])
+    assert "a driftlog flow file, not an ensemble file" in err
 
 
 # ----------------------------------------------------------------- class 2: empty files
@@ -237,6 +241,19 @@ def test_non_finite_and_negative_numbers(tmp_path, capsys):
         Logs([np.nan], [0.0])
     with pytest.raises(ScenarioError, match=r"\[logs.radius\] = inf"):
         Logs([0.0], [0.0], radius=np.inf)
+    from driftlog.analytic import UniformFlow
+    from driftlog.errors import MeshError
+    from driftlog.mesher import channel_mesh
+    from driftlog.physics import PhysicsOptions
+    from driftlog.tracker import Tracker
+
+    with pytest.raises(ArgumentError, match="UniformFlow: parameters must be finite"):
+        UniformFlow(np.nan, 0.0)
+    with pytest.raises(MeshError, match="channel width = -4.0: must be a finite number > 0"):
+        channel_mesh(20.0, -4.0, 1.0)
+    with pytest.raises(ScenarioError, match=r"\[time.output_interval\] = 0.0: must be a finite"):
+        Tracker(UniformFlow(1.0), Logs([0.0], [0.0]), PhysicsOptions(), t_end=2.0,
+                output_interval=0.0)
     # file contents: a flow file holding NaN depths
     flow = _flow_file(tmp_path / "nanflow.nc", nan=True)
     err = _err(capsys, ["scenario", "check", _scenario_on_file(tmp_path, flow)])
@@ -271,8 +288,11 @@ def test_sizes_that_do_not_fit_are_refused_before_allocating(tmp_path, capsys):
     err = _err(capsys, ["track", s, "-o", tmp_path / "big.nc"])
     assert "tracking 1e+07 logs" in err and "GiB" in err
     assert not list(tmp_path.glob("big.nc*"))  # nothing half-written
+    from driftlog.mesher import polygon_mesh
     from driftlog.solver.config import estimate_mesh
 
+    with pytest.raises(SizeError, match="meshing with cell_size = 0.001 m .about 9.13e\\+11"):
+        polygon_mesh([[0.0, 0.0], [1500.0, 0.0], [1500.0, 170.0], [0.0, 170.0]], 0.001)
     sec = {"mesh": "channel", "channel": [0.0, 0.0, 1500.0, 170.0], "cell_size": 0.001}
     with pytest.raises(SizeError, match=r"\[solver.cell_size\] = 0.001 m: about 9.13e\+11"):
         estimate_mesh(sec)
