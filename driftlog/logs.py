@@ -65,7 +65,8 @@ class Logs:
                  release_time=0.0, group=0, u=0.0, v=0.0, omega=0.0, water_density=1000.0):
         x = np.atleast_1d(np.asarray(x, dtype=np.float64))
         n = x.size
-        b = lambda a, dt=np.float64: np.ascontiguousarray(np.broadcast_to(np.asarray(a, dt), n))  # noqa: E731
+        # writable copies (waterlogging changes densities; broadcast_to views are read-only)
+        b = lambda a, dt=np.float64: np.array(np.broadcast_to(np.asarray(a, dt), n))  # noqa: E731
         self.id = np.arange(n, dtype=np.int64)
         self.state = np.zeros((n, 6))
         self.state[:, X] = x
@@ -102,7 +103,7 @@ class Logs:
         self.mass = self.density * self.volume
         self.inertia = self.mass * (self.length ** 2 / 12.0 + self.radius ** 2 / 4.0)
         self.float_depth = np.array([flotation_depth(r, d, self.water_density)
-                                     for r, d in zip(self.radius, self.density)])
+                                     for r, d in zip(self.radius, self.density, strict=True)])
 
     def __len__(self):
         return self.id.size
@@ -116,6 +117,7 @@ class Logs:
 
     @classmethod
     def concatenate(cls, parts):
+        """One Logs from several (their non-empty parts, in order, ids renumbered)."""
         parts = [p for p in parts if len(p)]
         out = cls.__new__(cls)
         for name in ("state", "length", "radius", "density", "release_time", "group", "status",
@@ -128,19 +130,19 @@ class Logs:
     def __repr__(self):
         counts = np.bincount(self.status, minlength=5)
         names = STATUS_MEANINGS.split()
-        return f"<Logs {len(self)}: " + ", ".join(f"{c} {n}" for c, n in zip(counts, names) if c) + ">"
+        parts = ", ".join(f"{c} {n}" for c, n in zip(counts, names, strict=False) if c)
+        return f"<Logs {len(self)}: " + parts + ">"
 
 
 # --------------------------------------------------------------------- seeding
 def _polygon_area_sampler(poly, n, rng):
-    """n points uniformly distributed in a simple polygon (triangle fan by ear clipping)."""
+    """Draw n points uniformly in a simple polygon (triangulated, area-weighted)."""
     import triangle
 
     poly = np.asarray(poly, dtype=float)
     m = len(poly)
-    tri = triangle.triangulate({"vertices": poly,
-                                "segments": np.column_stack([np.arange(m), (np.arange(m) + 1) % m])},
-                               "p")
+    segments = np.column_stack([np.arange(m), (np.arange(m) + 1) % m])
+    tri = triangle.triangulate({"vertices": poly, "segments": segments}, "p")
     v, t = tri["vertices"], tri["triangles"]
     a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
     area = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])

@@ -16,12 +16,14 @@ import numba as nb
 import numpy as np
 
 from driftlog._numba import kernel
+from driftlog.errors import ScenarioError
 from driftlog.flow import DETADX, DETADY, DUDT, DUDX, DUDY, DVDT, DVDX, DVDY, H, U, V
-from driftlog.logs import OMEGA, THETA, UB, VB, submerged_volume
+from driftlog.logs import OMEGA, THETA, UB, VB, flotation_depth, submerged_volume
 from driftlog.schema import Key, Section
 
 __all__ = ["PhysicsOptions", "log_parameters", "rhs_kernel", "log_rhs", "ganser_cd",
-           "drag_speed_product", "effective_area", "TRACER", "DRAG", "FULL", "NPARAM", "NLIN"]
+           "drag_speed_product", "effective_area", "rest_drive", "bed_weight", "soak_kernel",
+           "TRACER", "DRAG", "FULL", "NPARAM", "NLIN"]
 
 TRACER, DRAG, FULL = 0, 1, 2
 LEVELS = {"tracer": TRACER, "drag": DRAG, "full": FULL}
@@ -35,8 +37,13 @@ P_L, P_R, P_RHOB, P_VOL, P_MASS, P_INERTIA, P_DV, P_PSI, P_K2, P_HSTAR = range(1
 NPARAM = 10
 # option vector
 (O_LEVEL, O_ROT, O_SUBMERGED, O_SLOPE, O_LAW, O_AREA, O_CD, O_KLIN, O_RHO, O_G, O_MU,
- O_TORQUE_DRAG) = range(12)
-NOPT = 12
+ O_TORQUE_DRAG, O_MOTION, O_MU_BED, O_BED_SLOPE) = range(15)
+NOPT = 15
+# initial motion (MODEL.md 6.1): a log moves only when it floats (the paper), or also on the
+# bed when the flow's forces overcome bed friction (Braudrick and Grant 2000)
+MOTION_FLOATING, MOTION_FRICTION = 0, 1
+MOTIONS = {"floating": MOTION_FLOATING, "friction": MOTION_FRICTION}
+BED_SLOPES = {"flat": 0, "surface": 1}
 # linearisation columns: drag rates along and across the relative velocity, its direction,
 # and the rotational rate
 L_PAR, L_PERP, L_WX, L_WY, L_ROT = range(5)
@@ -59,6 +66,14 @@ class PhysicsOptions:
     gravity: float = 9.81
     viscosity: float = 1.0e-3
     torque_force: str = "total"
+    motion: str = "floating"
+    bed_friction: float = 0.5
+    bed_slope: str = "surface"
+    waterlogging: str = "off"
+    saturated_density: float = 1100.0
+    waterlogging_time: float | None = None
+    _LATER = ("motion", "bed_friction", "bed_slope", "waterlogging", "saturated_density",
+              "waterlogging_time")
 
     @classmethod
     def from_scenario(cls, section: dict, level=None, rotation=None):
@@ -70,7 +85,9 @@ class PhysicsOptions:
                    drag_area=section["drag_area"], drag_coefficient=section["drag_coefficient"],
                    linear_drag=section["linear_drag"], water_density=section["water_density"],
                    gravity=section["gravity"], viscosity=section["viscosity"],
-                   torque_force=section["torque_force"])
+                   torque_force=section["torque_force"],
+                   # beyond the paper (MODEL.md 6.1-6.2): a hand-made section may leave them out
+                   **{k: section[k] for k in cls._LATER if k in section})
 
     def vector(self) -> np.ndarray:
         """The options as the float vector the kernels read."""
@@ -87,9 +104,13 @@ class PhysicsOptions:
         o[O_G] = self.gravity
         o[O_MU] = self.viscosity
         o[O_TORQUE_DRAG] = 1.0 if self.torque_force == "drag" else 0.0
+        o[O_MOTION] = MOTIONS[self.motion]
+        o[O_MU_BED] = self.bed_friction
+        o[O_BED_SLOPE] = BED_SLOPES[self.bed_slope]
         return o
 
     def as_dict(self):
+        """The options as a plain dict (written to trajectory files)."""
         return asdict(self)
 
 
@@ -146,7 +167,7 @@ def drag_speed_product(s, dv, psi, k2, s_eff, rho, mu):
 
 @nb.njit(cache=True, inline="always")
 def _drag_coef(s, cos_a, sin_a, h, p, opt):
-    """k such that the drag force is k w (w relative velocity, s = |w|)."""
+    """The factor k such that the drag force is k w (w relative velocity, s = |w|)."""
     law = opt[O_LAW]
     r, L = p[P_R], p[P_L]
     if law == LINEAR:
@@ -186,6 +207,80 @@ def _torque(dw, s, p, opt):
     s_eff = effective_area(r, L, 0.0, 1.0)  # broadside: a rotating rod moves across its axis
     cds = drag_speed_product(vr, p[P_DV], p[P_PSI], p[P_K2], s_eff, opt[O_RHO], opt[O_MU])
     return kr * cds * (abs(dw) / vr) * dw
+
+
+# --------------------------------------------------------------------- bed friction (MODEL.md 6.1)
+@nb.njit(cache=True, inline="always")
+def bed_weight(h, gx, gy, p, opt):
+    """Bed terms of a log on the bed: (downslope weight force x, y; friction limit).
+
+    W' = g (rho_b V_b - rho V_sub(h)) is the buoyancy-reduced weight (> 0 below the flotation
+    depth); the bed slope a_s is the free-surface slope (gx, gy) (``bed_slope = "surface"``) or
+    zero (``"flat"``).  The weight pulls W' sin(a_s) downslope; friction resists up to
+    mu_bed W' cos(a_s).
+    """
+    wp = opt[O_G] * (p[P_RHOB] * p[P_VOL] - opt[O_RHO] * submerged_volume(h, p[P_R], p[P_L]))
+    if wp <= 0.0:
+        return 0.0, 0.0, 0.0
+    if opt[O_BED_SLOPE] == 0.0:
+        return 0.0, 0.0, opt[O_MU_BED] * wp
+    cos_s = 1.0 / np.sqrt(1.0 + gx * gx + gy * gy)
+    # W' sin(a_s) along -grad / |grad|: sin(a_s) = |grad| cos(a_s)
+    return -wp * cos_s * gx, -wp * cos_s * gy, opt[O_MU_BED] * wp * cos_s
+
+
+@nb.njit(cache=True)
+def rest_drive(th, fl, p, opt):
+    """The force that would move a log lying still on the bed, and the friction that holds it.
+
+    Returns (fx, fy, ff): the flow's forces at U_b = 0, omega_b = 0 (drag at w = U_w and, at
+    the full level, the pressure-gradient force) plus the downslope weight (``bed_weight``);
+    ff = mu_bed W' cos(a_s).  The log moves when |(fx, fy)| >= ff (MODEL.md 6.1): with
+    ``drag_law = "constant"`` and ``drag_area = "wetted"`` on a bed sloping down the flow this
+    is Braudrick and Grant's (2000) threshold.
+    """
+    h = fl[H]
+    wx, wy = fl[U], fl[V]
+    s = np.sqrt(wx * wx + wy * wy)
+    ex, ey = np.cos(th), np.sin(th)
+    if s > 0.0:
+        cos_a = abs(ex * wx + ey * wy) / s
+        sin_a = abs(ex * wy - ey * wx) / s
+    else:
+        cos_a, sin_a = 1.0, 0.0
+    kd = _drag_coef(s, cos_a, sin_a, h, p, opt)
+    fx, fy = kd * wx, kd * wy
+    if opt[O_LEVEL] == FULL:
+        rho = opt[O_RHO]
+        vf = p[P_VOL] if opt[O_SUBMERGED] == 0.0 else submerged_volume(h, p[P_R], p[P_L])
+        if opt[O_SLOPE] > 0.0:
+            jx, jy = -opt[O_G] * fl[DETADX], -opt[O_G] * fl[DETADY]
+        else:
+            jx = fl[DUDX] * wx + fl[DUDY] * wy
+            jy = fl[DVDX] * wx + fl[DVDY] * wy
+        fx += rho * vf * (1.5 * fl[DUDT] + jx)
+        fy += rho * vf * (1.5 * fl[DVDT] + jy)
+    sx, sy, ff = bed_weight(h, fl[DETADX], fl[DETADY], p, opt)
+    return fx + sx, fy + sy, ff
+
+
+@nb.njit(cache=True, inline="always")
+def _bed_friction(fx, fy, ub, vb, fl, p, opt):
+    """Add the downslope weight and the bed friction to the force (fx, fy) on a log on the bed.
+
+    Sliding (U_b != 0): Coulomb friction mu_bed W' cos(a_s) against U_b.  At rest: the
+    friction holds the log while the other forces stay below its limit (static friction).
+    """
+    sx, sy, ff = bed_weight(fl[H], fl[DETADX], fl[DETADY], p, opt)
+    fx += sx
+    fy += sy
+    sp = np.sqrt(ub * ub + vb * vb)
+    if sp > 0.0:
+        return fx - ff * ub / sp, fy - ff * vb / sp
+    f = np.sqrt(fx * fx + fy * fy)
+    if f <= ff:
+        return 0.0, 0.0
+    return fx - ff * fx / f, fy - ff * fy / f
 
 
 @nb.njit(cache=True, inline="always")
@@ -247,6 +342,9 @@ def log_rhs(s_, fl, p, opt, want_lin):
             jy = dvdx * 0.5 * ub + dvdy * 0.5 * vb - opt[O_G] * fl[DETADY]
         fx += rho * vf * (1.5 * fl[DUDT] + jx)
         fy += rho * vf * (1.5 * fl[DVDT] + jy)
+    if opt[O_MOTION] == MOTION_FRICTION and h < p[P_HSTAR]:
+        # a log moving on the bed (MODEL.md 6.1): downslope weight and Coulomb friction
+        fx, fy = _bed_friction(fx, fy, ub, vb, fl, p, opt)
     axb, ayb = fx / m_eff, fy / m_eff
     if not rot:
         return (ub, vb, 0.0, axb, ayb, 0.0), (lp, lq, lwx, lwy, lr)
@@ -306,8 +404,40 @@ def rhs_kernel(S, F, P, opt, D, lin, want_lin=True):
                 lin[i, k] = ln[k]
 
 
+# --------------------------------------------------------------------- waterlogging (MODEL.md 6.2)
+@nb.njit(cache=True)
+def soak_kernel(idx, dt, rho_sat, tau, rho, density, volume, length, radius, mass, inertia,
+                float_depth, P):
+    """Waterlog the logs ``idx`` over dt: rho_b <- rho_sat - (rho_sat - rho_b) exp(-dt / tau).
+
+    The exact solution of d rho_b / dt = (rho_sat - rho_b) / tau over the step; updates the
+    mass, inertia, flotation depth and the logs' parameter rows P in place.
+    """
+    f = np.exp(-dt / tau)
+    for k in range(idx.size):
+        i = idx[k]
+        d = rho_sat - (rho_sat - density[i]) * f
+        density[i] = d
+        m = d * volume[i]
+        mass[i] = m
+        inertia[i] = m * (length[i] ** 2 / 12.0 + radius[i] ** 2 / 4.0)
+        float_depth[i] = flotation_depth(radius[i], d, rho)
+        P[i, P_RHOB] = d
+        P[i, P_MASS] = m
+        P[i, P_INERTIA] = inertia[i]
+        P[i, P_HSTAR] = float_depth[i]
+
+
 # --------------------------------------------------------------------- the scenario section
 PHYSICS_LEVELS = ("tracer", "drag", "full", "auto")
+
+
+def _check_physics(t, prefix, scen):
+    if t["waterlogging"] != "off" and t["waterlogging_time"] is None:
+        raise ScenarioError(f"{prefix}.waterlogging_time", None,
+                            f"is required for waterlogging = {t['waterlogging']!r} (the time "
+                            "constant of the density's approach, s > 0)")
+
 PHYSICS_SECTION = Section("physics", [
     Key("level", "str", "full", "tracer (U_b = U_w), drag only, the full reference model, or "
         "auto (chosen from the drag relaxation time against the flow time scale)",
@@ -327,8 +457,22 @@ PHYSICS_SECTION = Section("physics", [
         "total hydrodynamic force (MODEL.md 6), or the drag alone (pressure-gradient and "
         "added-mass forces then act at the centre of mass; well posed when the log moves with "
         "the flow)", choices=("total", "drag")),
+    Key("motion", "str", "floating", "when a log moves: only when it floats (the paper), or "
+        "also on the bed when the flow's forces overcome bed friction (Braudrick and Grant "
+        "2000; MODEL.md 6.1)", choices=tuple(MOTIONS)),
+    Key("bed_friction", "float", 0.5, "bed friction coefficient mu_bed", min=0.0,
+        when="motion = friction"),
+    Key("bed_slope", "str", "surface", "bed slope a_s under a log: the free-surface slope (equal "
+        "to the bed's in uniform flow), or flat", choices=tuple(BED_SLOPES),
+        when="motion = friction"),
+    Key("waterlogging", "str", "off", "log density rising while wet: off, or an exponential "
+        "approach to saturated_density (MODEL.md 6.2)", choices=("off", "exponential")),
+    Key("saturated_density", "float", 1100.0, "density a log tends to while wet", "kg/m3",
+        min=0.0, exclusive_min=True, when="waterlogging = exponential"),
+    Key("waterlogging_time", "float", None, "time constant of the density's approach",
+        "s", min=0.0, exclusive_min=True, when="waterlogging = exponential"),
     Key("water_density", "float", 1000.0, "rho", "kg/m3", min=0.0, exclusive_min=True),
     Key("gravity", "float", 9.81, "g", "m/s2", min=0.0, exclusive_min=True),
     Key("viscosity", "float", 1.0e-3, "dynamic viscosity mu", "Pa s", min=0.0,
         exclusive_min=True),
-], doc="the log transport model (MODEL.md sections 3-6)")
+], doc="the log transport model (MODEL.md sections 3-6)", check=_check_physics)

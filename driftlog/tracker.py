@@ -25,14 +25,29 @@ from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.flow import DRY, NVAR, OUTSIDE, H, MeshFlowField, U, V
 from driftlog.fused import FUSED_METHODS, euler_mesh_step, rk4_mesh_step
 from driftlog.integrators import make_integrator
-from driftlog.logs import FLOATING, LEFT, OMEGA, RESTING, STRANDED, UB, VB, WAITING, X, Y
+from driftlog.logs import (
+    FLOATING,
+    LEFT,
+    OMEGA,
+    RESTING,
+    STRANDED,
+    THETA,
+    UB,
+    VB,
+    WAITING,
+    X,
+    Y,
+)
 from driftlog.physics import (
     L_PAR,
     L_PERP,
     L_ROT,
+    P_HSTAR,
     PhysicsOptions,
     log_parameters,
+    rest_drive,
     rhs_kernel,
+    soak_kernel,
 )
 from driftlog.schema import Key, Section
 
@@ -92,6 +107,34 @@ def _classify(F, flag, float_depth, status):
             s = STRANDED
         elif F[i, H] < float_depth[i]:
             s = RESTING
+        else:
+            s = FLOATING
+        if s != status[i]:
+            changed += 1
+        status[i] = s
+    return changed
+
+
+@nb.njit(cache=True)
+def _classify_motion(F, flag, S, P, opt, status):
+    """As ``_classify``, with initial motion on the bed (``physics.motion = "friction"``).
+
+    A wet log below its flotation depth moves (status floating: transported) when the flow's
+    forces on it at rest overcome bed friction (``physics.rest_drive``, MODEL.md 6.1), and
+    rests otherwise.
+    """
+    changed = 0
+    for i in range(F.shape[0]):
+        if flag[i] == OUTSIDE:
+            s = LEFT
+        elif flag[i] == DRY:
+            s = STRANDED
+        elif F[i, H] < P[i, P_HSTAR]:
+            fl = (F[i, 0], F[i, 1], F[i, 2], F[i, 3], F[i, 4], F[i, 5], F[i, 6], F[i, 7],
+                  F[i, 8], F[i, 9], F[i, 10], F[i, 11])
+            fx, fy, ff = rest_drive(S[i, THETA], fl, P[i], opt)
+            f = np.sqrt(fx * fx + fy * fy)
+            s = FLOATING if (f > 0.0 and f >= ff) else RESTING
         else:
             s = FLOATING
         if s != status[i]:
@@ -348,6 +391,36 @@ class Tracker:
         return dt
 
     # ----------------------------------------------------------------- statuses
+    def _classify(self, F, flag, idx, status, S=None, P=None):
+        """Statuses of the logs ``idx`` from the flow at them; how many changed.
+
+        ``S``, ``P``: their state and parameter rows when already gathered.
+        """
+        L = self.logs
+        if self.physics.motion == "floating":
+            return _classify(F, flag, L.float_depth[idx], status)
+        S = L.state[idx] if S is None else S
+        P = self.P_all[idx] if P is None else P
+        return _classify_motion(F, flag, S, P, self.opt, status)
+
+    def _soak(self, dt):
+        """Waterlogging (MODEL.md 6.2): the density of every wet log rises over dt."""
+        if self.physics.waterlogging == "off" or dt <= 0.0:
+            return
+        L = self.logs
+        wet = np.flatnonzero((L.status == FLOATING) | (L.status == RESTING))
+        if wet.size == 0:
+            return
+        ph = self.physics
+        soak_kernel(wet, dt, ph.saturated_density, ph.waterlogging_time, L.water_density,
+                    L.density, L.volume, L.length, L.radius, L.mass, L.inertia, L.float_depth,
+                    self.P_all)
+        if self.act.size:
+            self.P[:] = self.P_all[self.act]
+            self.mass = L.mass[self.act]
+            self.inertia = L.inertia[self.act]
+            self._d0_valid = False  # the first stage depends on the density
+
     def _update_status(self):
         """Re-classify floating logs (left, stranded, resting) and the resting ones (refloat)."""
         L = self.logs
@@ -355,14 +428,16 @@ class Tracker:
         if self.act.size:
             self._sample_current()
             st = np.full(self.act.size, FLOATING, np.int8)
-            if _classify(self.F, self.flag, L.float_depth[self.act], st):
+            if self._classify(self.F, self.flag, self.act, st, self.state, self.P):
                 self._scatter()
                 scattered = changed = True
                 L.status[self.act] = st
                 L.state[self.act[st != FLOATING], UB:] = 0.0  # resting logs do not move (MODEL.md 3)
         idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
         # on a steady flow an idle log can only change when it has just stopped
-        if idle.size and (not self._steady or changed or self._first_check):
+        # (waterlogging changes the logs themselves)
+        if idle.size and (not self._steady or changed or self._first_check
+                          or self.physics.waterlogging != "off"):
             changed |= self._check_idle(idle)
         self._first_check = False
         if changed:
@@ -375,7 +450,7 @@ class Tracker:
         s = self.flow.sample(L.state[idx, X], L.state[idx, Y], self.t, face=L.face[idx])
         L.face[idx] = s.face
         st = L.status[idx].copy()
-        n = _classify(s.values, s.flag, L.float_depth[idx], st)
+        n = self._classify(s.values, s.flag, idx, st)
         if n:
             lifted = idx[(st == FLOATING)]
             L.state[lifted, UB:] = 0.0  # a lifted log starts from rest
@@ -402,11 +477,13 @@ class Tracker:
             raise outside_error(self.flow, L, out)
         L.face[due] = s.face
         st = np.full(due.size, WAITING, np.int8)
-        _classify(s.values, s.flag, L.float_depth[due], st)
+        self._classify(s.values, s.flag, due, st)
         L.status[due] = st
         fl = st == FLOATING
-        L.state[due[fl & (self.initial_velocity[due] == "rest")], UB:] = 0.0
-        with_flow = fl & (self.initial_velocity[due] == "flow")
+        # a log set moving on the bed (motion = friction) starts from rest
+        on_bed = fl & (s.h < L.float_depth[due])
+        L.state[due[fl & ((self.initial_velocity[due] == "rest") | on_bed)], UB:] = 0.0
+        with_flow = fl & (self.initial_velocity[due] == "flow") & ~on_bed
         L.state[due[with_flow], UB] = s.u[with_flow]
         L.state[due[with_flow], VB] = s.v[with_flow]
         if self.physics.rotation:
@@ -421,6 +498,10 @@ class Tracker:
         time restarts at ``t`` (an output time, where a sub-step always ends), so the resumed
         run continues exactly as the uninterrupted one would have.
         """
+        if self.physics.waterlogging != "off":
+            raise ScenarioError("physics.waterlogging", self.physics.waterlogging,
+                                "a run with waterlogging cannot be resumed: the logs' densities "
+                                "are not in the trajectory file; rerun it from the start")
         L = self.logs
         for k, name in enumerate(("x", "y", "theta", "u", "v", "omega")):
             L.state[index, k] = columns[name]
@@ -519,6 +600,7 @@ class Tracker:
                     if stop - self.t <= self.time_tol:
                         self.t = stop  # land exactly
                     taken = self.t - t_before
+                    self._soak(taken)
                     st = self.stats
                     st["substeps"] += 1
                     st["min_dt"] = min(st["min_dt"], taken)

@@ -301,3 +301,8 @@ def test_depth_boundary_and_strickler():
     assert np.allclose(s.h, 0.3, atol=5e-3)
     with pytest.raises(ScenarioError, match="strickler"):
         ShallowWaterSolver(mesh, manning=0.02, strickler=30)
+
+
+def test_thin_depth_must_be_a_depth():
+    with pytest.raises(ScenarioError, match="solver.thin_depth"):
+        ShallowWaterSolver(channel_mesh(1.0, 0.2, 0.1), thin_depth=-1e-3)

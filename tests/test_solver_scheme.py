@@ -132,3 +132,46 @@ def test_second_order_corrector_keeps_depths_positive_without_clip(basin):
     assert lowest[0] >= 0.0
     assert s.rejected_steps > 0  # the case needs the corrector's bound
     assert abs(s.volume_error()) < 1e-14 * s.initial_volume
+
+
+def _thacker(order, thin_depth=0.0):
+    """Thacker's planar surface in a paraboloid (SWASHES 2D), one period, 0.15 m triangles."""
+    from driftlog.mesher import polygon_mesh, rectangle
+
+    a, h0, eta = 1.0, 0.1, 0.5
+    om = np.sqrt(2 * G * h0) / a
+
+    def exact(x, y, t):
+        z = -h0 * (1 - (x * x + y * y) / a ** 2)
+        return z, np.maximum(0.0, eta * h0 / a ** 2 * (2 * x * np.cos(om * t)
+                                                       + 2 * y * np.sin(om * t) - eta) - z)
+
+    mesh = polygon_mesh(rectangle(-1.6, -1.6, 1.6, 1.6), 0.15)
+    z, h = exact(mesh.face_x, mesh.face_y, 0.0)
+    s = ShallowWaterSolver(mesh, bed=z, order=order, thin_depth=thin_depth)
+    s.set_state(h, 0.0, h * eta * om)
+    t_end = 2 * np.pi / om
+    fastest_thin = 0.0
+    while s.t < t_end:
+        s.step(t_end - s.t)
+        thin = (s.h > s.dry_depth) & (s.h < 1e-3)
+        if thin.any():
+            fastest_thin = max(fastest_thin, float(np.max(np.hypot(s.hu, s.hv)[thin]
+                                                          / s.h[thin])))
+    a_ = mesh.face_area
+    l1 = float(np.sum(a_ * np.abs(s.h - exact(mesh.face_x, mesh.face_y, s.t)[1])) / a_.sum())
+    return s, fastest_thin, l1, eta * om
+
+
+def test_desingularised_velocity_in_thin_water():
+    """Kurganov & Petrova's desingularised velocity below 1 mm (``thin_depth``) at second order.
+
+    Without it the shoreline's micron-deep cells reach 106 m/s (the flow moves at 0.70 m/s)
+    and the second order takes 2,179 steps against the first order's 593; with it 976 steps,
+    1.4 m/s, and the error stays within 3 % of the plain second order's (5x below first)."""
+    s1, _, l1_first, _ = _thacker(1)
+    s, fastest, l1, speed = _thacker(2, thin_depth=1e-3)
+    assert fastest < 2.5 * speed
+    assert s.steps < 1.8 * s1.steps
+    assert l1 < 0.25 * l1_first
+    assert abs(s.volume_error()) < 1e-14 * s.initial_volume

@@ -30,9 +30,15 @@ def manning_factor(dt, gn2, h, qx, qy):
 
 
 @kernel
-def euler_stage(h0, hu0, hv0, dh, dhu, dhv, dt, gn2, hdry, h, hu, hv):
-    """(h, hu, hv) = (h0, hu0, hv0) + dt d/dt(...), then friction; arrays may alias h0..."""
+def euler_stage(h0, hu0, hv0, dh, dhu, dhv, dt, gn2, hdry, thin, h, hu, hv):
+    """(h, hu, hv) = (h0, hu0, hv0) + dt d/dt(...), then friction; arrays may alias h0...
+
+    ``thin`` > 0: below that depth the velocity is the desingularised quotient of Kurganov &
+    Petrova (2007), u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, thin^4)), and the discharge is
+    reset to h u (a factor sqrt(2) h^2 / sqrt(h^4 + thin^4) <= 1, which is 1 at h = thin).
+    """
     scalar_n = gn2.shape[0] == 1
+    thin4 = thin * thin * thin * thin
     for f in nb.prange(h0.shape[0]):
         hn = h0[f] + dt * dh[f]
         if hn < 0.0:  # round-off only: the CFL bound keeps h >= 0 in exact arithmetic
@@ -47,15 +53,28 @@ def euler_stage(h0, hu0, hv0, dh, dhu, dhv, dt, gn2, hdry, h, hu, hv):
         qx = qx0 + dt * dhu[f]
         qy = qy0 + dt * dhv[f]
         k = manning_factor(dt, gn2[0] if scalar_n else gn2[f], hn, qx0, qy0)
+        if hn < thin:
+            h2 = hn * hn
+            k *= 1.4142135623730951 * h2 / (h2 * h2 + thin4) ** 0.5
         h[f] = hn
         hu[f] = qx * k
         hv[f] = qy * k
 
 
 @kernel
-def heun_average(h0, hu0, hv0, h, hu, hv):
-    """(h, hu, hv) = ((h0, hu0, hv0) + (h, hu, hv)) / 2: Heun's (SSP-RK2) last step."""
+def heun_average(h0, hu0, hv0, thin, h, hu, hv):
+    """(h, hu, hv) = ((h0, hu0, hv0) + (h, hu, hv)) / 2: Heun's (SSP-RK2) last step.
+
+    Below the depth ``thin`` the averaged discharges are desingularised as in ``euler_stage``.
+    """
+    thin4 = thin * thin * thin * thin
     for f in nb.prange(h0.shape[0]):
-        h[f] = 0.5 * (h0[f] + h[f])
+        hn = 0.5 * (h0[f] + h[f])
+        h[f] = hn
         hu[f] = 0.5 * (hu0[f] + hu[f])
         hv[f] = 0.5 * (hv0[f] + hv[f])
+        if hn < thin:
+            h2 = hn * hn
+            k = 1.4142135623730951 * h2 / (h2 * h2 + thin4) ** 0.5
+            hu[f] *= k
+            hv[f] *= k

@@ -23,6 +23,7 @@ __all__ = ["ShallowWaterSolver", "GRAVITY", "DEFAULT_CFL"]
 
 GRAVITY = 9.81
 DEFAULT_CFL = {1: 0.9, 2: 0.8}
+
 # faces from which the kernels run on numba's threads: below, waking the thread pool at each
 # of the ~8 kernel calls of a step costs more than the work (and far more on a loaded machine)
 PARALLEL_FACES = 20000
@@ -67,11 +68,17 @@ class ShallowWaterSolver:
     gravity : float
     parallel : bool, optional
         Run the kernels on numba's threads (default: from PARALLEL_FACES faces on).
+    thin_depth : float
+        Depth (m) below which velocities are desingularised after every stage (Kurganov &
+        Petrova 2007: u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, thin_depth^4)), hu reset to
+        h u), so that a film at a wet/dry front carries no spurious speed (and does not set
+        the time step).  Default 0: off.  It slows genuinely thin flows too: 1e-3 m suits
+        metre-deep floods, not a 5 mm dam break (BENCHMARKS.md, solver section).
     """
 
     def __init__(self, mesh, bed=None, order=1, riemann="hllc", cfl=None, manning=None,
                  strickler=None, dry_depth=1e-6, boundaries=None, arrival_depth=ARRIVAL_DEPTH,
-                 gravity=GRAVITY, parallel=None):
+                 gravity=GRAVITY, parallel=None, thin_depth=0.0):
         if order not in (1, 2):
             raise ScenarioError("solver.order", order, "must be 1 or 2")
         if riemann not in RIEMANN:
@@ -80,6 +87,11 @@ class ShallowWaterSolver:
         if not 0 < cfl <= 1:
             raise ScenarioError("solver.cfl", cfl, "must be in (0, 1]: the fraction of the "
                                 "positivity-preserving time step")
+        thin_depth = float(thin_depth)
+        if not (np.isfinite(thin_depth) and thin_depth >= 0):
+            raise ScenarioError("solver.thin_depth", thin_depth, "must be a depth >= 0 m (0: "
+                                "velocities from plain hu / h)")
+        self._thin = float(thin_depth)
         if not dry_depth > 0:
             raise ScenarioError("solver.dry_depth", dry_depth, "must be > 0 m")
         self.mesh = mesh
@@ -229,7 +241,7 @@ class ShallowWaterSolver:
         if self.order == 1:
             self._bflux_sum[:] = fm[bedges]
             self._k_euler(self.h, self.hu, self.hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
-                        self.h, self.hu, self.hv)
+                          self._thin, self.h, self.hu, self.hv)
         else:
             h0, hu0, hv0 = self._save
             h0[:] = self.h
@@ -238,7 +250,7 @@ class ShallowWaterSolver:
             while True:
                 self._bflux_sum[:] = 0.5 * fm[bedges]
                 self._k_euler(h0, hu0, hv0, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
-                              self.h, self.hu, self.hv)
+                          self._thin, self.h, self.hu, self.hv)
                 rmax1 = self._rates(self.h, self.hu, self.hv, self.t + dt)
                 if dt * rmax1 <= 1.0:
                     break
@@ -249,8 +261,8 @@ class ShallowWaterSolver:
                 self._rates(h0, hu0, hv0, self.t)
             self._bflux_sum += 0.5 * fm[bedges]
             self._k_euler(self.h, self.hu, self.hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
-                        self.h, self.hu, self.hv)
-            self._k_heun(h0, hu0, hv0, self.h, self.hu, self.hv)
+                          self._thin, self.h, self.hu, self.hv)
+            self._k_heun(h0, hu0, hv0, self._thin, self.h, self.hu, self.hv)
         vol = self._bflux_sum * dt  # m3 out (>0) or in (<0) per boundary edge
         bs = self.boundaries
         n = len(self.mesh.tag_names)
