@@ -74,6 +74,7 @@ class StepOptions:
 
     @classmethod
     def from_scenario(cls, section):
+        """From a validated [integrator] section."""
         return cls(section["length_fraction"], section["angle_step"], section["drag_fraction"],
                    section["max_step"], section["min_step"])
 
@@ -319,6 +320,7 @@ class Tracker:
                 self._F_valid)
 
     def restore(self, saved):
+        """Put back what ``save`` returned."""
         state, t, face, F, flag, valid = saved
         np.copyto(self.state, state)
         self.t = t
@@ -432,7 +434,8 @@ class Tracker:
                 self._scatter()
                 scattered = changed = True
                 L.status[self.act] = st
-                L.state[self.act[st != FLOATING], UB:] = 0.0  # resting logs do not move (MODEL.md 3)
+                # resting logs do not move (MODEL.md 3)
+                L.state[self.act[st != FLOATING], UB:] = 0.0
         idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
         # on a steady flow an idle log can only change when it has just stopped
         # (waterlogging changes the logs themselves)
@@ -593,7 +596,8 @@ class Tracker:
                     if not np.all(np.isfinite(self.state)):
                         bad = self.ids[~np.isfinite(self.state).all(axis=1)]
                         raise IntegrationError(
-                            f"the {self.integrator.name} integration diverged at t = {self.t:.6g} s "
+                            f"the {self.integrator.name} integration diverged at "
+                            f"t = {self.t:.6g} s "
                             f"(logs {bad[:5].tolist()}): the step is too long for the drag "
                             "relaxation time; use integrator.method = 'exponential' or set "
                             "integrator.drag_fraction > 0")
