@@ -666,6 +666,10 @@ def cmd_ensemble(args):
           f"({len(res.ran)} run now, {res.resumed} resumed), {len(res.failed)} failed; "
           f"{t['wall_seconds']:.1f} s{rate}")
     print(f"  aggregated results: {res.path}")
+    table = res.aggregate.format_clogging() if res.aggregate is not None else ""
+    if table:
+        print(table)
+        print(f"  clogging table: {res.output / 'clogging.csv'}")
     for f in res.figures:
         print(f"  figure: {f}")
     if res.failed:

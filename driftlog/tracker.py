@@ -48,7 +48,7 @@ from driftlog.columns import (
 from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.fused import FUSED_METHODS, euler_mesh_step, rk4_mesh_step
 from driftlog.integrators import RK4_C, make_integrator
-from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, WAITING
+from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, WAITING, flotation_depth
 from driftlog.physics import (
     PhysicsOptions,
     log_parameters,
@@ -330,7 +330,7 @@ class Tracker:
                 self._F_valid)
 
     def restore(self, saved):
-        """Back to a ``save()`` (the first stage is computed again)."""
+        """Put back what ``save`` returned."""
         state, t, face, F, flag, valid = saved
         np.copyto(self.state, state)
         self.t = t
@@ -439,6 +439,19 @@ class Tracker:
             self.inertia = L.inertia[self.act]
             self._d0_valid = False  # the first stage depends on the density
 
+    def _set_densities(self, idx, density):
+        """Give the logs ``idx`` these densities (a resumed waterlogged run).
+
+        Their mass, inertia, flotation depth and parameter rows follow.
+        """
+        L = self.logs
+        L.density[idx] = density
+        L.mass[idx] = L.density[idx] * L.volume[idx]
+        L.inertia[idx] = L.mass[idx] * (L.length[idx] ** 2 / 12.0 + L.radius[idx] ** 2 / 4.0)
+        L.float_depth[idx] = [flotation_depth(r, d, L.water_density)
+                              for r, d in zip(L.radius[idx], L.density[idx], strict=True)]
+        self.P_all[:] = log_parameters(L.length, L.radius, L.density, L.float_depth)
+
     def _update_status(self):
         """Re-classify floating logs (left, stranded, resting) and the resting ones (refloat)."""
         L = self.logs
@@ -518,6 +531,12 @@ class Tracker:
         run continues exactly as the uninterrupted one would have.
         """
         L = self.logs
+        if self.physics.waterlogging != "off":
+            if "log_density" not in columns:
+                raise ScenarioError("physics.waterlogging", self.physics.waterlogging,
+                                    "this run cannot be resumed: its trajectory file has no "
+                                    "log_density records; rerun it from the start")
+            self._set_densities(index, columns["log_density"])
         for k, name in enumerate(STATE_NAMES):
             L.state[index, k] = columns[name]
         L.status[index] = columns["status"]
@@ -567,6 +586,8 @@ class Tracker:
         s = self.flow.sample(L.state[idx, X], L.state[idx, Y], self.t, face=L.face[idx])
         cols = {name: L.state[idx, k] for k, name in enumerate(STATE_NAMES)}
         cols.update(status=L.status[idx], water_depth=s.h, flow_u=s.u, flow_v=s.v)
+        if self.physics.waterlogging != "off":
+            cols["log_density"] = L.density[idx]
         self.writer.record(self.t, idx, cols)
         self._recorded_left[idx[L.status[idx] == LEFT]] = True
 

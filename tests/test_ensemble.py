@@ -656,3 +656,115 @@ members = 2
     x = mesh.face_x[summary.faces]
     assert summary.faces.size >= 4 and x.max() > 8.0
     assert 500.0 <= summary.parameters["logs.density"] <= 900.0
+
+
+# --------------------------------------------------------------------- clogging odds
+def test_wilson_interval_against_known_values():
+    """Wilson (1927) score interval: Newcombe (1998) table I, and scipy's binomtest."""
+    from scipy import stats
+
+    # Newcombe, Stat. Med. 17 (1998) 857-872, table I: 81/263 -> 0.2553-0.3662 (95%)
+    lo, hi = wilson_interval(81, 263)
+    assert (lo, hi) == (pytest.approx(0.2553, abs=1e-4), pytest.approx(0.3662, abs=1e-4))
+    for k, n in ((0, 10), (3, 7), (10, 10), (15, 148)):
+        ci = stats.binomtest(k, n).proportion_ci(confidence_level=0.9, method="wilson")
+        np.testing.assert_allclose(wilson_interval(k, n, 0.9), (ci.low, ci.high), atol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def bridge_flow(tmp_path_factory):
+    """A 30 m x 10 m channel, uniform flow 0.5 m/s along x, 1 m deep."""
+    mesh = channel_mesh(30.0, 10.0, 1.0)
+    field = on_mesh(UniformFlow(0.5, 0.0, depth=1.0), mesh, times=[0.0, 100.0])
+    return write_flow(tmp_path_factory.mktemp("bridge") / "flow.nc", field)
+
+
+def test_clogging_odds_of_a_bridge(tmp_path, bridge_flow, capsys):
+    """Logs released across the flow in front of a two-pier bridge jam on both piers; logs
+    released along the flow beside it pass: the blocked counts are known by construction."""
+    import xarray as xr
+
+    from driftlog import cli
+
+    f = tmp_path / "e.toml"
+    across = '{ seeding = "list", x = [10.0], y = [5.0], theta = 1.5707963267948966 }'
+    along = '{ seeding = "list", x = [10.0], y = [8.5], theta = 0.0 }'
+    place = f'"logs.place" = {{ values = [{across}, {along}] }}'
+    f.write_text(f"""
+[flow]
+source = "file"
+path = "{bridge_flow}"
+[time]
+end = 40.0
+output_interval = 1.0
+[[logs]]
+x = [10.0]
+y = [5.0]
+theta = 1.5707963267948966
+length = 2.4
+radius = 0.1
+density = 600.0
+[physics]
+level = "drag"
+[contact]
+enabled = true
+method = "moreau"
+restitution = 0.0
+[[obstacles]]
+name = "pier_low"
+group = "bridge"
+center = [15.0, 4.2]
+radius = 0.3
+[[obstacles]]
+name = "pier_high"
+group = "bridge"
+center = [15.0, 5.8]
+radius = 0.3
+[ensemble]
+sampling = "grid"
+output = "{tmp_path / 'out'}"
+workers = 0
+blocked_after = 10.0
+[ensemble.vary]
+{place}
+"logs.release_time" = {{ values = [0.0, 3.0] }}
+""")
+    assert cli.main(["ensemble", str(f), "--workers", "0", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "clogging odds over 4 members" in out and "bridge" in out
+    ds = xr.open_dataset(tmp_path / "out" / "ensemble.nc")
+    sites = [str(s) for s in ds["site_name"].values]
+    assert sites == ["pier_low", "pier_high", "bridge"]
+    assert [str(s) for s in ds["site_kind"].values] == ["obstacle", "obstacle", "group"]
+    # members 0, 1 release across in front of the bridge (place 0), 2, 3 beside it
+    place = ds["parameter_logs_place"].values
+    across = place == 0
+    assert across.sum() == 2
+    held = ds["member_held_seconds"].values[:, :2]
+    assert np.all(held[across] >= 20.0) and np.all(held[~across] == 0.0)
+    hits = ds["member_hits"].values[:, :2]
+    assert np.all(hits[across] >= 1) and np.all(hits[~across] == 0)
+    np.testing.assert_array_equal(ds["site_members_hit"], [2, 2, 2])
+    np.testing.assert_array_equal(ds["site_members_blocked"], [2, 2, 2])
+    np.testing.assert_allclose(ds["site_blocked_probability"], 0.5)
+    lo, hi = wilson_interval(2, 4)
+    np.testing.assert_allclose(ds["site_blocked_lower"], lo)
+    np.testing.assert_allclose(ds["site_blocked_upper"], hi)
+    assert float(ds["site_blocked_probability"].attrs["blocked_after"]) == 10.0
+    ds.close()
+    csv = (tmp_path / "out" / "clogging.csv").read_text().splitlines()
+    assert csv[0].startswith("site,kind,obstacles,members,members_hit,hit_probability")
+    assert csv[3].startswith("bridge,group,pier_low pier_high,4,2,0.5,")
+    assert (tmp_path / "out" / "clogging.png").is_file()
+    # a longer hold is asked: hit but not blocked (the aggregate, not the members, decides)
+    from driftlog.ensemble.summary import MemberSummary
+
+    agg = Aggregate(open_flow(bridge_flow).mesh, 4, blocked_after=1000.0)
+    from driftlog.ensemble.runner import scenario_obstacles
+
+    agg.set_obstacles(scenario_obstacles(load_ensemble(f).member_scenario(0)))
+    for i in range(4):
+        agg.add(MemberSummary.from_npz(tmp_path / "out" / "members" / f"member_{i:06d}.npz"))
+    t = agg.clogging_table()
+    np.testing.assert_array_equal(t["members_hit"], [2, 2, 2])
+    np.testing.assert_array_equal(t["members_blocked"], [0, 0, 0])

@@ -124,3 +124,138 @@ waterlogging = "exponential"
     ph = PhysicsOptions.from_scenario(s["physics"])
     assert ph.waterlogging_time == 3600.0 and ph.motion == "friction"
     assert ph.bed_friction == 0.5 and ph.bed_slope == "surface"
+
+
+def bed_channel():
+    """A shallow channel: depth 0.15-0.45 m across, speed 0.1-1.1 m/s along, changing in time."""
+    from driftlog.flow import MeshFlowField
+    from driftlog.mesh import Mesh
+
+    mesh = Mesh.regular_grid(30, 10, 1.0)
+    xc, yc = mesh.face_x, mesh.face_y
+    times = np.arange(0.0, 21.0, 4.0)
+    h = np.array([0.15 + 0.03 * yc + 0.002 * t + 0.0 * xc for t in times])
+    u = np.array([0.1 + 0.1 * yc + 0.01 * t + 0.05 * np.sin(xc / 3.0) for t in times])
+    v = np.array([0.05 * np.cos(xc / 3.0) + 0.0 * t for t in times])
+    return MeshFlowField.from_arrays(mesh, np.zeros(mesh.n_faces), times, h, h * u, h * v)
+
+
+@pytest.mark.parametrize("method", ["euler", "rk4"])
+def test_fused_path_carries_bed_friction_and_waterlogging_bit_for_bit(method):
+    flow = bed_channel()
+    runs = []
+    for fused in (True, False):
+        rng = np.random.default_rng(3)
+        n = 120
+        logs = Logs(rng.uniform(1.0, 20.0, n), rng.uniform(0.5, 9.5, n), rng.uniform(0, np.pi, n),
+                    1.0, 0.2, rng.uniform(600.0, 1000.0, n), release_time=rng.choice([0.0, 3.0], n))
+        ph = PhysicsOptions(motion="friction", bed_friction=0.8, waterlogging="exponential",
+                            saturated_density=1050.0, waterlogging_time=30.0)
+        tr = Tracker(flow, logs, ph, method, t_end=20.0, output_interval=2.5, fused=fused)
+        assert tr.fused == fused
+        tr.run()
+        h = flow.sample(logs.x, logs.y, 20.0).h
+        runs.append((logs.state.copy(), logs.status.copy(), logs.density.copy(), h,
+                     logs.float_depth.copy()))
+    (s1, st1, d1, h, hstar), (s2, st2, d2, _, _) = runs
+    assert np.array_equal(s1, s2) and np.array_equal(st1, st2) and np.array_equal(d1, d2)
+    # all three kinds are there: floating, moving on the bed, held on the bed
+    on_bed = h < hstar
+    assert np.any((st1 == FLOATING) & ~on_bed)
+    assert np.any((st1 == FLOATING) & on_bed)
+    assert np.any(st1 == RESTING)
+    assert np.all(d1 > 600.0) and np.all(d1 < 1050.0)
+
+
+def test_scenario_run_sinks_a_waterlogged_log_and_friction_holds_it(tmp_path):
+    from driftlog.api import track
+    from driftlog.trajectory import open_trajectories
+
+    scen = """
+[flow]
+source = "analytic"
+kind = "uniform"
+velocity = [0.0, 0.0]
+depth = 1.0
+[time]
+end = 200.0
+output_interval = 1.0
+[[logs]]
+x = [0.0]
+y = [0.0]
+length = 1.0
+radius = 0.1
+density = 700.0
+[physics]
+motion = "friction"
+waterlogging = "exponential"
+saturated_density = 1100.0
+waterlogging_time = 100.0
+"""
+    track(scen, output=tmp_path / "t.nc")
+    ds = open_trajectories(tmp_path / "t.nc")
+    t, st = ds["time"].values, ds["status"].values  # one log: one record per time
+    t_star = 100.0 * np.log(4.0)  # rho_b reaches rho = 1000 kg/m3
+    assert np.all(st[t < t_star] == FLOATING) and np.all(st[t > t_star] == RESTING)
+    assert np.all(ds["x"].values == 0.0)  # still water: held on the bed by friction
+
+
+def test_a_waterlogged_run_resumes_bit_for_bit_with_its_densities(tmp_path):
+    from driftlog.api import track
+    from driftlog.scenario import load_scenario
+    from driftlog.sources import flow_from_scenario
+
+    scen = """
+[flow]
+source = "analytic"
+kind = "free_vortex"
+circulation = 4.0
+core_radius = 0.5
+depth = 0.3
+[time]
+end = 40.0
+output_interval = 1.0
+[[logs]]
+seeding = "line"
+start = [1.0, 0.0]
+end = [3.0, 0.0]
+count = 3
+length = 0.4
+radius = 0.1
+density = 600.0
+release_time = 2.5
+[physics]
+waterlogging = "exponential"
+waterlogging_time = 20.0
+[output]
+flush_interval = 1
+"""
+    full = track(scen, output=tmp_path / "full.nc").dataset()
+    flow = flow_from_scenario(load_scenario(scen))
+
+    class Breaks(type(flow)):
+        def sample_into(self, x, y, t, face, out, flag):
+            if t > 21.3:
+                raise KeyboardInterrupt
+            super().sample_into(x, y, t, face, out, flag)
+
+    broken = Breaks.__new__(Breaks)
+    broken.__dict__.update(flow.__dict__)
+    with pytest.raises(KeyboardInterrupt):
+        track(scen, flow=broken, output=tmp_path / "r.nc")
+    again = track(scen, output=tmp_path / "r.nc", resume=True).dataset()
+    for name in ("time", "x", "status", "log_density"):
+        np.testing.assert_array_equal(again[name].values, full[name].values)
+    # the logs sink on the way (h* rises past 0.3 m), so the densities mattered
+    st = full["status"].values
+    assert np.any(st == FLOATING) and np.any(st == RESTING)
+
+
+def test_a_waterlogged_run_without_density_records_is_not_resumed():
+    logs = Logs([0.0], [0.0], 0.0, 1.0, 0.1, 700.0)
+    ph = PhysicsOptions(waterlogging="exponential", waterlogging_time=100.0)
+    tr = Tracker(UniformFlow(0.0, 0.0, 1.0), logs, ph, "rk4", t_end=10.0)
+    cols = {k: np.zeros(1) for k in ("x", "y", "theta", "u", "v", "omega")}
+    cols["status"] = np.array([FLOATING], np.int8)
+    with pytest.raises(ScenarioError, match="physics.waterlogging.*no log_density"):
+        tr.resume_from(5.0, np.array([0]), cols)

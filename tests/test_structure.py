@@ -23,8 +23,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 LAYERS = [
-    ("base", ["driftlog._version", "driftlog._numba", "driftlog.errors", "driftlog.schema",
-              "driftlog.files", "driftlog.resources", "driftlog.columns"]),
+    ("base", ["driftlog._version", "driftlog._cache", "driftlog._numba", "driftlog.errors",
+              "driftlog.schema", "driftlog.files", "driftlog.resources", "driftlog.columns"]),
     ("mesh", ["driftlog.locate", "driftlog.seams", "driftlog.nodal", "driftlog.mesh",
               "driftlog.mesher"]),
     ("flow field", ["driftlog.flow", "driftlog.gridflow", "driftlog.analytic",

@@ -89,9 +89,10 @@ class Obstacles:
     owner: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     names: list = field(default_factory=list)
     kinds: list = field(default_factory=list)
+    groups: list = field(default_factory=list)  # reporting group of each obstacle ("" none)
     meshes: dict = field(default_factory=dict)  # obstacle index -> (vertices, triangles, z)
 
-    def add(self, name, kind, capsules):
+    def add(self, name, kind, capsules, group=""):
         """Add one obstacle made of capsules (k, 5); returns its index."""
         k = len(self.names)
         c = np.asarray(capsules, float).reshape(-1, 5)
@@ -99,6 +100,7 @@ class Obstacles:
         self.owner = np.concatenate([self.owner, np.full(len(c), k, np.int64)])
         self.names.append(name)
         self.kinds.append(kind)
+        self.groups.append(str(group or ""))
         return k
 
     def add_circle(self, center, radius, name="pier"):
@@ -160,6 +162,7 @@ class Obstacles:
                 if not o["path"]:
                     raise ScenarioError(f"{p}.path", None, "type = 'mesh' needs a 3D mesh file")
                 obs.add_mesh(o["path"], o["z"], name, key=f"{p}.path")
+            obs.groups[-1] = o["group"]
         if walls is not None:
             obs.add_walls(walls)
         return obs
@@ -168,6 +171,8 @@ class Obstacles:
 # --------------------------------------------------------------------- the scenario section
 OBSTACLES_SECTION = Section("obstacles", [
     Key("name", "str", "", "label used in hit counts"),
+    Key("group", "str", "", "obstacles of the same group (the piers of one bridge) are also "
+        "reported together in an ensemble's clogging table"),
     Key("type", "str", "circle", "obstacle shape", choices=("circle", "polygon", "segments",
                                                             "mesh")),
     Key("center", "point", None, "circle centre", "m", when="type = circle"),

@@ -16,7 +16,14 @@ Statistics (``confidence`` level c, default 0.95):
 - hits per obstacle: the fraction of members with at least one hit, with Wilson and
   Clopper-Pearson intervals; the mean number of hits per member with a Student-t interval;
   the mean number of distinct logs that hit it;
-- stranding: logs ending stranded (dry) or resting (too shallow to float), per face.
+- stranding: logs ending stranded (dry) or resting (too shallow to float), per face;
+- clogging odds, per obstacle of ``[[obstacles]]`` and per ``group`` of them (a bridge's
+  piers), the *sites*: the fraction of members in which the site is hit (a contact with any
+  of its obstacles), and in which it is blocked (one of its obstacles held by a log for at
+  least ``blocked_after`` seconds, as ``driftlog.ensemble.summary`` measures it), with Wilson
+  score intervals (E. B. Wilson, "Probable inference, the law of succession, and statistical
+  inference", J. Amer. Statist. Assoc. 22 (1927) 209-212).  Written as ``site_*`` variables
+  of the aggregate file and as ``clogging.csv`` beside it (``clogging_table``).
 """
 
 from __future__ import annotations
@@ -116,14 +123,18 @@ class Aggregate:
     parameters : list of Parameter
         The varied parameters (for the member table).
     confidence : float
+    blocked_after : float
+        Held span (s) from which an obstacle counts as blocked in a member.
     """
 
-    def __init__(self, mesh, members, parameters=(), confidence=0.95):
+    def __init__(self, mesh, members, parameters=(), confidence=0.95, blocked_after=60.0):
         nf = mesh.n_faces
         self.mesh = mesh
         self.n_members = int(members)
         self.parameters = list(parameters)
         self.confidence = float(confidence)
+        self.blocked_after = float(blocked_after)
+        self.geometry = None  # Obstacles of the base scenario (set_obstacles)
         self.members_passing = np.zeros(nf, np.int64)
         self.logs_passing = np.zeros(nf, np.int64)
         self.first_arrival = np.full(nf, np.inf)
@@ -148,7 +159,21 @@ class Aggregate:
         self.member_cpu = np.full(n, np.nan)
         self.member_physics = np.full(n, "", dtype=object)
         self.member_hits: dict[int, np.ndarray] = {}
+        self.member_held: dict[int, np.ndarray] = {}
         self.member_error: dict[int, str] = {}
+
+    def set_obstacles(self, obstacles) -> None:
+        """The ``[[obstacles]]`` geometry of the base scenario (an ``Obstacles``, or None).
+
+        Its obstacles (named as the members name them) come first in the obstacle table, in
+        scenario order; their groups make the clogging table's group rows, their capsules the
+        map.
+        """
+        from driftlog.ensemble.summary import unique_names
+
+        self.geometry = obstacles
+        if obstacles is not None:
+            self._obstacle_index(unique_names(obstacles.names))
 
     @property
     def done(self) -> int:
@@ -164,11 +189,18 @@ class Aggregate:
         idx = []
         for name in names:
             if name not in self.obstacle_names:
+                self._grow_members(len(self.obstacle_names) + 1)
                 self.obstacle_names.append(name)
                 for a in ("members_hit", "hits", "hits_sq", "logs_hit"):
                     setattr(self, a, np.append(getattr(self, a), np.int64(0)))
             idx.append(self.obstacle_names.index(name))
         return np.array(idx, np.int64)
+
+    def _grow_members(self, n):
+        for tab, fill in ((self.member_hits, 0), (self.member_held, np.nan)):
+            for i, a in tab.items():
+                if a.size < n:
+                    tab[i] = np.concatenate([a, np.full(n - a.size, fill, a.dtype)])
 
     def add(self, s) -> None:
         """Add one MemberSummary (a member counts once: adding it again is an error)."""
@@ -198,6 +230,9 @@ class Aggregate:
         self.member_physics[i] = s.info.get("physics_level", "")
         self.member_hits[i] = np.zeros(len(self.obstacle_names), np.int64)
         self.member_hits[i][k] = h
+        self.member_held[i] = np.full(len(self.obstacle_names), np.nan)
+        if s.obstacle_held is not None:
+            self.member_held[i][k] = np.asarray(s.obstacle_held, float)
         self.member_error.pop(i, None)
 
     def fail(self, member: int, message: str) -> None:
@@ -287,6 +322,96 @@ class Aggregate:
                                                   "hitting the obstacle per member")),
         }
 
+    def _member_matrix(self, table, fill, dtype):
+        n, m = self.n_members, len(self.obstacle_names)
+        out = np.full((n, m), fill, dtype)
+        for i, a in table.items():
+            out[i, :a.size] = a
+        return out
+
+    def sites(self) -> list:
+        """Clogging sites: (name, obstacle indices, kind), obstacles then groups of >= 2.
+
+        Every obstacle of ``[[obstacles]]`` (walls and obstacles without geometry are left
+        out: their held spans are not measured), then every ``group`` of two or more.
+        """
+        g = self.geometry
+        if g is None:
+            return []
+        from driftlog.ensemble.summary import unique_names
+
+        names = unique_names(g.names)
+        idx = [self.obstacle_names.index(nm) for nm in names]
+        out = [(nm, [k], "obstacle") for nm, k in zip(names, idx, strict=True)]
+        groups = {}
+        for grp, k in zip(g.groups, idx, strict=True):
+            if grp:
+                groups.setdefault(grp, []).append(k)
+        out += [(grp, ks, "group") for grp, ks in groups.items() if len(ks) > 1]
+        return out
+
+    def clogging_table(self) -> dict:
+        """Per site (``sites``): hit and blocked counts and probabilities, Wilson intervals.
+
+        Over the members done; a site is hit in a member when any of its obstacles has a hit,
+        blocked when any of them was held for at least ``blocked_after`` seconds.
+        """
+        done = self.member_state == 1
+        n = int(done.sum())
+        hits = self._member_matrix(self.member_hits, 0, np.int64)[done]
+        held = self._member_matrix(self.member_held, np.nan, float)[done]
+        rows = self.sites()
+        mh = np.array([int((hits[:, ks].sum(axis=1) > 0).sum()) for _, ks, _ in rows], np.int64)
+        with np.errstate(invalid="ignore"):
+            blocked = held >= self.blocked_after
+        mb = np.array([int(blocked[:, ks].any(axis=1).sum()) for _, ks, _ in rows], np.int64)
+        longest = np.array([float(np.nanmax(held[:, ks])) if n and np.isfinite(held[:, ks]).any()
+                            else np.nan for _, ks, _ in rows])
+        nn = np.full(len(rows), n)
+        hl, hh = wilson_interval(mh, nn, self.confidence)
+        bl, bh = wilson_interval(mb, nn, self.confidence)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return dict(site=[r[0] for r in rows], kind=[r[2] for r in rows],
+                        obstacles=[" ".join(self.obstacle_names[k] for k in r[1])
+                                   for r in rows],
+                        members=nn, members_hit=mh, hit_probability=mh / nn,
+                        hit_lower=hl, hit_upper=hh, members_blocked=mb,
+                        blocked_probability=mb / nn, blocked_lower=bl, blocked_upper=bh,
+                        longest_held=longest)
+
+    def write_clogging_csv(self, path) -> Path:
+        """``clogging_table`` as CSV (one row per site), written atomically."""
+        import csv
+
+        t = self.clogging_table()
+        path = Path(path)
+        tmp = path.with_name(path.name + ".tmp")
+        with open(tmp, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(list(t))
+            for j in range(len(t["site"])):
+                w.writerow([_fmt(t[k][j]) for k in t])
+        os.replace(tmp, path)
+        return path
+
+    def format_clogging(self) -> str:
+        """``clogging_table`` as a text table (for the terminal)."""
+        t = self.clogging_table()
+        if not t["site"]:
+            return ""
+        pct = f"{100 * self.confidence:g}%"
+        w = max(len(s) for s in t["site"] + ["site"])
+        lines = [f"clogging odds over {t['members'][0]} members (blocked: held >= "
+                 f"{self.blocked_after:g} s; {pct} Wilson intervals)",
+                 f"  {'site':<{w}}  {'hit':>4}  {'P(hit)':<22}  {'blocked':>7}  "
+                 f"{'P(blocked)':<22}  longest held (s)"]
+        for j, name in enumerate(t["site"]):
+            ph = _pci(t["hit_probability"][j], t["hit_lower"][j], t["hit_upper"][j])
+            pb = _pci(t["blocked_probability"][j], t["blocked_lower"][j], t["blocked_upper"][j])
+            lines.append(f"  {name:<{w}}  {t['members_hit'][j]:>4}  {ph:<22}  "
+                         f"{t['members_blocked'][j]:>7}  {pb:<22}  {t['longest_held'][j]:.1f}")
+        return "\n".join(lines)
+
     # ----------------------------------------------------------------- output
     def to_netcdf(self, path, attrs=None, parameter_values=None) -> Path:
         """Write the aggregate as UGRID-1.0 + CF NetCDF on the mesh (atomically).
@@ -329,6 +454,7 @@ class Aggregate:
                                       ("obstacle",))
                 v.setncatts(a)
                 v[:] = arr
+            self._sites(ds)
             ds.createDimension("status", 5)
             st = ds.createVariable("status_logs", "i8", ("status",))
             st.setncatts(dict(long_name="final status of the logs over all members",
@@ -338,6 +464,60 @@ class Aggregate:
             self._member_table(ds, parameter_values or {})
         os.replace(tmp, path)
         return path
+
+    def _sites(self, ds):
+        """Clogging table (``site`` dimension) and the obstacles' capsules (for the map)."""
+        t = self.clogging_table()
+        ds.createDimension("site", len(t["site"]))
+        pct = f"{100 * self.confidence:g}%"
+        for name, long_name in (("site", "clogging site: an obstacle or a group of them"),
+                                ("kind", "obstacle or group"),
+                                ("obstacles", "obstacles of the site (space separated)")):
+            v = ds.createVariable(f"site_{name}" if name != "site" else "site_name", str,
+                                  ("site",))
+            v.long_name = long_name
+            for j, val in enumerate(t[name]):
+                v[j] = val
+        attrs = dict(
+            members_hit=dict(long_name="members in which a log hit the site"),
+            hit_probability=dict(long_name="fraction of members in which a log hit the site",
+                                 units="1"),
+            hit_lower=dict(long_name=f"{pct} Wilson lower bound of site_hit_probability"),
+            hit_upper=dict(long_name=f"{pct} Wilson upper bound of site_hit_probability"),
+            members_blocked=dict(long_name="members in which the site was blocked"),
+            blocked_probability=dict(
+                long_name="fraction of members in which the site was blocked: one of its "
+                          "obstacles occupied by a log (gap <= blocked_gap r) at every record "
+                          "for at least blocked_after", units="1",
+                blocked_after=self.blocked_after),
+            blocked_lower=dict(long_name=f"{pct} Wilson lower bound of "
+                                         "site_blocked_probability"),
+            blocked_upper=dict(long_name=f"{pct} Wilson upper bound of "
+                                         "site_blocked_probability"),
+            longest_held=dict(long_name="longest span a log held the site over the members",
+                              units="s"))
+        for name, a in attrs.items():
+            arr = np.asarray(t[name])
+            v = ds.createVariable(f"site_{name}", "f8" if arr.dtype.kind == "f" else "i8",
+                                  ("site",))
+            v.setncatts(a)
+            v[:] = arr
+        g = self.geometry
+        caps = g.capsules if g is not None else np.zeros((0, 5))
+        ds.createDimension("capsule", len(caps))
+        ds.createDimension("capsule_column", 5)
+        v = ds.createVariable("obstacle_capsule", "f8", ("capsule", "capsule_column"))
+        v.setncatts(dict(long_name="obstacles as capsules: segment ends ax, ay, bx, by and "
+                                   "radius r", units="m"))
+        v[:] = caps
+        v = ds.createVariable("obstacle_capsule_owner", "i8", ("capsule",))
+        v.long_name = "index of the capsule's obstacle (obstacle dimension)"
+        if g is not None:
+            from driftlog.ensemble.summary import unique_names
+
+            idx = np.array([self.obstacle_names.index(nm) for nm in unique_names(g.names)],
+                           np.int64)
+            v[:] = idx[g.owner]
 
     def _member_table(self, ds, parameter_values):
         n = self.n_members
@@ -362,6 +542,10 @@ class Aggregate:
         for i, h in self.member_hits.items():
             hits[i, :h.size] = h
         v[:] = hits
+        v = ds.createVariable("member_held_seconds", "f8", ("member", "obstacle"))
+        v.setncatts(dict(long_name="longest span a log held the obstacle in the member (NaN: "
+                                   "not measured)", units="s"))
+        v[:] = self._member_matrix(self.member_held, np.nan, float)
         v = ds.createVariable("member_wall_seconds", "f8", ("member",))
         v.setncatts(dict(long_name="wall time of the member's run", units="s"))
         v[:] = self.member_wall
@@ -386,3 +570,15 @@ class Aggregate:
                 a.update(long_name=f"{p.path}: index into the values", values=json.dumps(p.args))
             v.setncatts(a)
             v[:] = vals
+
+
+def _fmt(v):
+    if isinstance(v, float | np.floating):
+        return f"{v:.6g}"
+    return str(v)
+
+
+def _pci(p, lo, hi):
+    if not np.isfinite(p):
+        return "-"
+    return f"{p:.3f} [{lo:.3f}, {hi:.3f}]"

@@ -111,5 +111,82 @@ def plot_ensemble(path, out_dir=None) -> list[Path]:
         files.append(out_dir / "hits.png")
         fig.savefig(files[-1], dpi=120, bbox_inches="tight")
         plt.close(fig)
+    if ds.sizes.get("site", 0) and ds.sizes.get("capsule", 0):
+        files.append(_clogging_map(plt, ds, geom, n, pct, out_dir / "clogging.png"))
     ds.close()
     return files
+
+
+def _clogging_map(plt, ds, geom, n, pct, path):
+    """The obstacles over the flow mesh, coloured by the probability that they are blocked."""
+    from matplotlib import cm, colors
+    from matplotlib.collections import PolyCollection
+    from matplotlib.patches import Circle, Polygon
+
+    verts, cx, cy, fn, nx, ny = geom
+    fig, ax = _figure(plt, geom)
+    if verts is not None:
+        ax.add_collection(PolyCollection(verts, facecolors="0.93", edgecolors="0.8",
+                                         linewidths=0.2, zorder=0))
+    else:
+        ax.scatter(cx, cy, s=0.2, c="0.85")
+    p = ds["pass_probability"].values.astype(float)
+    if verts is not None and np.any(p > 0):  # where the logs went, faint
+        ok = p > 0
+        pc = PolyCollection([v for v, k in zip(verts, ok, strict=True) if k],
+                            array=p[ok], cmap="Blues", edgecolors="face", linewidths=0.0,
+                            alpha=0.35, zorder=0.5)
+        pc.set_clim(0, 1)
+        ax.add_collection(pc)
+    names = [str(v) for v in ds["obstacle_name"].values]
+    site = [str(v) for v in ds["site_name"].values]
+    kind = [str(v) for v in ds["site_kind"].values]
+    pb = ds["site_blocked_probability"].values
+    lo, hi = ds["site_blocked_lower"].values, ds["site_blocked_upper"].values
+    cmap, norm = plt.get_cmap("YlOrRd"), colors.Normalize(0, 1)
+    caps = ds["obstacle_capsule"].values
+    owner = ds["obstacle_capsule_owner"].values
+    prob = {s: j for j, s in enumerate(site) if kind[j] == "obstacle"}
+    for k in np.unique(owner):
+        j = prob.get(names[k])
+        col = cmap(norm(pb[j])) if j is not None else "0.5"
+        c = caps[owner == k]
+        for ax_, ay, bx, by, r in c:
+            if r > 0 and ax_ == bx and ay == by:
+                ax.add_patch(Circle((ax_, ay), r, facecolor=col, edgecolor="k", lw=0.8,
+                                    zorder=3))
+            elif r > 0:
+                d = np.array([bx - ax_, by - ay]) / np.hypot(bx - ax_, by - ay) * r
+                q = np.array([[ax_, ay], [bx, by], [bx, by], [ax_, ay]])
+                q += np.array([[-d[1], d[0]], [-d[1], d[0]], [d[1], -d[0]], [d[1], -d[0]]])
+                ax.add_patch(Polygon(q, facecolor=col, edgecolor="k", lw=0.8, zorder=3))
+            else:
+                ax.plot([ax_, bx], [ay, by], color=col, lw=3, zorder=3)
+        if j is not None:
+            x, y = c[:, [0, 2]].mean(), c[:, [1, 3]].max() + c[:, 4].max()
+            ax.annotate(f"{names[k]}\n{pb[j]:.2f} [{lo[j]:.2f}, {hi[j]:.2f}]", (x, y),
+                        xytext=(0, 3), textcoords="offset points", ha="center", va="bottom",
+                        fontsize=7, zorder=4)
+    obst = ds["site_obstacles"].values
+    for j, s in enumerate(site):
+        if kind[j] != "group":
+            continue
+        ks = [names.index(o) for o in str(obst[j]).split()]
+        c = caps[np.isin(owner, ks)]
+        x, y = c[:, [0, 2]].mean(), c[:, [1, 3]].min() - c[:, 4].max()
+        ax.annotate(f"{s} (group)\n{pb[j]:.2f} [{lo[j]:.2f}, {hi[j]:.2f}]", (x, y),
+                    xytext=(0, -3), textcoords="offset points", ha="center", va="top",
+                    fontsize=7, fontweight="bold", zorder=4)
+    ax.set_xlim(nx.min(), nx.max())
+    ax.set_ylim(ny.min(), ny.max())
+    ax.set_aspect("equal")
+    after = float(ds["site_blocked_probability"].attrs.get("blocked_after", np.nan))
+    ax.set_title(f"probability that an obstacle is blocked (held >= {after:g} s), {n} members"
+                 f"\nlabels: probability [{pct} Wilson score interval]")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    fig.colorbar(cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.8,
+                 label="probability of blocking")
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return path

@@ -116,7 +116,9 @@ def run_member_task(base: dict, member: int, overrides: dict, parameters: dict,
                      ensemble_parameters=json.dumps(parameters, default=str))
             inner = TrajectoryWriter(path, logs, attrs=a, flush_interval=flush_interval,
                                      obstacle_names=obstacle_names)
-        return MemberRecorder(mesh, logs, scen["time"]["start"], obstacle_names, inner)
+        return MemberRecorder(mesh, logs, scen["time"]["start"], obstacle_names, inner,
+                              obstacles=scenario_obstacles(scen),
+                              blocked_gap=options.get("blocked_gap", 0.1))
 
     res = track(scen, flow=flow, output=out, writer=recorder)
     info = dict(physics_level=res.physics["level"], rotation=bool(res.physics["rotation"]),
@@ -125,6 +127,21 @@ def run_member_task(base: dict, member: int, overrides: dict, parameters: dict,
                 cpu_seconds=time.process_time() - cpu, driftlog_version=__version__,
                 worker_pid=os.getpid())
     return res.writer.summary(member, parameters, info)
+
+
+CLOGGING_NAME = "clogging.csv"
+
+
+def scenario_obstacles(scen):
+    """The ``[[obstacles]]`` of a loaded scenario as geometry (no walls), or None.
+
+    None when contacts are off (the tracker then has no obstacles and records no hits).
+    """
+    from driftlog.contact.obstacles import Obstacles
+
+    if not scen["contact"]["enabled"] or not scen["obstacles"]:
+        return None
+    return Obstacles.from_tables(scen["obstacles"])
 
 
 # --------------------------------------------------------------------- client side
@@ -376,13 +393,15 @@ def run_ensemble(ensemble, workers=None, scheduler=None, client=None, resume=Fal
         manifest["created"] = json.loads(manifest_path.read_text()).get("created")
     _write_json(manifest_path, manifest)
 
-    agg = Aggregate(mesh, n, ens.parameters, sec["confidence"])
+    agg = Aggregate(mesh, n, ens.parameters, sec["confidence"],
+                    blocked_after=sec["blocked_after"])
+    agg.set_obstacles(scenario_obstacles(load_scenario(base)))
     for i in done_before:  # read back: memory stays bounded, one member at a time
         agg.add(MemberSummary.from_npz(members_dir / f"member_{i:06d}.npz"))
     wanted = range(n) if members is None else sorted(set(int(i) for i in members))
     todo = [i for i in wanted if agg.member_state[i] != 1]
     options = dict(grid=grid, trajectories=str(out / "trajectories")
-                   if sec["keep_trajectories"] else None)
+                   if sec["keep_trajectories"] else None, blocked_gap=sec["blocked_gap"])
     if options["trajectories"]:
         Path(options["trajectories"]).mkdir(parents=True, exist_ok=True)
     params = dict(zip(todo, ens.sample(todo), strict=True))
@@ -464,6 +483,8 @@ def run_ensemble(ensemble, workers=None, scheduler=None, client=None, resume=Fal
             timings["steady_members_per_minute"] = 60.0 * (len(ran) - 1) / (
                 timings["last_result_seconds"] - timings["first_result_seconds"])
         agg.to_netcdf(agg_path, dict(attrs, interrupted=int(interrupted)), table)
+        if agg.sites():
+            agg.write_clogging_csv(out / CLOGGING_NAME)
         manifest.update(done=agg.done, failed=agg.failed, timings=timings,
                         updated=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"))
         _write_json(manifest_path, manifest)
@@ -476,11 +497,13 @@ def run_ensemble(ensemble, workers=None, scheduler=None, client=None, resume=Fal
                           timings, agg)
 
 
-def summarize_trajectories(path, mesh, member=0, parameters=None) -> MemberSummary:
+def summarize_trajectories(path, mesh, member=0, parameters=None,
+                           blocked_gap=0.1) -> MemberSummary:
     """Summarize a trajectory file as an ensemble member (the same numbers as the recorder).
 
-    The release points are re-seeded from the scenario stored in the file (seeding is
-    reproducible bit for bit); records are replayed in time order.
+    ``blocked_gap``: as ``[ensemble] blocked_gap`` (held obstacles).  The release points are
+    re-seeded from the scenario stored in the file (seeding is reproducible bit for bit);
+    records are replayed in time order.
     """
     import netCDF4
 
@@ -494,18 +517,20 @@ def summarize_trajectories(path, mesh, member=0, parameters=None) -> MemberSumma
             ti = ds["trajectory_index"][:]
         else:
             ti = np.repeat(np.arange(len(ds.dimensions["trajectory"])), ds["rowSize"][:])
-        x, y, status = ds["x"][:], ds["y"][:], ds["status"][:]
+        x, y, theta, status = ds["x"][:], ds["y"][:], ds["theta"][:], ds["status"][:]
         hits = {}
         if "hit" in ds.dimensions and len(ds.dimensions["hit"]):
             hits = {"log_id": ds["hit_log"][:], "other": ds["hit_other"][:]}
     logs = logs_from_scenario(scen)
-    rec = MemberRecorder(mesh, logs, scen["time"]["start"], obstacle_names=names)
+    rec = MemberRecorder(mesh, logs, scen["time"]["start"], obstacle_names=names,
+                         obstacles=scenario_obstacles(scen), blocked_gap=blocked_gap)
     order = np.lexsort((ti, t))  # by time, then log: the order the tracker records in
-    t, ti, x, y, status = t[order], ti[order], x[order], y[order], status[order]
+    t, ti, x, y, theta, status = (a[order] for a in (t, ti, x, y, theta, status))
     bounds = np.flatnonzero(np.diff(t)) + 1
     for a, b in zip(np.r_[0, bounds], np.r_[bounds, t.size], strict=True):
         if b > a:
-            rec.record(t[a], ti[a:b], {"x": x[a:b], "y": y[a:b], "status": status[a:b]})
+            rec.record(t[a], ti[a:b], {"x": x[a:b], "y": y[a:b], "theta": theta[a:b],
+                                       "status": status[a:b]})
     if hits:
         rec.hits(hits)
     return rec.summary(member, parameters)
@@ -526,4 +551,5 @@ def run_member(ensemble, member: int, grid="auto") -> MemberSummary:
         grid = aggregation_grid(ens, mesh)
     values = ens.parameters_of(member)
     return run_member_task(base, member, ens.member_overrides(member, base, values), values,
-                           dict(grid=grid, trajectories=None))
+                           dict(grid=grid, trajectories=None,
+                                blocked_gap=ens.section["blocked_gap"]))

@@ -60,7 +60,8 @@ __all__ = ["Parameter", "Ensemble", "load_ensemble", "parse_vary", "check_ensemb
            "DISTRIBUTIONS", "SAMPLINGS"]
 
 # --------------------------------------------------------------------- the ensemble
-RUNTIME_KEYS = ("workers", "scheduler", "output", "keep_trajectories", "checkpoint_interval")
+RUNTIME_KEYS = ("workers", "scheduler", "output", "keep_trajectories", "checkpoint_interval",
+                "blocked_after")
 
 
 @dataclass

@@ -23,6 +23,18 @@ are kept with their final position and face (stranding locations).
 
 Hits.  Contact hits (``hit_other`` < 0: obstacle ``-(other + 1)``, named in the trajectory
 file's ``obstacle_names``) are counted per obstacle, with the number of distinct logs that hit.
+
+Held obstacles (for the clogging odds).  At every record, an obstacle is *occupied* when at
+least one log that is not waiting or gone (floating, resting or stranded) lies within
+``blocked_gap`` x its radius of one of the obstacle's capsules (the exact capsule-capsule gap
+of ``driftlog.contact.geometry``, the log's axis from its recorded x, y, theta).  The member
+keeps, per obstacle, the longest run of consecutive records at which it was occupied, as the
+time from the first to the last record of the run (``obstacle_held``, seconds; a single
+record is 0 s); the aggregate calls the obstacle *blocked* in the member when that span is at
+least ``[ensemble] blocked_after``.  Occupancy is sampled at the records, so a contact broken
+and made again between two records counts as held (keep ``time.output_interval`` short
+against ``blocked_after``).  The mesh's walls are not checked (a log against a bank is
+stranding, not clogging): their span is NaN.
 """
 
 from __future__ import annotations
@@ -35,8 +47,9 @@ from pathlib import Path
 import numba as nb
 import numpy as np
 
+from driftlog.contact.geometry import NRES, capsule_gap, log_endpoints
 from driftlog.locate import locate_one
-from driftlog.logs import RESTING, STRANDED, WAITING
+from driftlog.logs import LEFT, RESTING, STRANDED, WAITING
 
 __all__ = ["MemberSummary", "MemberRecorder", "sweep_segments", "METHOD"]
 
@@ -191,6 +204,47 @@ class _Entries:
             self._grow(self.n + 1)
 
 
+@nb.njit(cache=True)
+def _occupied(x, y, theta, length, radius, status, caps, owner, box, gap_rel, occ):
+    """Mark ``occ[k]`` for every obstacle k within gap_rel * r of a log (see module docstring).
+
+    ``box`` (n_obstacles, 4): each obstacle's bounding box, grown by nothing (the logs'
+    reach is added here); obstacles already marked are skipped.
+    """
+    out = np.empty(NRES)
+    for i in range(x.size):
+        if status[i] == WAITING or status[i] == LEFT:
+            continue
+        r = radius[i]
+        reach = 0.5 * length[i] + r * (1.0 + gap_rel)
+        ax, ay, bx, by = log_endpoints(x[i], y[i], theta[i], length[i])
+        for j in range(caps.shape[0]):
+            k = owner[j]
+            if occ[k]:
+                continue
+            if (x[i] + reach < box[k, 0] or x[i] - reach > box[k, 2]
+                    or y[i] + reach < box[k, 1] or y[i] - reach > box[k, 3]):
+                continue
+            g = capsule_gap(ax, ay, bx, by, r, caps[j, 0], caps[j, 1], caps[j, 2],
+                            caps[j, 3], caps[j, 4], out)
+            if g <= gap_rel * r:
+                occ[k] = True
+
+
+def obstacle_boxes(capsules, owner, n):
+    """Bounding boxes (n, 4: x0, y0, x1, y1) of the obstacles made of ``capsules``."""
+    c = np.asarray(capsules, float).reshape(-1, 5)
+    box = np.empty((n, 4))
+    box[:, :2], box[:, 2:] = np.inf, -np.inf
+    lo = np.minimum(c[:, :2], c[:, 2:4]) - c[:, 4:5]
+    hi = np.maximum(c[:, :2], c[:, 2:4]) + c[:, 4:5]
+    np.minimum.at(box[:, 0], owner, lo[:, 0])
+    np.minimum.at(box[:, 1], owner, lo[:, 1])
+    np.maximum.at(box[:, 2], owner, hi[:, 0])
+    np.maximum.at(box[:, 3], owner, hi[:, 1])
+    return box
+
+
 # --------------------------------------------------------------------- per member
 @dataclass
 class MemberSummary:
@@ -211,6 +265,7 @@ class MemberSummary:
     obstacle_hits: np.ndarray  # hit events per obstacle
     obstacle_logs: np.ndarray  # distinct logs that hit each obstacle
     log_log_hits: int = 0
+    obstacle_held: np.ndarray = None  # longest span occupied by a log (s); NaN: not checked
     parameters: dict = field(default_factory=dict)
     info: dict = field(default_factory=dict)  # physics level, wall seconds, sub-steps
 
@@ -222,6 +277,8 @@ class MemberSummary:
                                                 "status_counts", "idle_x", "idle_y",
                                                 "idle_status", "idle_face", "obstacle_hits",
                                                 "obstacle_logs")}
+        if self.obstacle_held is not None:
+            arrays["obstacle_held"] = np.asarray(self.obstacle_held, float)
         if self.n_faces < 2**31:  # a quarter smaller on disk
             arrays["faces"] = arrays["faces"].astype(np.int32)
         meta = dict(member=self.member, n_faces=self.n_faces, n_logs=self.n_logs,
@@ -266,9 +323,15 @@ class MemberRecorder:
     obstacle_names : sequence of str
     inner : TrajectoryWriter, optional
         Also write the trajectory file (records and hits are passed on).
+    obstacles : Obstacles, optional
+        The obstacles' geometry (``[[obstacles]]``, in the order of ``obstacle_names``; walls,
+        which come last, left out): the held spans of the module docstring are measured.
+    blocked_gap : float
+        A log within this share of its radius of an obstacle occupies it.
     """
 
-    def __init__(self, mesh, logs, t_start, obstacle_names=(), inner=None):
+    def __init__(self, mesh, logs, t_start, obstacle_names=(), inner=None, obstacles=None,
+                 blocked_gap=0.1):
         self.mesh = mesh
         self.inner = inner
         n = len(logs)
@@ -288,6 +351,23 @@ class MemberRecorder:
         self.log_hit = np.zeros((n, len(self.obstacle_names)), bool)
         self.log_log_hits = 0
         self.path = getattr(inner, "path", None)
+        # held obstacles: geometry of the checked ones, current run start, longest span
+        self.length = np.ascontiguousarray(logs.length, float)
+        self.radius = np.ascontiguousarray(logs.radius, float)
+        self.blocked_gap = float(blocked_gap)
+        n_obs = len(obstacles.names) if obstacles is not None else 0
+        if obstacles is not None and len(obstacles.capsules):
+            self.caps = np.ascontiguousarray(obstacles.capsules, float)
+            self.owner = np.ascontiguousarray(obstacles.owner, np.int64)
+        else:
+            self.caps, self.owner = np.zeros((0, 5)), np.zeros(0, np.int64)
+        self.box = obstacle_boxes(self.caps, self.owner, n_obs)
+        self.held = np.full(len(self.obstacle_names), np.nan)
+        self.held[:n_obs] = 0.0
+        self.n_checked = n_obs
+        self.run_start = np.full(n_obs, np.nan)
+        self.occ = np.zeros(n_obs, bool)
+        self.occ_t = None  # time of the record being gathered (one time may come in parts)
 
     # ----------------------------------------------------------------- writer interface
     def record(self, t, index, columns):
@@ -313,6 +393,28 @@ class MemberRecorder:
                                 self.last_t[idx], self.last_face[idx], x, y, tb)
         self.last_x[idx], self.last_y[idx], self.last_t[idx], self.last_face[idx] = x, y, tb, fb
         self.status[idx] = columns["status"]
+        if self.n_checked:
+            self._occupy(float(t), idx, x, y, columns)
+
+    def _occupy(self, t, idx, x, y, columns):
+        if self.occ_t is not None and t != self.occ_t:
+            self._close_record()
+        self.occ_t = t
+        theta = np.ascontiguousarray(columns["theta"], float)
+        _occupied(x, y, theta, self.length[idx], self.radius[idx],
+                  np.ascontiguousarray(columns["status"], np.int8), self.caps, self.owner,
+                  self.box, self.blocked_gap, self.occ)
+
+    def _close_record(self):
+        """The record at ``occ_t`` is complete: extend or end the occupied runs."""
+        t, occ = self.occ_t, self.occ
+        start = self.run_start
+        start[occ & np.isnan(start)] = t
+        start[~occ] = np.nan
+        n = self.n_checked
+        self.held[:n] = np.fmax(self.held[:n], np.where(occ, t - start, 0.0))
+        occ[:] = False
+        self.occ_t = None
 
     def hits(self, hits: dict):
         """Contact hits: dict of arrays time, log_id, other, impulse, x, y."""
@@ -330,6 +432,7 @@ class MemberRecorder:
                                     for j in range(extra)]
             self.obstacle_hits = np.concatenate([self.obstacle_hits, np.zeros(extra, np.int64)])
             self.log_hit = np.hstack([self.log_hit, np.zeros((self.n_logs, extra), bool)])
+            self.held = np.concatenate([self.held, np.full(extra, np.nan)])
         self.obstacle_hits += np.bincount(k, minlength=len(self.obstacle_names))
         self.log_hit[log[ob], k] = True
         self.log_log_hits += int((~ob).sum())
@@ -352,7 +455,9 @@ class MemberRecorder:
 
     # ----------------------------------------------------------------- the result
     def summary(self, member=0, parameters=None, info=None) -> MemberSummary:
-        """The member reduced: faces passed, first arrivals, fates, hits."""
+        """The member reduced: faces passed, first arrivals, fates, hits, held spans."""
+        if self.occ_t is not None:
+            self._close_record()
         e = self.entries
         n = e.compact()
         faces, face_logs, arrival = _per_face(e.keys, e.times, n, e.n_faces)
@@ -365,7 +470,8 @@ class MemberRecorder:
             idle_status=self.status[idle].copy(), idle_face=self.last_face[idle],
             obstacle_names=list(self.obstacle_names), obstacle_hits=self.obstacle_hits.copy(),
             obstacle_logs=self.log_hit.sum(axis=0).astype(np.int64),
-            log_log_hits=self.log_log_hits, parameters=dict(parameters or {}),
+            log_log_hits=self.log_log_hits, obstacle_held=self.held.copy(),
+            parameters=dict(parameters or {}),
             info=dict(info or {}))
 
 

@@ -365,6 +365,11 @@ ENSEMBLE_SECTION = Section("ensemble", [
         exclusive_min=True),
     Key("grid_origin", "point", None, "lower-left corner of the aggregation grid", "m"),
     Key("grid_size", "point", None, "extent of the aggregation grid", "m"),
+    Key("blocked_after", "float", 60.0, "an obstacle is blocked in a member when a log is in "
+        "contact with it (within blocked_gap) at every record for at least this long (the "
+        "clogging table; driftlog.ensemble.summary)", "s", min=0.0, exclusive_min=True),
+    Key("blocked_gap", "float", 0.1, "a log whose gap to an obstacle is at most this share "
+        "of its radius is in contact with it (for blocked_after)", min=0.0),
     Key("checkpoint_interval", "float", 60.0, "seconds between rewrites of the aggregated "
         "results while the ensemble runs", "s", min=0.0, exclusive_min=True),
 ], doc="ensembles: many members on one flow (driftlog ensemble)", check=_check_ensemble)
