@@ -405,7 +405,7 @@ def rhs_kernel(S, F, P, opt, D, lin, want_lin=True):
 
 
 # --------------------------------------------------------------------- waterlogging (MODEL.md 6.2)
-@nb.njit(cache=True)
+@kernel
 def soak_kernel(idx, dt, rho_sat, tau, rho, density, volume, length, radius, mass, inertia,
                 float_depth, P):
     """Waterlog the logs ``idx`` over dt: rho_b <- rho_sat - (rho_sat - rho_b) exp(-dt / tau).
@@ -414,7 +414,7 @@ def soak_kernel(idx, dt, rho_sat, tau, rho, density, volume, length, radius, mas
     mass, inertia, flotation depth and the logs' parameter rows P in place.
     """
     f = np.exp(-dt / tau)
-    for k in range(idx.size):
+    for k in nb.prange(idx.size):
         i = idx[k]
         d = rho_sat - (rho_sat - density[i]) * f
         density[i] = d
