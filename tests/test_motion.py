@@ -1,4 +1,4 @@
-"""Beyond the paper (issue 16, MODEL.md 6.1-6.2): initial motion with bed friction, waterlogging.
+"""Beyond the paper (issue 16, docs/model.md 6.1-6.2): initial motion on the bed, waterlogging.
 
 Exact cases: Braudrick and Grant's (2000) entrainment threshold for a log on the bed of a
 uniform flow (both orientations, flat and sloping bed) and the sliding speed it then reaches;
