@@ -129,7 +129,7 @@ def _classify_motion(F, flag, S, P, opt, status):
     """As ``_classify``, with initial motion on the bed (``physics.motion = "friction"``).
 
     A wet log below its flotation depth moves (status floating: transported) when the flow's
-    forces on it at rest overcome bed friction (``physics.rest_drive``, MODEL.md 6.1), and
+    forces on it at rest overcome bed friction (``physics.rest_drive``, docs/model.md 6.1), and
     rests otherwise.
     """
     changed = 0
@@ -422,7 +422,7 @@ class Tracker:
         return _classify_motion(F, flag, S, P, self.opt, status)
 
     def _soak(self, dt):
-        """Waterlogging (MODEL.md 6.2): the density of every wet log rises over dt."""
+        """Waterlogging (docs/model.md 6.2): the density of every wet log rises over dt."""
         if self.physics.waterlogging == "off" or dt <= 0.0:
             return
         L = self.logs

@@ -48,7 +48,7 @@ OBS_VARS = {
 }
 # observations written only by runs that need them (the tracker passes the column)
 EXTRA_OBS_VARS = {
-    "log_density": ("f8", dict(long_name="log density rho_b (waterlogging, MODEL.md 6.2)",
+    "log_density": ("f8", dict(long_name="log density rho_b (waterlogging, docs/model.md 6.2)",
                                units="kg m-3")),
 }
 TRAJ_VARS = {

@@ -1,4 +1,4 @@
-"""Beyond the paper (issue 16, MODEL.md 6.1-6.2): initial motion with bed friction, waterlogging.
+"""Beyond the paper (issue 16, docs/model.md 6.1-6.2): initial motion on the bed, waterlogging.
 
 Exact cases: Braudrick and Grant's (2000) entrainment threshold for a log on the bed of a
 uniform flow (both orientations, flat and sloping bed) and the sliding speed it then reaches;
@@ -32,12 +32,12 @@ def threshold_speed(theta, slope):
     return np.sqrt(2.0 * wprime * (MU_BED * np.cos(a_s) - np.sin(a_s)) / (RHO * CD * area))
 
 
-def run_bed_log(u, theta, slope, motion="friction", t_end=20.0):
+def run_bed_log(u, theta, slope, motion="friction", t_end=20.0, method="rk4"):
     flow = UniformFlow(u, 0.0, DEPTH, surface_slope=(-slope, 0.0))
     logs = Logs([0.0], [0.0], theta, L, R, RHO_B)
     ph = PhysicsOptions(rotation=False, drag_law="constant", drag_coefficient=CD,
                         drag_area="wetted", motion=motion, bed_friction=MU_BED)
-    Tracker(flow, logs, ph, "rk4", t_end=t_end, output_interval=t_end, hydro_step=0.5).run()
+    Tracker(flow, logs, ph, method, t_end=t_end, output_interval=t_end, hydro_step=0.5).run()
     return logs
 
 
@@ -57,12 +57,13 @@ def test_log_on_bed_moves_just_above_the_friction_threshold(theta, slope):
     assert paper.status[0] == RESTING and paper.state[0, 0] == 0.0
 
 
+@pytest.mark.parametrize("method", ["euler", "rk4", "exponential"])
 @pytest.mark.parametrize("theta", [0.0, np.pi / 2])
-def test_sliding_log_reaches_the_speed_where_drag_balances_friction(theta):
+def test_sliding_log_reaches_the_speed_where_drag_balances_friction(theta, method):
     # drag 0.5 rho C_d A w^2 = friction mu W': the relative speed w is the threshold speed,
     # so a log on a flat bed slides at u - u_c
     uc = threshold_speed(theta, 0.0)
-    logs = run_bed_log(1.5 * uc, theta, 0.0, t_end=200.0)
+    logs = run_bed_log(1.5 * uc, theta, 0.0, t_end=200.0, method=method)
     assert logs.status[0] == FLOATING
     assert logs.state[0, 3] == pytest.approx(0.5 * uc, rel=1e-6)
     assert abs(logs.state[0, 4]) < 1e-12
