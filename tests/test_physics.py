@@ -70,9 +70,10 @@ def _rhs(flow, logs, **opts):
     return D, lin, P
 
 
-@pytest.mark.parametrize("area,expected", [("paper", lambda r, L: 2 * r * L),
-                                           ("ganser", lambda r, L: np.pi / 4 * (6 * r * r * L) ** (2 / 3)),
-                                           ("wetted", lambda r, L: L * 0.5 * r)])
+@pytest.mark.parametrize("area,expected", [
+    ("paper", lambda r, L: 2 * r * L),
+    ("ganser", lambda r, L: np.pi / 4 * (6 * r * r * L) ** (2 / 3)),
+    ("wetted", lambda r, L: L * 0.5 * r)])
 def test_drag_force_constant_cd_broadside(area, expected):
     # broadside log at rest in uniform flow of 1 m/s, depth 0.5 r for the wetted area
     r, L = 0.04, 1.0
