@@ -106,8 +106,15 @@ def _step_bound(S, length, lin, lf, ang, drag_fraction, explicit):
 
 
 @nb.njit(cache=True)
-def _classify(F, flag, float_depth, status):
-    """New status from the flow at the logs: left the domain, stranded (dry), resting, floating."""
+def _classify(F, flag, float_depth, status, friction, S, P, opt):
+    """New status from the flow at the logs: left the domain, stranded (dry), resting, floating.
+
+    Below its flotation depth ``float_depth`` a wet log rests; with ``friction`` (initial
+    motion on the bed, ``physics.motion = "friction"``) it moves (status floating: transported)
+    when the flow's forces on it at rest overcome bed friction (``physics.rest_drive``,
+    docs/model.md 6.1), from its state ``S`` and parameter rows ``P``.  Returns how many
+    statuses changed.
+    """
     changed = 0
     for i in range(F.shape[0]):
         if flag[i] == OUTSIDE:
@@ -116,32 +123,11 @@ def _classify(F, flag, float_depth, status):
             s = STRANDED
         elif F[i, H] < float_depth[i]:
             s = RESTING
-        else:
-            s = FLOATING
-        if s != status[i]:
-            changed += 1
-        status[i] = s
-    return changed
-
-
-@nb.njit(cache=True)
-def _classify_motion(F, flag, S, P, opt, status):
-    """As ``_classify``, with initial motion on the bed (``physics.motion = "friction"``).
-
-    A wet log below its flotation depth moves (status floating: transported) when the flow's
-    forces on it at rest overcome bed friction (``physics.rest_drive``, docs/model.md 6.1), and
-    rests otherwise.
-    """
-    changed = 0
-    for i in range(F.shape[0]):
-        if flag[i] == OUTSIDE:
-            s = LEFT
-        elif flag[i] == DRY:
-            s = STRANDED
-        elif F[i, H] < P[i, P_HSTAR]:
-            fx, fy, ff = rest_drive(S[i, THETA], sample_row(F, i), P[i], opt)
-            f = np.sqrt(fx * fx + fy * fy)
-            s = FLOATING if (f > 0.0 and f >= ff) else RESTING
+            if friction:
+                fx, fy, ff = rest_drive(S[i, THETA], sample_row(F, i), P[i], opt)
+                f = np.sqrt(fx * fx + fy * fy)
+                if f > 0.0 and f >= ff:
+                    s = FLOATING
         else:
             s = FLOATING
         if s != status[i]:
@@ -241,6 +227,7 @@ class Tracker:
         self.initial_velocity = (np.broadcast_to(np.asarray(initial_velocity), len(logs))
                                  if not isinstance(initial_velocity, str)
                                  else np.full(len(logs), initial_velocity))
+        self._no_rows = np.empty((0, 0))  # S, P for _classify when they are not read
         self.P_all = log_parameters(logs.length, logs.radius, logs.density, logs.float_depth)
         self.stats = dict(substeps=0, rhs_evaluations=0, min_dt=np.inf, max_dt=0.0,
                           rejected=0, wall_seconds=0.0)
@@ -416,10 +403,11 @@ class Tracker:
         """
         L = self.logs
         if self.physics.motion == "floating":
-            return _classify(F, flag, L.float_depth[idx], status)
+            return _classify(F, flag, L.float_depth[idx], status, False, self._no_rows,
+                             self._no_rows, self.opt)
         S = L.state[idx] if S is None else S
         P = self.P_all[idx] if P is None else P
-        return _classify_motion(F, flag, S, P, self.opt, status)
+        return _classify(F, flag, P[:, P_HSTAR], status, True, S, P, self.opt)
 
     def _soak(self, dt):
         """Waterlogging (docs/model.md 6.2): the density of every wet log rises over dt."""
