@@ -768,3 +768,17 @@ blocked_after = 10.0
     t = agg.clogging_table()
     np.testing.assert_array_equal(t["members_hit"], [2, 2, 2])
     np.testing.assert_array_equal(t["members_blocked"], [0, 0, 0])
+
+
+def test_flow_file_whose_title_says_ensemble_is_a_flow(tmp_path, flow_file):
+    """A solved flow takes its scenario's title ("river_piers ensemble: ..."): still a flow."""
+    import shutil
+
+    import netCDF4
+
+    from driftlog.files import sniff
+
+    p = shutil.copy(flow_file, tmp_path / "flow.nc")
+    with netCDF4.Dataset(p, "a") as ds:
+        ds.title = "river_piers ensemble: uncertain logs through the two bridges"
+    assert sniff(p).kind == "flow"
