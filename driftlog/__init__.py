@@ -39,8 +39,11 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from driftlog._cache import set_numba_cache_dir
 from driftlog._version import __version__
 from driftlog.errors import DriftlogError, FlowFileError, MeshError, ScenarioError
+
+set_numba_cache_dir(Path(__file__).resolve().parent)
 
 if TYPE_CHECKING:  # what __getattr__ gives, for static tools
     from driftlog.adapters import import_flow, open_flow_source

@@ -70,13 +70,9 @@ def kernels_cached(part: str) -> bool:
     sub, probe = _PROBES[part]
     here = Path(__file__).resolve().parent
     env = os.environ.get("NUMBA_CACHE_DIR")
-    if env:  # numba then caches there only
-        return os.path.isdir(env) and any(Path(env).rglob(f"{probe}-*.nbi"))
-    d = here / sub / "__pycache__" if sub else here / "__pycache__"
-    if d.is_dir() and any(d.glob(f"{probe}-*.nbi")):
-        return True
-    user = Path(os.path.expanduser("~/.cache/numba"))  # a read-only install caches here
-    return user.is_dir() and any(user.rglob(f"{probe}-*.nbi"))
+    d = Path(env) if env else (here / sub / "__pycache__" if sub else here / "__pycache__")
+    # numba caches beside the sources (or in NUMBA_CACHE_DIR): an index there means compiled
+    return d.is_dir() and any(d.rglob(f"{probe}-*.nbi") if env else d.glob(f"{probe}-*.nbi"))
 
 
 def announce_compile(parts, stream=None) -> int:

@@ -60,7 +60,7 @@ def cmd_scenario(args):
     from driftlog.preflight import check_scenario
 
     path, name = _scenario_path(args.file)
-    scen = load_scenario(path)
+    scen = load_scenario(path, _case_overrides(path, name) or None)
     output = Path("driftlog-runs") / name / Path(scen["output"]["path"]).name \
         if _in_cases(path) else None  # where driftlog track writes
     from driftlog.api import logs_from_scenario
@@ -165,7 +165,7 @@ def cmd_run(args):
     from driftlog.files import check_output_dir
 
     out = check_output_dir(Path(args.out or Path("driftlog-runs") / name), "run folder")
-    scen = as_scenario(path, _overrides(args.set))
+    scen = as_scenario(path, _case_overrides(path, name, _overrides(args.set)))
     print(f"driftlog: running {path}")
     res = track(scen, output=out / "trajectories.nc", progress=not args.quiet)
     flow = _flow_file(scen)
@@ -217,6 +217,30 @@ def _in_cases(path) -> bool:
         return False
 
 
+def _case_overrides(path, name, over=None):
+    """Overrides that keep a shipped case's outputs out of the clone.
+
+    For a scenario in the repository's cases/ whose flow is computed by the solver, the flow
+    file goes to the run folder ``driftlog-runs/<case>/`` (and is reused from there), not
+    beside the scenario.
+    """
+    from driftlog.scenario import read_toml
+    from driftlog.schema import merge
+
+    over = dict(over or {})
+    if not _in_cases(path) or "path" in over.get("flow", {}):
+        return over
+    flow = read_toml(path)[0].get("flow", {})
+    solver = over.get("flow", {}).get("source", flow.get("source") if isinstance(flow, dict)
+                                      else None) == "solver"
+    if solver:
+        name_ = Path((flow.get("path") if isinstance(flow, dict) else None)
+                     or "solver_flow.nc").name
+        run = (Path("driftlog-runs") / name / name_).resolve()
+        over = merge(over, {"flow": {"path": str(run)}})
+    return over
+
+
 def _flow_file(scen):
     """The flow file a scenario reads or computes (None for an analytic flow)."""
     sec = scen["flow"]
@@ -231,7 +255,7 @@ def cmd_track(args):
     from driftlog.api import as_scenario, track
 
     path, name = _scenario_path(args.scenario)
-    scen = as_scenario(path, _overrides(args.set))
+    scen = as_scenario(path, _case_overrides(path, name, _overrides(args.set)))
     output = args.output
     if output is None and _in_cases(path):
         output = Path("driftlog-runs") / name / Path(scen["output"]["path"]).name
@@ -378,13 +402,14 @@ def cmd_solve(args):
     from driftlog.scenario import load_scenario, read_toml
     from driftlog.solver import solve_scenario
 
-    path, _ = _scenario_path(args.scenario)
+    path, name = _scenario_path(args.scenario)
     raw = read_toml(path)[0]
     if "solver" not in raw:
         raise DriftlogError(f"{path}: has no [solver] section: driftlog solve computes the flow "
                             "that [solver] describes (mesh, bed, boundaries, end time); "
                             "driftlog scenario keys --section solver lists its keys")
-    scen = load_scenario(path, overrides={"flow": {"source": "solver"}})
+    scen = load_scenario(path, overrides=_case_overrides(path, name,
+                                                         {"flow": {"source": "solver"}}))
     res, path = solve_scenario(scen, output=args.output, resume=args.resume,
                                progress=not args.quiet)
     print(f"flow file: {path}")

@@ -49,8 +49,12 @@ def flotation_depth(r, rho_b, rho):
     for _ in range(200):  # bisection on delta - sin(delta) cos(delta), increasing in delta
         mid = 0.5 * (lo + hi)
         if mid - np.sin(mid) * np.cos(mid) < target:
+            if mid == lo:
+                break  # a fixed point: the remaining iterations would change nothing
             lo = mid
         else:
+            if mid == hi:
+                break
             hi = mid
     return r * (1.0 - np.cos(0.5 * (lo + hi)))
 

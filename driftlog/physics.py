@@ -39,7 +39,7 @@ NPARAM = 10
 (O_LEVEL, O_ROT, O_SUBMERGED, O_SLOPE, O_LAW, O_AREA, O_CD, O_KLIN, O_RHO, O_G, O_MU,
  O_TORQUE_DRAG, O_MOTION, O_MU_BED, O_BED_SLOPE) = range(15)
 NOPT = 15
-# initial motion (MODEL.md 6.1): a log moves only when it floats (the paper), or also on the
+# initial motion (docs/model.md 6.1): a log moves only when it floats (the paper), or also on the
 # bed when the flow's forces overcome bed friction (Braudrick and Grant 2000)
 MOTION_FLOATING, MOTION_FRICTION = 0, 1
 MOTIONS = {"floating": MOTION_FLOATING, "friction": MOTION_FRICTION}
@@ -86,7 +86,7 @@ class PhysicsOptions:
                    linear_drag=section["linear_drag"], water_density=section["water_density"],
                    gravity=section["gravity"], viscosity=section["viscosity"],
                    torque_force=section["torque_force"],
-                   # beyond the paper (MODEL.md 6.1-6.2): a hand-made section may leave them out
+                   # beyond the paper (docs/model.md 6.1-6.2): a hand-made section may omit them
                    **{k: section[k] for k in cls._LATER if k in section})
 
     def vector(self) -> np.ndarray:
@@ -209,7 +209,7 @@ def _torque(dw, s, p, opt):
     return kr * cds * (abs(dw) / vr) * dw
 
 
-# --------------------------------------------------------------------- bed friction (MODEL.md 6.1)
+# ------------------------------------------------------------ bed friction (docs/model.md 6.1)
 @nb.njit(cache=True, inline="always")
 def bed_weight(h, gx, gy, p, opt):
     """Bed terms of a log on the bed: (downslope weight force x, y; friction limit).
@@ -235,7 +235,7 @@ def rest_drive(th, fl, p, opt):
 
     Returns (fx, fy, ff): the flow's forces at U_b = 0, omega_b = 0 (drag at w = U_w and, at
     the full level, the pressure-gradient force) plus the downslope weight (``bed_weight``);
-    ff = mu_bed W' cos(a_s).  The log moves when |(fx, fy)| >= ff (MODEL.md 6.1): with
+    ff = mu_bed W' cos(a_s).  The log moves when |(fx, fy)| >= ff (docs/model.md 6.1): with
     ``drag_law = "constant"`` and ``drag_area = "wetted"`` on a bed sloping down the flow this
     is Braudrick and Grant's (2000) threshold.
     """
@@ -343,7 +343,7 @@ def log_rhs(s_, fl, p, opt, want_lin):
         fx += rho * vf * (1.5 * fl[DUDT] + jx)
         fy += rho * vf * (1.5 * fl[DVDT] + jy)
     if opt[O_MOTION] == MOTION_FRICTION and h < p[P_HSTAR]:
-        # a log moving on the bed (MODEL.md 6.1): downslope weight and Coulomb friction
+        # a log moving on the bed (docs/model.md 6.1): downslope weight and Coulomb friction
         fx, fy = _bed_friction(fx, fy, ub, vb, fl, p, opt)
     axb, ayb = fx / m_eff, fy / m_eff
     if not rot:
@@ -404,8 +404,8 @@ def rhs_kernel(S, F, P, opt, D, lin, want_lin=True):
                 lin[i, k] = ln[k]
 
 
-# --------------------------------------------------------------------- waterlogging (MODEL.md 6.2)
-@nb.njit(cache=True)
+# ------------------------------------------------------------ waterlogging (docs/model.md 6.2)
+@kernel
 def soak_kernel(idx, dt, rho_sat, tau, rho, density, volume, length, radius, mass, inertia,
                 float_depth, P):
     """Waterlog the logs ``idx`` over dt: rho_b <- rho_sat - (rho_sat - rho_b) exp(-dt / tau).
@@ -414,7 +414,7 @@ def soak_kernel(idx, dt, rho_sat, tau, rho, density, volume, length, radius, mas
     mass, inertia, flotation depth and the logs' parameter rows P in place.
     """
     f = np.exp(-dt / tau)
-    for k in range(idx.size):
+    for k in nb.prange(idx.size):
         i = idx[k]
         d = rho_sat - (rho_sat - density[i]) * f
         density[i] = d
@@ -459,14 +459,14 @@ PHYSICS_SECTION = Section("physics", [
         "the flow)", choices=("total", "drag")),
     Key("motion", "str", "floating", "when a log moves: only when it floats (the paper), or "
         "also on the bed when the flow's forces overcome bed friction (Braudrick and Grant "
-        "2000; MODEL.md 6.1)", choices=tuple(MOTIONS)),
+        "2000; docs/model.md 6.1)", choices=tuple(MOTIONS)),
     Key("bed_friction", "float", 0.5, "bed friction coefficient mu_bed", min=0.0,
         when="motion = friction"),
     Key("bed_slope", "str", "surface", "bed slope a_s under a log: the free-surface slope (equal "
         "to the bed's in uniform flow), or flat", choices=tuple(BED_SLOPES),
         when="motion = friction"),
     Key("waterlogging", "str", "off", "log density rising while wet: off, or an exponential "
-        "approach to saturated_density (MODEL.md 6.2)", choices=("off", "exponential")),
+        "approach to saturated_density (docs/model.md 6.2)", choices=("off", "exponential")),
     Key("saturated_density", "float", 1100.0, "density a log tends to while wet", "kg/m3",
         min=0.0, exclusive_min=True, when="waterlogging = exponential"),
     Key("waterlogging_time", "float", None, "time constant of the density's approach",

@@ -37,6 +37,7 @@ from driftlog.logs import (
     WAITING,
     X,
     Y,
+    flotation_depth,
 )
 from driftlog.physics import (
     L_PAR,
@@ -74,6 +75,7 @@ class StepOptions:
 
     @classmethod
     def from_scenario(cls, section):
+        """From a validated [integrator] section."""
         return cls(section["length_fraction"], section["angle_step"], section["drag_fraction"],
                    section["max_step"], section["min_step"])
 
@@ -120,7 +122,7 @@ def _classify_motion(F, flag, S, P, opt, status):
     """As ``_classify``, with initial motion on the bed (``physics.motion = "friction"``).
 
     A wet log below its flotation depth moves (status floating: transported) when the flow's
-    forces on it at rest overcome bed friction (``physics.rest_drive``, MODEL.md 6.1), and
+    forces on it at rest overcome bed friction (``physics.rest_drive``, docs/model.md 6.1), and
     rests otherwise.
     """
     changed = 0
@@ -319,6 +321,7 @@ class Tracker:
                 self._F_valid)
 
     def restore(self, saved):
+        """Put back what ``save`` returned."""
         state, t, face, F, flag, valid = saved
         np.copyto(self.state, state)
         self.t = t
@@ -404,7 +407,7 @@ class Tracker:
         return _classify_motion(F, flag, S, P, self.opt, status)
 
     def _soak(self, dt):
-        """Waterlogging (MODEL.md 6.2): the density of every wet log rises over dt."""
+        """Waterlogging (docs/model.md 6.2): the density of every wet log rises over dt."""
         if self.physics.waterlogging == "off" or dt <= 0.0:
             return
         L = self.logs
@@ -421,6 +424,19 @@ class Tracker:
             self.inertia = L.inertia[self.act]
             self._d0_valid = False  # the first stage depends on the density
 
+    def _set_densities(self, idx, density):
+        """Give the logs ``idx`` these densities (a resumed waterlogged run).
+
+        Their mass, inertia, flotation depth and parameter rows follow.
+        """
+        L = self.logs
+        L.density[idx] = density
+        L.mass[idx] = L.density[idx] * L.volume[idx]
+        L.inertia[idx] = L.mass[idx] * (L.length[idx] ** 2 / 12.0 + L.radius[idx] ** 2 / 4.0)
+        L.float_depth[idx] = [flotation_depth(r, d, L.water_density)
+                              for r, d in zip(L.radius[idx], L.density[idx], strict=True)]
+        self.P_all[:] = log_parameters(L.length, L.radius, L.density, L.float_depth)
+
     def _update_status(self):
         """Re-classify floating logs (left, stranded, resting) and the resting ones (refloat)."""
         L = self.logs
@@ -432,7 +448,8 @@ class Tracker:
                 self._scatter()
                 scattered = changed = True
                 L.status[self.act] = st
-                L.state[self.act[st != FLOATING], UB:] = 0.0  # resting logs do not move (MODEL.md 3)
+                # resting logs do not move (MODEL.md 3)
+                L.state[self.act[st != FLOATING], UB:] = 0.0
         idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
         # on a steady flow an idle log can only change when it has just stopped
         # (waterlogging changes the logs themselves)
@@ -498,11 +515,13 @@ class Tracker:
         time restarts at ``t`` (an output time, where a sub-step always ends), so the resumed
         run continues exactly as the uninterrupted one would have.
         """
-        if self.physics.waterlogging != "off":
-            raise ScenarioError("physics.waterlogging", self.physics.waterlogging,
-                                "a run with waterlogging cannot be resumed: the logs' densities "
-                                "are not in the trajectory file; rerun it from the start")
         L = self.logs
+        if self.physics.waterlogging != "off":
+            if "log_density" not in columns:
+                raise ScenarioError("physics.waterlogging", self.physics.waterlogging,
+                                    "this run cannot be resumed: its trajectory file has no "
+                                    "log_density records; rerun it from the start")
+            self._set_densities(index, columns["log_density"])
         for k, name in enumerate(("x", "y", "theta", "u", "v", "omega")):
             L.state[index, k] = columns[name]
         L.status[index] = columns["status"]
@@ -553,6 +572,8 @@ class Tracker:
         cols = {"x": L.state[idx, 0], "y": L.state[idx, 1], "theta": L.state[idx, 2],
                 "u": L.state[idx, 3], "v": L.state[idx, 4], "omega": L.state[idx, 5],
                 "status": L.status[idx], "water_depth": s.h, "flow_u": s.u, "flow_v": s.v}
+        if self.physics.waterlogging != "off":
+            cols["log_density"] = L.density[idx]
         self.writer.record(self.t, idx, cols)
         self._recorded_left[idx[L.status[idx] == LEFT]] = True
 
@@ -593,7 +614,8 @@ class Tracker:
                     if not np.all(np.isfinite(self.state)):
                         bad = self.ids[~np.isfinite(self.state).all(axis=1)]
                         raise IntegrationError(
-                            f"the {self.integrator.name} integration diverged at t = {self.t:.6g} s "
+                            f"the {self.integrator.name} integration diverged at "
+                            f"t = {self.t:.6g} s "
                             f"(logs {bad[:5].tolist()}): the step is too long for the drag "
                             "relaxation time; use integrator.method = 'exponential' or set "
                             "integrator.drag_fraction > 0")

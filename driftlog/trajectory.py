@@ -46,6 +46,11 @@ OBS_VARS = {
     "flow_v": ("f4", dict(long_name="flow velocity at the log centre, y component",
                           units="m s-1")),
 }
+# observations written only by runs that need them (the tracker passes the column)
+EXTRA_OBS_VARS = {
+    "log_density": ("f8", dict(long_name="log density rho_b (waterlogging, docs/model.md 6.2)",
+                               units="kg m-3")),
+}
 TRAJ_VARS = {
     "length": ("f8", dict(long_name="log length L", units="m")),
     "radius": ("f8", dict(long_name="log radius r", units="m")),
@@ -163,8 +168,9 @@ class TrajectoryWriter:
         """
         if len(index) == 0:
             return
+        names = [*OBS_VARS, *(k for k in EXTRA_OBS_VARS if k in columns)]
         self._buf.append((t, np.asarray(index).copy(),
-                          {k: np.asarray(columns[k]).copy() for k in OBS_VARS}))
+                          {k: np.asarray(columns[k]).copy() for k in names}))
         if len(self._buf) >= self.flush_interval:
             self.flush()
 
@@ -177,6 +183,14 @@ class TrajectoryWriter:
         self.ds["trajectory_index"][sl] = idx
         self.ds["time"][sl] = np.concatenate([np.full(b[1].size, b[0]) for b in self._buf])
         for name in OBS_VARS:
+            self.ds[name][sl] = np.concatenate([b[2][name] for b in self._buf])
+        for name in (k for k in EXTRA_OBS_VARS if k in self._buf[0][2]):
+            if name not in self.ds.variables:  # created with the first record that has it
+                dt, a = EXTRA_OBS_VARS[name]
+                v = self.ds.createVariable(name, dt, ("obs",), zlib=True, complevel=1)
+                v.setncatts(a)
+                v.coordinates = "time x y"
+                v.set_auto_maskandscale(False)
             self.ds[name][sl] = np.concatenate([b[2][name] for b in self._buf])
         self.nobs += k
         self._buf = []
@@ -207,6 +221,7 @@ class TrajectoryWriter:
         self.ds.sync()
 
     def set_attrs(self, **attrs):
+        """Set global attributes of the file."""
         self.ds.setncatts(_attrs_for_netcdf(attrs))
 
     def close(self, finalize=True):
@@ -329,7 +344,8 @@ def last_states(path):
         ti = ds["trajectory_index"][:]
         order = np.lexsort((t, ti))
         last = order[np.flatnonzero(np.diff(np.append(ti[order], -1)) != 0)]
-        cols = {name: ds[name][:][last] for name in OBS_VARS}
+        names = [*OBS_VARS, *(k for k in EXTRA_OBS_VARS if k in ds.variables)]
+        cols = {name: ds[name][:][last] for name in names}
         return float(t.max()), ti[last], cols
 
 

@@ -1,4 +1,4 @@
-"""Beyond the paper (issue 16, MODEL.md 6.1-6.2): initial motion with bed friction, waterlogging.
+"""Beyond the paper (issue 16, docs/model.md 6.1-6.2): initial motion on the bed, waterlogging.
 
 Exact cases: Braudrick and Grant's (2000) entrainment threshold for a log on the bed of a
 uniform flow (both orientations, flat and sloping bed) and the sliding speed it then reaches;
@@ -32,12 +32,12 @@ def threshold_speed(theta, slope):
     return np.sqrt(2.0 * wprime * (MU_BED * np.cos(a_s) - np.sin(a_s)) / (RHO * CD * area))
 
 
-def run_bed_log(u, theta, slope, motion="friction", t_end=20.0):
+def run_bed_log(u, theta, slope, motion="friction", t_end=20.0, method="rk4"):
     flow = UniformFlow(u, 0.0, DEPTH, surface_slope=(-slope, 0.0))
     logs = Logs([0.0], [0.0], theta, L, R, RHO_B)
     ph = PhysicsOptions(rotation=False, drag_law="constant", drag_coefficient=CD,
                         drag_area="wetted", motion=motion, bed_friction=MU_BED)
-    Tracker(flow, logs, ph, "rk4", t_end=t_end, output_interval=t_end, hydro_step=0.5).run()
+    Tracker(flow, logs, ph, method, t_end=t_end, output_interval=t_end, hydro_step=0.5).run()
     return logs
 
 
@@ -57,12 +57,13 @@ def test_log_on_bed_moves_just_above_the_friction_threshold(theta, slope):
     assert paper.status[0] == RESTING and paper.state[0, 0] == 0.0
 
 
+@pytest.mark.parametrize("method", ["euler", "rk4", "exponential"])
 @pytest.mark.parametrize("theta", [0.0, np.pi / 2])
-def test_sliding_log_reaches_the_speed_where_drag_balances_friction(theta):
+def test_sliding_log_reaches_the_speed_where_drag_balances_friction(theta, method):
     # drag 0.5 rho C_d A w^2 = friction mu W': the relative speed w is the threshold speed,
     # so a log on a flat bed slides at u - u_c
     uc = threshold_speed(theta, 0.0)
-    logs = run_bed_log(1.5 * uc, theta, 0.0, t_end=200.0)
+    logs = run_bed_log(1.5 * uc, theta, 0.0, t_end=200.0, method=method)
     assert logs.status[0] == FLOATING
     assert logs.state[0, 3] == pytest.approx(0.5 * uc, rel=1e-6)
     assert abs(logs.state[0, 4]) < 1e-12
@@ -200,11 +201,62 @@ waterlogging_time = 100.0
     assert np.all(ds["x"].values == 0.0)  # still water: held on the bed by friction
 
 
-def test_a_waterlogged_run_is_not_resumed_with_fresh_densities():
+def test_a_waterlogged_run_resumes_bit_for_bit_with_its_densities(tmp_path):
+    from driftlog.api import track
+    from driftlog.scenario import load_scenario
+    from driftlog.sources import flow_from_scenario
+
+    scen = """
+[flow]
+source = "analytic"
+kind = "free_vortex"
+circulation = 4.0
+core_radius = 0.5
+depth = 0.3
+[time]
+end = 40.0
+output_interval = 1.0
+[[logs]]
+seeding = "line"
+start = [1.0, 0.0]
+end = [3.0, 0.0]
+count = 3
+length = 0.4
+radius = 0.1
+density = 600.0
+release_time = 2.5
+[physics]
+waterlogging = "exponential"
+waterlogging_time = 20.0
+[output]
+flush_interval = 1
+"""
+    full = track(scen, output=tmp_path / "full.nc").dataset()
+    flow = flow_from_scenario(load_scenario(scen))
+
+    class Breaks(type(flow)):
+        def sample_into(self, x, y, t, face, out, flag):
+            if t > 21.3:
+                raise KeyboardInterrupt
+            super().sample_into(x, y, t, face, out, flag)
+
+    broken = Breaks.__new__(Breaks)
+    broken.__dict__.update(flow.__dict__)
+    with pytest.raises(KeyboardInterrupt):
+        track(scen, flow=broken, output=tmp_path / "r.nc")
+    again = track(scen, output=tmp_path / "r.nc", resume=True).dataset()
+    for name in ("time", "x", "status", "log_density"):
+        np.testing.assert_array_equal(again[name].values, full[name].values)
+    # the logs sink on the way (h* rises past 0.3 m), so the densities mattered
+    st = full["status"].values
+    assert np.any(st == FLOATING) and np.any(st == RESTING)
+
+
+def test_a_waterlogged_run_without_density_records_is_not_resumed():
     logs = Logs([0.0], [0.0], 0.0, 1.0, 0.1, 700.0)
     ph = PhysicsOptions(waterlogging="exponential", waterlogging_time=100.0)
     tr = Tracker(UniformFlow(0.0, 0.0, 1.0), logs, ph, "rk4", t_end=10.0)
     cols = {k: np.zeros(1) for k in ("x", "y", "theta", "u", "v", "omega")}
     cols["status"] = np.array([FLOATING], np.int8)
-    with pytest.raises(ScenarioError, match="physics.waterlogging.*cannot be resumed"):
+    with pytest.raises(ScenarioError, match="physics.waterlogging.*no log_density"):
         tr.resume_from(5.0, np.array([0]), cols)

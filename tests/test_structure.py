@@ -23,7 +23,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 LAYERS = [
-    ("base", ["driftlog._version", "driftlog._numba", "driftlog.errors", "driftlog.schema",
+    ("base", ["driftlog._version", "driftlog._cache", "driftlog._numba", "driftlog.errors", "driftlog.schema",
               "driftlog.files", "driftlog.resources"]),
     ("mesh", ["driftlog.locate", "driftlog.seams", "driftlog.nodal", "driftlog.mesh",
               "driftlog.mesher"]),

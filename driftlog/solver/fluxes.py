@@ -26,11 +26,6 @@ from driftlog.solver.riemann import riemann_flux
 
 __all__ = ["edge_fluxes", "face_residuals"]
 
-# numba's on-disk cache of these kernels is keyed on this file's content only, not on the
-# functions inlined from riemann.py, boundaries.py and reconstruction.py: change this line
-# whenever one of those changes, or a stale compilation is loaded.
-INLINED_REVISION = 2  # 2: free boundaries let no water in
-
 
 @nb.njit(cache=True, inline="always")
 def _side_state(f, dx, dy, h, hu, hv, z, hdry, order, grad):

@@ -1,0 +1,46 @@
+"""numba's cache folder follows the source of the modules that compiled kernels depend on."""
+
+import os
+import shutil
+from pathlib import Path
+
+from driftlog import _cache
+
+PACKAGE = Path(__file__).resolve().parent.parent / "driftlog"
+
+
+def _copy_tree(tmp_path):
+    dst = tmp_path / "src" / "driftlog"
+    shutil.copytree(PACKAGE, dst, ignore=shutil.ignore_patterns("__pycache__"))
+    adapters = PACKAGE.parent / "adapters"
+    if adapters.is_dir():
+        shutil.copytree(adapters, dst.parent / "adapters",
+                        ignore=shutil.ignore_patterns("__pycache__"))
+    return dst
+
+
+def test_hash_changes_with_an_inlined_module_only(tmp_path):
+    pkg = _copy_tree(tmp_path)
+    h0 = _cache._source_hash(pkg)
+    assert _cache._source_hash(pkg) == h0  # deterministic
+    # the Riemann solver is inlined into the flux kernel of another file: a change must show
+    riemann = pkg / "solver" / "riemann.py"
+    riemann.write_text(riemann.read_text() + "\n# changed\n")
+    h1 = _cache._source_hash(pkg)
+    assert h1 != h0
+    # the command line holds no kernel and no kernel imports it: the cache stays
+    cli = pkg / "cli.py"
+    cli.write_text(cli.read_text() + "\n# changed\n")
+    assert _cache._source_hash(pkg) == h1
+
+
+def test_cache_dir_set_once_and_user_value_wins(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    folder = _cache.set_numba_cache_dir(PACKAGE)
+    assert folder is not None and Path(folder).is_dir()
+    assert os.environ["NUMBA_CACHE_DIR"] == folder
+    assert Path(folder).name == _cache._source_hash(PACKAGE)
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "mine"))
+    assert _cache.set_numba_cache_dir(PACKAGE) is None
+    assert os.environ["NUMBA_CACHE_DIR"] == str(tmp_path / "mine")
