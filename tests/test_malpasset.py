@@ -13,6 +13,7 @@ from pathlib import Path
 import netCDF4
 import numpy as np
 import pytest
+from conftest import malpasset_dir
 
 from driftlog.errors import ScenarioError
 from driftlog.floodsetup import (
@@ -22,7 +23,6 @@ from driftlog.floodsetup import (
     read_observations,
     sea_faces,
 )
-from conftest import malpasset_dir
 
 CASE = Path(__file__).resolve().parent.parent / "cases" / "malpasset" / "scenario.toml"
 END = 240.0  # s: the wave has passed P1, G6, P2, transformer A (observed 100 s) and G7 (102 s)

@@ -1,4 +1,4 @@
-"""Each physics term against exact values (MODEL.md sections 3-6, 10.F)."""
+"""Each physics term against exact values (docs/model.md sections 6-9, 15.F-G)."""
 import numpy as np
 import pytest
 
@@ -70,9 +70,10 @@ def _rhs(flow, logs, **opts):
     return D, lin, P
 
 
-@pytest.mark.parametrize("area,expected", [("paper", lambda r, L: 2 * r * L),
-                                           ("ganser", lambda r, L: np.pi / 4 * (6 * r * r * L) ** (2 / 3)),
-                                           ("wetted", lambda r, L: L * 0.5 * r)])
+@pytest.mark.parametrize("area,expected", [
+    ("paper", lambda r, L: 2 * r * L),
+    ("ganser", lambda r, L: np.pi / 4 * (6 * r * r * L) ** (2 / 3)),
+    ("wetted", lambda r, L: L * 0.5 * r)])
 def test_drag_force_constant_cd_broadside(area, expected):
     # broadside log at rest in uniform flow of 1 m/s, depth 0.5 r for the wetted area
     r, L = 0.04, 1.0
@@ -127,7 +128,7 @@ def test_surface_slope_on_sloping_uniform_flow():
 
 def test_torque_signs():
     # centre of pressure on the upstream side: a log at 45 degrees in flow along +x with the
-    # drag lever turns it broadside (MODEL.md 6, known limitation)
+    # drag lever turns it broadside (docs/model.md section 9, known limitation)
     flow = UniformFlow(1.0, 0.0)
     logs = Logs([0.0], [0.0], np.pi / 4, 1.0, 0.05, 700.0, u=0.0)
     D, _, _ = _rhs(flow, logs, level="drag")
