@@ -11,7 +11,7 @@ import argparse
 import sys
 
 from driftlog._version import __version__
-from driftlog.cli import batch, flows, scenes  # noqa: F401  (registers the subcommands)
+from driftlog.cli import batch, flows, scenes
 from driftlog.cli.common import COMMANDS, formatter
 from driftlog.errors import DriftlogError
 
@@ -31,7 +31,10 @@ def build_parser() -> argparse.ArgumentParser:
                "  driftlog <command> --help         help and an example for each command")
     parser.add_argument("--version", action="version", version=f"driftlog {__version__}")
     sub = parser.add_subparsers(title="commands", metavar="<command>")
-    for add in COMMANDS:
+    # --help lists the commands module by module, each in the order of its source
+    order = [m.__name__ for m in (scenes, flows, batch)]
+    for add in sorted(COMMANDS, key=lambda f: (order.index(f.__module__),
+                                                f.__code__.co_firstlineno)):
         add(sub)
     return parser
 
