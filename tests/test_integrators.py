@@ -89,7 +89,8 @@ def test_C_quadratic_drag_uniform_flow_from_rest():
     T = 20.0
     x_exact = U0 * T - np.log(1 + beta * U0 * T) / beta
     w_exact = U0 / (1 + beta * U0 * T)
-    for method, dt, tol in (("rk4", 0.05, 1e-6), ("exponential", 0.05, 1e-6), ("euler", 0.001, 2e-3)):
+    for method, dt, tol in (("rk4", 0.05, 1e-6), ("exponential", 0.05, 1e-6),
+                            ("euler", 0.001, 2e-3)):
         log = Logs([0.0], [0.0], 0.0, L, r, rho_b, u=0.0)
         S, _ = run_one(UniformFlow(U0, 0.0), log, method, dt, T, drag_law="constant",
                        drag_coefficient=cd)
