@@ -34,5 +34,5 @@ test: install-test
 report: install
 	$(BIN)/driftlog report
 
-lint:
-	ruff check driftlog adapters tests benchmarks
+lint: install-test
+	$(BIN)/ruff check driftlog adapters tests benchmarks

@@ -1,6 +1,7 @@
 """Readers of flow outputs (driftlog's own and other models'), each returning a ``FlowField``.
 
-Imported as ``driftlog.adapters`` (the folder sits at the top of the repository, DESIGN.md).
+Imported as ``driftlog.adapters`` (the folder sits at the top of the repository,
+docs/design.md section 4.3).
 
 Every reader is one module that declares (the reader contract):
 

@@ -168,7 +168,7 @@ def first_contact(S, t_end):
 
 
 def exact_after(S, t_star, eps):
-    """Post-contact velocities with the impulse at the exact contact time (MODEL.md 7)."""
+    """Post-contact velocities, the impulse at the exact contact time (docs/model.md eq. (50))."""
     b = BallisticLogs(S, L, R)
     b.advance(t_star)
     out = np.empty(5)

@@ -1,8 +1,9 @@
 """Integrators: observed orders, work-precision, and where explicit schemes fail (issue 4).
 
-1. Solid-body rotation, neutrally buoyant log (MODEL.md 10.A, exact): position error after
-   500 s against the exact circle.
-2. Quadratic drag from rest in uniform flow (MODEL.md 10.C, exact): position after 20 s.
+1. Solid-body rotation, neutrally buoyant log (docs/model.md section 15.A, exact): position
+   error after 500 s against the exact circle.
+2. Quadratic drag from rest in uniform flow (docs/model.md section 15.C, exact): position
+   after 20 s.
 3. A free vortex interpolated on an unstructured triangle mesh (P1 in space): error against the
    same mesh field integrated with a tiny step.  The velocity gradient jumps at face edges, so
    RK4's fourth order is lost there (measured, not assumed).

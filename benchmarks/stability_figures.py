@@ -1,11 +1,11 @@
 """Stability where methods fail, and their remedies (issue 7, item 4): three figures.
 
 1. Stiff drag.  The flume log of the paper's section 3.4 (L 0.2 m, r 4 mm, rho_b 720 kg/m3),
-   broadside to a uniform 0.21 m/s flow, released from rest, constant C_D = 1 (MODEL.md 10.C
-   is then exact: u_b(t) = U0 - U0 / (1 + beta U0 t)).  The drag relaxation time 1/(2 beta U0)
-   is about 0.04 s, the paper's step L/|U_b| about 1 s: explicit Euler and RK4 blow up or ring;
-   RK4 with the step bounded by integrator.drag_fraction, and the exponential integrator, stay
-   stable.  Velocity against time, and the error at t = 5 s against the step.
+   broadside to a uniform 0.21 m/s flow, released from rest, constant C_D = 1 (docs/model.md
+   section 15.C is then exact: u_b(t) = U0 - U0 / (1 + beta U0 t)).  The drag relaxation time
+   1/(2 beta U0) is about 0.04 s, the paper's step L/|U_b| about 1 s: explicit Euler and RK4
+   blow up or ring; RK4 with the step bounded by integrator.drag_fraction, and the exponential
+   integrator, stay stable.  Velocity against time, and the error at t = 5 s against the step.
 2. Jam.  cases/bridge_jam (30 logs against a bridge deck, eps = 0.3): the event-driven
    sub-step collapses until ContactJamError; Moreau-Jean's steps stay steady, the pile's
    deepest overlap and its speeds stay bounded.  Steps are recorded by wrapping the contact
@@ -46,7 +46,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 # ----------------------------------------------------------------------------- 1. stiff drag
 U0, L, R, RHO_B, RHO, CD = 0.21, 0.2, 0.004, 720.0, 1000.0, 1.0
-# broadside (alpha = 90 deg): S_eff = 2 r L; V_b = pi r^2 L (MODEL.md 10.C)
+# broadside (alpha = 90 deg): S_eff = 2 r L; V_b = pi r^2 L (docs/model.md section 15.C)
 BETA = CD * RHO * 2 * R * L / (2 * (RHO_B + RHO / 2) * np.pi * R * R * L)
 TAU = 1.0 / (2 * BETA * U0)  # linearised relaxation time at the start (w = U0)
 PAPER_STEP = L / U0
@@ -99,7 +99,7 @@ def stiff_drag(plt, quick):
                                     or not bounded_u))
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 4.8))
     tt = np.linspace(0, T_DRAG, 400)
-    a1.plot(tt, u_exact(tt), "k-", lw=2, label="exact (MODEL.md 10.C)")
+    a1.plot(tt, u_exact(tt), "k-", lw=2, label="exact (docs/model.md section 15.C)")
     rows = []
     for (lab, (t, u, x_end, err, n)), st in zip(curves.items(), ["o--", "s--", "^-", "d-"],
                                                  strict=True):

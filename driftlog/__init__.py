@@ -111,7 +111,7 @@ def __dir__():
 class _AdaptersFinder(importlib.abc.MetaPathFinder):
     """Import ``driftlog.adapters`` from the repository's top-level ``adapters/`` folder.
 
-    DESIGN.md places the adapters beside the package; an installed wheel maps the
+    docs/design.md (section 4.3) places the adapters beside the package; an installed wheel maps the
     folder into ``driftlog/adapters`` (pyproject ``package-dir``), a source checkout
     uses this finder.  There is no top-level ``adapters`` import name either way.
     """

@@ -3,7 +3,7 @@
 Each has the sampling interface of every flow field (``FlowField.sample``).  Depth is constant;
 the free-surface slope is the one that balances the flow's steady (advective) acceleration,
 g grad(eta) = -(U . grad) U, as in frictionless steady flow, so that the ``surface_slope``
-physics option (MODEL.md section 4: -g grad(eta) in place of the steady part of DU_w/Dt) and
+physics option (docs/model.md eq. (34'): -g grad(eta) in place of the steady part of DU_w/Dt) and
 the pressure-gradient term agree on these fields.  A uniform flow may be given a surface slope
 of its own (a sloping uniform flow held by bed friction, where DU_w/Dt = 0 but g S is not).
 """

@@ -7,7 +7,7 @@ own each array (``logs``, ``flow``, ``physics``, ``contact.geometry``) re-export
 """
 
 # --------------------------------------------------------------------- log state (n, NSTATE)
-# centre, axis angle, velocity of the centre, angular velocity (docs: MODEL.md section 2)
+# centre, axis angle, velocity of the centre, angular velocity (docs/model.md section 5)
 X, Y, THETA, UB, VB, OMEGA = range(6)
 NSTATE = 6
 STATE_NAMES = ("x", "y", "theta", "u", "v", "omega")  # in column order, as in trajectory files

@@ -137,7 +137,10 @@ def _netcdf_kind(path: Path) -> FileKind:
                 return FileKind("trajectories", path, info=info)
             return FileKind("partial", path, info=info)
         title = str(getattr(ds, "title", ""))
-        if "driftlog_version" in attrs and "ensemble" in title:
+        # the aggregate's own title (a flow file's title is its scenario's, which may say
+        # "ensemble": cases/river_piers/ensemble.toml)
+        if "driftlog_version" in attrs and (title.startswith("driftlog ensemble")
+                                            or "member_state" in names):
             return FileKind("ensemble", path, info=info)
         topo = [v for v in ds.variables.values()
                 if "cf_role" in v.ncattrs() and v.getncattr("cf_role") == "mesh_topology"]

@@ -1,4 +1,4 @@
-"""Time integrators for the log state (MODEL.md sections 8-9).
+"""Time integrators for the log state (docs/model.md section 12).
 
 - ``euler``: explicit Euler (the paper's eq. 16), order 1.
 - ``rk4``: classical Runge-Kutta (the paper), order 4 on smooth fields.
@@ -351,4 +351,4 @@ INTEGRATOR_SECTION = Section("integrator", [
         exclusive_min=True),
     Key("min_step", "float", 1e-9, "sub-steps below this are an error (the run stops with a "
         "message)", "s", min=0.0, exclusive_min=True),
-], doc="time integration (MODEL.md sections 8-9)")
+], doc="time integration (docs/model.md sections 11-12)")

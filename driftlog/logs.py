@@ -1,6 +1,6 @@
 """Log state as flat arrays (structure of arrays), log properties, and seeding.
 
-A log is a horizontal cylinder (MODEL.md section 2): radius r, length L, density rho_b;
+A log is a horizontal cylinder (docs/model.md section 5): radius r, length L, density rho_b;
 centre (x, y), axis angle theta, velocity (u, v), angular velocity omega.  In plan view, for
 contacts, it is a capsule: a segment of length L with radius r.
 
@@ -28,7 +28,10 @@ STATUS_MEANINGS = "waiting floating resting stranded left_domain"
 
 @nb.njit(cache=True)
 def submerged_volume(h, r, L):
-    """V_sub(h) = L r^2 (delta - sin delta cos delta), delta = arccos(1 - h / r) (MODEL.md 3)."""
+    """V_sub(h) = L r^2 (delta - sin delta cos delta), delta = arccos(1 - h / r).
+
+    docs/model.md eq. (32).
+    """
     if h <= 0.0:
         return 0.0
     if h >= 2.0 * r:

@@ -19,7 +19,8 @@ __all__ = ["polygon_mesh", "channel_mesh", "circle", "rectangle"]
 def circle(center, radius, cell_size=None, n=None):
     """Polygon (n, 2) approximating a circle, counter-clockwise; n from the cell size."""
     if n is None:
-        n = 24 if cell_size is None else int(np.clip(np.ceil(2 * np.pi * radius / cell_size), 8, 720))
+        n = 24 if cell_size is None else int(np.clip(np.ceil(2 * np.pi * radius / cell_size),
+                                                     8, 720))
     a = 2 * np.pi * np.arange(n) / n
     return np.column_stack([center[0] + radius * np.cos(a), center[1] + radius * np.sin(a)])
 

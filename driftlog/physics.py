@@ -1,10 +1,10 @@
-"""Forces and torques on a log (MODEL.md sections 3-6), as numba kernels over flat arrays.
+"""Forces and torques on a log (docs/model.md sections 5-10), as numba kernels over flat arrays.
 
 ``rhs_kernel`` turns the log state (x, y, theta, u, v, omega) and the flow sampled at the log
 centres into the time derivative of the state, and the linearisation of drag that the
 exponential integrator and the explicit step bound use (drag relaxation rates).
 
-Options (``PhysicsOptions``) follow MODEL.md's [choice] items; each default is the paper's
+Options (``PhysicsOptions``) follow docs/model.md's [choice] items; each default is the paper's
 reading.
 """
 
@@ -80,7 +80,7 @@ BED_SLOPES = {"flat": 0, "surface": 1}
 
 @dataclass
 class PhysicsOptions:
-    """The log transport model's options (MODEL.md sections 4-6); defaults are the paper's."""
+    """The log transport model's options (docs/model.md sections 7-10); defaults are the paper's."""
 
     level: str = "full"
     rotation: bool = True
@@ -164,7 +164,7 @@ def log_parameters(length, radius, density, float_depth) -> np.ndarray:
     return P
 
 
-# --------------------------------------------------------------------- drag (MODEL.md 5)
+# --------------------------------------------------------------------- drag (docs/model.md 8)
 @nb.njit(cache=True, inline="always")
 def effective_area(r, L, cos_a, sin_a):
     """S_eff = sqrt((pi r^2 cos a)^2 + (2 r L sin a)^2), the paper's projected area."""
@@ -313,7 +313,7 @@ def _bed_friction(fx, fy, ub, vb, fl, p, opt):
 
 @nb.njit(cache=True, inline="always")
 def log_rhs(s_, fl, p, opt, want_lin):
-    """Time derivative of one log's state and its drag linearisation (MODEL.md 4-6).
+    """Time derivative of one log's state and its drag linearisation (docs/model.md 7-9, 12.3).
 
     ``s_``: the state (x, y, theta, u, v, omega) as a tuple; ``fl``: the flow sampled at the
     log, the NVAR columns of ``driftlog.flow`` as a tuple; ``p``: the log's parameter row.
@@ -347,9 +347,9 @@ def log_rhs(s_, fl, p, opt, want_lin):
         nwx, nwy = 1.0, 0.0
     vol = p[P_VOL]
     vf = vol if opt[O_SUBMERGED] == 0.0 else submerged_volume(h, p[P_R], p[P_L])
-    m_eff = p[P_RHOB] * vol + 0.5 * rho * vf  # added mass, C_m = 1/2 (eq. 7)
+    m_eff = p[P_RHOB] * vol + 0.5 * rho * vf  # added mass, C_m = 1/2 (docs/model.md (33))
     kd = _drag_coef(s, cos_a, sin_a, h, p, opt)
-    fx, fy = kd * wx, kd * wy  # drag (eq. 6)
+    fx, fy = kd * wx, kd * wy  # drag (docs/model.md (35))
     if want_lin:
         # drag linearisation: F = g(s) w/s, dF/dw = g'(s) w w^T/s^2 + g(s)/s (I - w w^T/s^2)
         ds = 1e-6 * s + 1e-9
@@ -360,7 +360,8 @@ def log_rhs(s_, fl, p, opt, want_lin):
         lwx = nwx
         lwy = nwy
     if level == FULL:
-        # pressure gradient + added mass (eq. 7): 3/2 rho V dU_w/dt + rho V J (U_b/2 + U_w)
+        # pressure gradient + added mass (docs/model.md (34)):
+        # 3/2 rho V dU_w/dt + rho V J (U_b/2 + U_w)
         ax_, ay_ = 0.5 * ub + uw, 0.5 * vb + vw
         jx = dudx * ax_ + dudy * ay_
         jy = dvdx * ax_ + dvdy * ay_
@@ -376,13 +377,13 @@ def log_rhs(s_, fl, p, opt, want_lin):
     axb, ayb = fx / m_eff, fy / m_eff
     if not rot:
         return (ub, vb, 0.0, axb, ayb, 0.0), (lp, lq, lwx, lwy, lr)
-    # force at the centre of pressure: the total hydrodynamic force m_b dU_b/dt (MODEL.md 6),
-    # or the drag alone (drag level, or torque_force = "drag": volume forces act at G)
+    # force at the centre of pressure (docs/model.md section 9): the total hydrodynamic force
+    # m_b dU_b/dt, or the drag alone (drag level, or torque_force = "drag": volume forces act at G)
     if level == FULL and opt[O_TORQUE_DRAG] == 0.0:
         ftx, fty = p[P_MASS] * axb, p[P_MASS] * ayb
     else:
         ftx, fty = kd * wx, kd * wy
-    # centre of pressure on the axis, on the side facing the relative flow (eq. 9)
+    # centre of pressure on the axis, on the side facing the relative flow (docs/model.md (41))
     arm = -0.25 * p[P_L] * cos_a * cos_a * cos_a * sgn
     gpx, gpy = arm * ex, arm * ey
     om = s_[OMEGA]
@@ -476,7 +477,8 @@ PHYSICS_SECTION = Section("physics", [
     Key("level", "str", "full", "tracer (U_b = U_w), drag only, the full reference model, or "
         "auto (chosen from the drag relaxation time against the flow time scale)",
         choices=PHYSICS_LEVELS),
-    Key("rotation", "str", "on", "rotation of the logs (eq. 8-10)", choices=("on", "off", "auto")),
+    Key("rotation", "str", "on", "rotation of the logs (docs/model.md section 9)",
+        choices=("on", "off", "auto")),
     Key("fluid_volume", "str", "body", "volume in the pressure-gradient and added-mass terms: "
         "the paper's V_b, or the submerged volume", choices=("body", "submerged")),
     Key("surface_slope", "bool", False, "add -rho g V grad(eta) in place of the steady part of "
@@ -487,10 +489,10 @@ PHYSICS_SECTION = Section("physics", [
         "pi d_v^2 / 4, or the wetted projected area", choices=("paper", "ganser", "wetted")),
     Key("drag_coefficient", "float", 1.0, "C_D when drag_law = constant", min=0.0),
     Key("linear_drag", "float", 1.0, "k when drag_law = linear", "kg/s", min=0.0),
-    Key("torque_force", "str", "total", "force applied at the centre of pressure (eq. 8): the "
-        "total hydrodynamic force (MODEL.md 6), or the drag alone (pressure-gradient and "
-        "added-mass forces then act at the centre of mass; well posed when the log moves with "
-        "the flow)", choices=("total", "drag")),
+    Key("torque_force", "str", "total", "force applied at the centre of pressure "
+        "(docs/model.md section 9): the total hydrodynamic force, or the drag alone "
+        "(pressure-gradient and added-mass forces then act at the centre of mass; well posed "
+        "when the log moves with the flow)", choices=("total", "drag")),
     Key("motion", "str", "floating", "when a log moves: only when it floats (the paper), or "
         "also on the bed when the flow's forces overcome bed friction (Braudrick and Grant "
         "2000; docs/model.md 6.1)", choices=tuple(MOTIONS)),
@@ -509,4 +511,4 @@ PHYSICS_SECTION = Section("physics", [
     Key("gravity", "float", 9.81, "g", "m/s2", min=0.0, exclusive_min=True),
     Key("viscosity", "float", 1.0e-3, "dynamic viscosity mu", "Pa s", min=0.0,
         exclusive_min=True),
-], doc="the log transport model (MODEL.md sections 3-6)", check=_check_physics)
+], doc="the log transport model (docs/model.md sections 6-10)", check=_check_physics)

@@ -1,4 +1,4 @@
-"""The tracker: Algorithm 1 of the reference paper (MODEL.md section 8).
+"""The tracker: Algorithm 1 of the reference paper (docs/model.md section 11).
 
 Per hydrodynamic step [t_n, t_n+1] the logs are advanced by sub-steps
 
@@ -72,7 +72,7 @@ class IntegrationError(DriftlogError):
 
 @dataclass
 class StepOptions:
-    """Sub-step control (MODEL.md section 8)."""
+    """Sub-step control (docs/model.md eq. (44))."""
 
     length_fraction: float = 1.0
     angle_step: float = np.pi / 4
@@ -451,7 +451,7 @@ class Tracker:
                 self._scatter()
                 scattered = changed = True
                 L.status[self.act] = st
-                # resting logs do not move (MODEL.md 3)
+                # resting logs do not move (docs/model.md section 6)
                 L.state[self.act[st != FLOATING], VELOCITY] = 0.0
         idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
         # on a steady flow an idle log can only change when it has just stopped

@@ -57,8 +57,8 @@ TRAJ_VARS = {
     "density": ("f8", dict(long_name="log density rho_b", units="kg m-3")),
     "release_time": ("f8", dict(long_name="release time", units="s")),
     "group": ("i4", dict(long_name="index of the [[logs]] group of the scenario")),
-    "flotation_depth": ("f8", dict(long_name="depth at which the log floats (MODEL.md 3)",
-                                   units="m")),
+    "flotation_depth": ("f8", dict(long_name="depth at which the log floats "
+                                             "(docs/model.md section 6)", units="m")),
 }
 HIT_VARS = {
     "hit_time": ("f8", dict(long_name="time of contact", units="s")),

@@ -24,7 +24,7 @@ def test_beach_lift_off_at_two_radii_and_settling(tmp_path):
     # reduced: 4 m cells (750 quads) instead of 2 m
     res, ds = _run("beach", tmp_path, solver={"cell_size": 4.0})
     t, st, h, x = ds["time"].values, ds["status"].values, ds["water_depth"].values, ds["x"].values
-    float_depth = 0.08  # 2 r for rho_b = rho (MODEL.md 3, F)
+    float_depth = 0.08  # 2 r for rho_b = rho (docs/model.md section 6, 15.F)
     assert st[0] == RESTING and h[0] < float_depth
     first = np.flatnonzero(st == FLOATING)[0]
     # lifted in the record interval where the water at the log rose through 2 r

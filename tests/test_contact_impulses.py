@@ -1,4 +1,5 @@
-"""Impulses (MODEL.md 7): head-on (10.E), oblique, walls, simultaneous contacts, conservation."""
+"""Impulses (docs/model.md eq. (50)): head-on (section 15.E), oblique, walls, simultaneous
+contacts, conservation."""
 
 import numpy as np
 import pytest
@@ -23,7 +24,7 @@ def _pair(u1, u2, gap=0.8, L=2.0, r=0.1):
 @pytest.mark.parametrize("toi", ["conservative", "dichotomy"])
 @pytest.mark.parametrize("eps", [0.0, 0.3, 1.0])
 def test_head_on_along_the_axis(eps, toi, backend):
-    """MODEL.md 10.E: ((1 - eps) U1 + (1 + eps) U2) / 2 and symmetric; energy scales eps^2."""
+    """docs/model.md 15.E: ((1 - eps) U1 + (1 + eps) U2) / 2 and symmetric; energy scales eps^2."""
     u1, u2 = 1.0, -0.5
     b = _pair(u1, u2)
     m = ContactModel(restitution=eps, time_of_impact=toi, backend=backend)
@@ -47,7 +48,7 @@ def test_head_on_along_the_axis(eps, toi, backend):
 
 
 def _expected_pair(S, mass, inertia, c, n, eps):
-    """MODEL.md 7 written out: post-impact velocities of bodies 0 and 1 (1 may be a wall)."""
+    """docs/model.md eq. (50) written out: velocities after impact of bodies 0 and 1 (or wall)."""
     out = S.copy()
     r = [c - S[k, :2] for k in range(S.shape[0])]
     cross = lambda a, b: a[0] * b[1] - a[1] * b[0]  # noqa: E731

@@ -756,15 +756,25 @@ blocked_after = 10.0
     assert csv[0].startswith("site,kind,obstacles,members,members_hit,hit_probability")
     assert csv[3].startswith("bridge,group,pier_low pier_high,4,2,0.5,")
     assert (tmp_path / "out" / "clogging.png").is_file()
-    # a longer hold is asked: hit but not blocked (the aggregate, not the members, decides)
-    from driftlog.ensemble.summary import MemberSummary
-
-    agg = Aggregate(open_flow(bridge_flow).mesh, 4, blocked_after=1000.0)
-    from driftlog.ensemble.runner import scenario_obstacles
-
-    agg.set_obstacles(scenario_obstacles(load_ensemble(f).member_scenario(0)))
-    for i in range(4):
-        agg.add(MemberSummary.from_npz(tmp_path / "out" / "members" / f"member_{i:06d}.npz"))
-    t = agg.clogging_table()
+    # a longer hold is asked: hit but not blocked (the aggregate, not the members, decides:
+    # a resume with nothing left to run re-aggregates the stored members)
+    res = run_ensemble(f, resume=True, progress=False, figures=False,
+                       overrides={"ensemble": {"blocked_after": 1000.0}})
+    assert res.ran == [] and res.resumed == 4
+    t = res.aggregate.clogging_table()
     np.testing.assert_array_equal(t["members_hit"], [2, 2, 2])
     np.testing.assert_array_equal(t["members_blocked"], [0, 0, 0])
+
+
+def test_flow_file_whose_title_says_ensemble_is_a_flow(tmp_path, flow_file):
+    """A solved flow takes its scenario's title ("river_piers ensemble: ..."): still a flow."""
+    import shutil
+
+    import netCDF4
+
+    from driftlog.files import sniff
+
+    p = shutil.copy(flow_file, tmp_path / "flow.nc")
+    with netCDF4.Dataset(p, "a") as ds:
+        ds.title = "river_piers ensemble: uncertain logs through the two bridges"
+    assert sniff(p).kind == "flow"

@@ -28,7 +28,8 @@ def test_mesh_sampling_reproduces_linear_fields(mixed_mesh, rng):
     np.testing.assert_allclose(s.h, 2.0 + 0.1 * x - 0.05 * y + 0.01 * t, atol=1e-12)
     np.testing.assert_allclose(s.u, 0.3 + 0.2 * x + 0.1 * y - 0.02 * t, atol=1e-12)
     np.testing.assert_allclose(s.v, -0.1 + 0.05 * x - 0.3 * y + 0.03 * t, atol=1e-12)
-    np.testing.assert_allclose(s.jacobian, np.broadcast_to([[0.2, 0.1], [0.05, -0.3]], (x.size, 2, 2)),
+    np.testing.assert_allclose(s.jacobian,
+                               np.broadcast_to([[0.2, 0.1], [0.05, -0.3]], (x.size, 2, 2)),
                                atol=1e-11)
     np.testing.assert_allclose(s.dudt, np.broadcast_to([-0.02, 0.03], (x.size, 2)), atol=1e-12)
     np.testing.assert_allclose(s.grad_eta, np.broadcast_to([0.1, -0.05], (x.size, 2)), atol=1e-12)

@@ -1,4 +1,4 @@
-"""Exact solutions of MODEL.md section 10 (A to D), orders of convergence, stiff failure."""
+"""Exact solutions of docs/model.md section 15 (A to D), orders of convergence, stiff failure."""
 import numpy as np
 import pytest
 
@@ -24,8 +24,8 @@ OMEGA = 2 * np.pi / 100  # 100 s period
 
 @pytest.mark.parametrize("method", ["rk4", "exponential"])
 def test_A_neutral_log_in_solid_body_rotation(method):
-    # MODEL.md 10.A: RK4 position error over 500 s: about 4e-6, 2.6e-7, 1.6e-8 for dt 1, 0.5,
-    # 0.25 s at a start radius of 1 m
+    # docs/model.md section 15.A: RK4 position error over 500 s: about 4e-6, 2.6e-7, 1.6e-8 for
+    # dt 1, 0.5, 0.25 s at a start radius of 1 m
     errors = []
     for dt in (1.0, 0.5, 0.25):
         log = Logs([1.0], [0.0], 0.0, 0.5, 0.05, 1000.0)
@@ -89,7 +89,8 @@ def test_C_quadratic_drag_uniform_flow_from_rest():
     T = 20.0
     x_exact = U0 * T - np.log(1 + beta * U0 * T) / beta
     w_exact = U0 / (1 + beta * U0 * T)
-    for method, dt, tol in (("rk4", 0.05, 1e-6), ("exponential", 0.05, 1e-6), ("euler", 0.001, 2e-3)):
+    for method, dt, tol in (("rk4", 0.05, 1e-6), ("exponential", 0.05, 1e-6),
+                            ("euler", 0.001, 2e-3)):
         log = Logs([0.0], [0.0], 0.0, L, r, rho_b, u=0.0)
         S, _ = run_one(UniformFlow(U0, 0.0), log, method, dt, T, drag_law="constant",
                        drag_coefficient=cd)

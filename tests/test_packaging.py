@@ -7,8 +7,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_every_subpackage_is_listed_in_pyproject():
-    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
-    found = {".".join(p.parent.relative_to(ROOT).parts) for p in (ROOT / "driftlog").rglob("__init__.py")}
+    setuptools = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    listed = set(setuptools["packages"])
+    found = {".".join(p.parent.relative_to(ROOT).parts)
+             for p in (ROOT / "driftlog").rglob("__init__.py")}
     found |= {"driftlog.adapters." + ".".join(p.parent.relative_to(ROOT / "adapters").parts)
               for p in (ROOT / "adapters").rglob("__init__.py") if p.parent != ROOT / "adapters"}
     found.add("driftlog.adapters")

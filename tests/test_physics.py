@@ -1,4 +1,4 @@
-"""Each physics term against exact values (MODEL.md sections 3-6, 10.F)."""
+"""Each physics term against exact values (docs/model.md sections 6-9, 15.F-G)."""
 import numpy as np
 import pytest
 
@@ -128,7 +128,7 @@ def test_surface_slope_on_sloping_uniform_flow():
 
 def test_torque_signs():
     # centre of pressure on the upstream side: a log at 45 degrees in flow along +x with the
-    # drag lever turns it broadside (MODEL.md 6, known limitation)
+    # drag lever turns it broadside (docs/model.md section 9, known limitation)
     flow = UniformFlow(1.0, 0.0)
     logs = Logs([0.0], [0.0], np.pi / 4, 1.0, 0.05, 700.0, u=0.0)
     D, _, _ = _rhs(flow, logs, level="drag")

@@ -10,8 +10,8 @@ What differs, and by how much:
   from the P1 node data's Green-Gauss gradients read back (``driftlog.nodal``): that is the
   interpolation difference between face- and node-based data, O(cell size x |grad J|).
   Tracer and drag-level logs (no rotation) do not use J: identical trajectories.  Full-level
-  logs feel J through the added-mass / pressure-gradient force rho V J (U_b/2 + U_w) (MODEL.md
-  eq. 7): the acceleration differs by da = rho V |dJ (U_b/2 + U_w)| / m_eff, measured along
+  logs feel J through the added-mass / pressure-gradient force rho V J (U_b/2 + U_w) (docs/model.md
+  eq. (34)): the acceleration differs by da = rho V |dJ (U_b/2 + U_w)| / m_eff, measured along
   the original trajectories; to first order the position differs by the double time integral
   of da, int_0^T (T - t) da(t) dt; the test checks the measured difference against it.
 - dfsu keeps element (face) values, in float32: all sampled columns differ by float32

@@ -38,7 +38,8 @@ def _bad(text, key, match):
 
 @pytest.mark.parametrize("text,key,match", [
     ("[physics]\nlevle = 'full'\n", "physics.levle", "did you mean 'level'"),
-    ("[physics]\nlevel = 'everything'\n", "physics.level", "one of 'tracer', 'drag', 'full', 'auto'"),
+    ("[physics]\nlevel = 'everything'\n", "physics.level",
+     "one of 'tracer', 'drag', 'full', 'auto'"),
     ("[physics]\nrotation = 3\n", "physics.rotation", "must be a string"),
     ("[integrator]\nmax_step = 'big'\n", "integrator.max_step", "must be a number"),
     ("[contact]\nenabled = 'yes'\n", "contact.enabled", "true or false"),

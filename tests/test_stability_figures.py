@@ -25,7 +25,7 @@ def _flume_log(method, step, t_end=5.0):
 
 
 def test_broadside_flume_log_follows_exact_quadratic_drag():
-    # MODEL.md 10.C with S = 2 r L (alpha = 90 deg) and V_b = pi r^2 L
+    # docs/model.md section 15.C with S = 2 r L (alpha = 90 deg) and V_b = pi r^2 L
     beta = CD * RHO * 2 * R * L / (2 * (RHO_B + RHO / 2) * np.pi * R * R * L)
     T = 5.0
     x_exact = U0 * T - np.log(1 + beta * U0 * T) / beta

@@ -22,7 +22,9 @@ def tide(times, depth_of_t, mesh, u=0.0):
 def test_lift_off_and_settling_follow_the_water_level(tmp_path):
     mesh = Mesh.regular_grid(10, 4, 1.0)
     times = np.arange(0.0, 61.0, 1.0)
-    depth = lambda t: 0.06 + 0.04 * np.sin(np.pi * t / 60)  # peaks at 0.10 m at t = 30 s
+    def depth(t):  # peaks at 0.10 m at t = 30 s
+        return 0.06 + 0.04 * np.sin(np.pi * t / 60)
+
     flow = tide(times, depth, mesh)
     logs = Logs([5.0], [2.0], 0.0, 1.0, 0.04, 1000.0)  # floats from h = 2 r = 0.08 m
     w = TrajectoryWriter(tmp_path / "t.nc", logs)
@@ -36,7 +38,7 @@ def test_lift_off_and_settling_follow_the_water_level(tmp_path):
     assert np.all(st[t < t_up - 0.5] == RESTING)
     assert np.all(st[(t > t_up + 0.5) & (t < t_down - 0.5)] == FLOATING)
     assert np.all(st[t > t_down + 0.5] == RESTING)
-    assert np.all((h[st == FLOATING] >= 0.08 - 1e-12))
+    assert np.all(h[st == FLOATING] >= 0.08 - 1e-12)
 
 
 def test_stranded_on_dry_and_refloats():
@@ -113,7 +115,7 @@ def test_seeding_is_reproducible_bit_for_bit():
     g = dict(seeding="random", polygon=[[0, 0], [10, 0], [10, 5], [3, 8]], count=50, seed=7,
              theta="random")
     a, b = seed_positions(g), seed_positions(dict(g))
-    for u, v in zip(a, b):
+    for u, v in zip(a, b, strict=True):
         assert np.array_equal(u, v)
     c = seed_positions(dict(g, seed=8))
     assert not np.array_equal(a[0], c[0])
@@ -155,9 +157,11 @@ rotation = "auto"
     assert level == "tracer" and "Stokes number" in why
     assert rot is False and "L |J| / |U|" in why
     # a big log in a fast-turning flow needs the full model
-    s = load_scenario(scen.replace("omega = 0.01", "omega = 2.0").replace("length = 0.05", "length = 3.0")
+    s = load_scenario(scen.replace("omega = 0.01", "omega = 2.0")
+                      .replace("length = 0.05", "length = 3.0")
                       .replace("radius = 0.002", "radius = 0.3"))
-    level, rot, why = choose_physics(flow_from_scenario(s), logs_from_scenario(s), s["physics"], False)
+    level, rot, why = choose_physics(flow_from_scenario(s), logs_from_scenario(s), s["physics"],
+                                     False)
     assert level == "full" and rot is True
 
 

@@ -1,4 +1,4 @@
-"""Contacts between logs, walls and bridge piers (MODEL.md section 7; issue 5).
+"""Contacts between logs, walls and bridge piers (docs/model.md section 13; issue 5).
 
 One module each: ``geometry`` (exact 2D capsule narrow phase), ``broadphase`` (hashed uniform
 grid), ``obstacles`` (piers, polygons, walls, 3D meshes cut by the logs' plane), ``impulses``

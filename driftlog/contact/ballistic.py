@@ -80,7 +80,7 @@ class BallisticLogs:
         """Nothing to do: no flow is sampled."""
 
     def max_step(self, length_fraction=1.0, angle_step=np.pi / 4):
-        """The paper's sub-step bound (MODEL.md 8): min(L / |U_b|, (pi/4) / |omega_b|)."""
+        """The paper's sub-step bound min(L / |U_b|, (pi/4) / |omega_b|) (docs/model.md (44))."""
         s = self.state
         sp = np.hypot(s[:, UB], s[:, VB])
         with np.errstate(divide="ignore"):

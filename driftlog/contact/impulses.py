@@ -1,4 +1,4 @@
-"""Event-driven impulses (MODEL.md section 7, the paper's eq. 11-15).
+"""Event-driven impulses (docs/model.md section 13.2; the paper's eq. 11-15).
 
 For a contact between body 1 and body 2 at point C with normal n (from 2 to 1), r_i = C - G_i:
 
@@ -7,7 +7,7 @@ For a contact between body 1 and body 2 at point C with normal n (from 2 to 1), 
     U_1 += j n / m_1, U_2 -= j n / m_2, omega_1 += (r_1 x n) j / I_1, omega_2 -= (r_2 x n) j / I_2
 
 A wall, pier or bank has 1/m_2 = 1/I_2 = 0 (body index -1).  Masses are the logs' own m_b and
-I_b (MODEL.md 2), as in the paper: added mass is a property of the fluid's reaction to
+I_b (docs/model.md eq. (31)), as in the paper: added mass is a property of the fluid's reaction to
 acceleration over a time scale, not of an instantaneous collision, and leaving it out keeps the
 impulse exactly conservative between logs.
 
@@ -59,7 +59,7 @@ def pair_impulse(S, inv_m, inv_i, b1, b2, nx, ny, cx, cy, eps, vtol, rest_speed=
     if vn >= -vtol or k <= 0.0:
         return 0.0
     e = eps if vn < -rest_speed else 0.0
-    j = -(1.0 + e) * vn / k  # eq. 13
+    j = -(1.0 + e) * vn / k  # docs/model.md (50)
     S[b1, UB] += j * nx * inv_m[b1]
     S[b1, VB] += j * ny * inv_m[b1]
     S[b1, OMEGA] += rn1 * j * inv_i[b1]

@@ -2,20 +2,20 @@
 
 Two methods:
 
-- ``event`` (the paper, MODEL.md 7-8): at the start of a sub-step, contacts within the
-  tolerance get impulses (eq. 11-15); the step is then chosen so that no pair overlaps by
-  more than the tolerance at its end, either by conservative advancement on the capsule
-  distance (``toi.conservative_step``) or by the paper's dichotomy (take the step; while
-  logs overlap at its end, halve it and redo; the next steps stay within the bracket where
-  the overlap was seen, so that the bisection converges on the contact).  A sub-step may
-  end before the one asked: at the next contact.  In a jam (many persistent contacts,
-  eps < 1) the sub-steps collapse; the method counts events and sub-steps within one free
-  sub-step and stops with
-  ``ContactJamError`` (naming the logs, the time and the remedy) instead of looping.
+- ``event`` (the paper, docs/model.md sections 13.2-13.5): at the start of a sub-step, contacts
+  within the tolerance get impulses (docs/model.md eq. (50), the paper's eq. 11-15); the step
+  is then chosen so that no pair overlaps by more than the tolerance at its end, either by
+  conservative advancement on the capsule distance (``toi.conservative_step``) or by the
+  paper's dichotomy (take the step; while logs overlap at its end, halve it and redo; the next
+  steps stay within the bracket where the overlap was seen, so that the bisection converges on
+  the contact).  A sub-step may end before the one asked: at the next contact.  In a jam (many
+  persistent contacts, eps < 1) the sub-steps collapse; the method counts events and sub-steps
+  within one free sub-step and stops with ``ContactJamError`` (naming the logs, the time and
+  the remedy) instead of looping.
 - ``moreau`` (``moreau.moreau_solve``): the whole step is taken, and all contact impulses of
   the step are solved together by projected Gauss-Seidel; bounded cost, stable piles.
 
-Masses are the logs' m_b and I_b (MODEL.md 2, the paper's choice; see ``impulses``).
+Masses are the logs' m_b and I_b (docs/model.md eq. (31), the paper's choice; see ``impulses``).
 
 Hits (``drain_hits``) are contacts that start: one record per log and other body (a log id,
 or -(obstacle index + 1)) at the instant the contact begins, with its impulse (Moreau-Jean:
@@ -452,4 +452,4 @@ CONTACT_SECTION = Section("contact", [
         "ever more often, and stall the method; 0 = the paper)", "m/s", min=0.0),
     Key("iterations", "int", 200, "moreau: projected Gauss-Seidel sweeps at most per step",
         min=1),
-], doc="contacts (MODEL.md section 7)")
+], doc="contacts (docs/model.md section 13)")

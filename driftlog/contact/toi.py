@@ -1,4 +1,4 @@
-"""Time of impact: conservative advancement on the capsule distance (MODEL.md section 8).
+"""Time of impact: conservative advancement on the capsule distance (docs/model.md section 13.4).
 
 For two convex bodies at gap d with the closest-point normal n, the separating line through the
 gap keeps them apart by at least d + (Delta U . n) t - (|omega_1| R_1 + |omega_2| R_2) t over a

@@ -55,7 +55,8 @@ def wilson_interval(k, n, confidence=0.95):
         den = 1 + z * z / n
         centre = (p + z * z / (2 * n)) / den
         half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    return np.clip(centre - half, 0, 1), np.clip(centre + half, 0, 1)
+    # the interval holds p exactly (at k = 0 or n, round-off would leave it a hair outside)
+    return np.clip(np.fmin(centre - half, p), 0, 1), np.clip(np.fmax(centre + half, p), 0, 1)
 
 
 def clopper_pearson_interval(k, n, confidence=0.95):

@@ -97,7 +97,7 @@ def plot_ensemble(path, out_dir=None) -> list[Path]:
         lo, hi = ds["hit_probability_lower"].values, ds["hit_probability_upper"].values
         fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 0.5 * len(names) + 2.5))
         y = np.arange(len(names))
-        a1.barh(y, p, xerr=[p - lo, hi - p], color="tab:red", alpha=0.8, capsize=3)
+        a1.barh(y, p, xerr=np.maximum([p - lo, hi - p], 0.0), color="tab:red", alpha=0.8, capsize=3)
         a1.set_yticks(y, names)
         a1.set_xlim(0, 1)
         a1.set_xlabel(f"fraction of members with a hit ({pct} Wilson interval)")
@@ -163,20 +163,17 @@ def _clogging_map(plt, ds, geom, n, pct, path):
             else:
                 ax.plot([ax_, bx], [ay, by], color=col, lw=3, zorder=3)
         if j is not None:
-            x, y = c[:, [0, 2]].mean(), c[:, [1, 3]].max() + c[:, 4].max()
-            ax.annotate(f"{names[k]}\n{pb[j]:.2f} [{lo[j]:.2f}, {hi[j]:.2f}]", (x, y),
-                        xytext=(0, 3), textcoords="offset points", ha="center", va="bottom",
-                        fontsize=7, zorder=4)
-    obst = ds["site_obstacles"].values
-    for j, s in enumerate(site):
-        if kind[j] != "group":
-            continue
-        ks = [names.index(o) for o in str(obst[j]).split()]
-        c = caps[np.isin(owner, ks)]
-        x, y = c[:, [0, 2]].mean(), c[:, [1, 3]].min() - c[:, 4].max()
-        ax.annotate(f"{s} (group)\n{pb[j]:.2f} [{lo[j]:.2f}, {hi[j]:.2f}]", (x, y),
-                    xytext=(0, -3), textcoords="offset points", ha="center", va="top",
-                    fontsize=7, fontweight="bold", zorder=4)
+            x, y = c[:, [0, 2]].max() + c[:, 4].max(), c[:, [1, 3]].mean()
+            ax.annotate(f"{names[k]} {pb[j]:.2f} [{lo[j]:.2f}, {hi[j]:.2f}]", (x, y),
+                        xytext=(4, 0), textcoords="offset points", ha="left", va="center",
+                        fontsize=7, zorder=4,
+                        bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.7))
+    groups = [f"{s} ({', '.join(str(ds['site_obstacles'].values[j]).split())}): {pb[j]:.2f} "
+              f"[{lo[j]:.2f}, {hi[j]:.2f}]" for j, s in enumerate(site) if kind[j] == "group"]
+    if groups:  # below the map: a group's obstacles may be far apart
+        ax.annotate("groups: " + ";  ".join(groups), (0.0, 0.0), xycoords="axes fraction",
+                    xytext=(0, -42), textcoords="offset points", ha="left", va="top",
+                    fontsize=8)
     ax.set_xlim(nx.min(), nx.max())
     ax.set_ylim(ny.min(), ny.max())
     ax.set_aspect("equal")

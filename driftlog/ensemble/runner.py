@@ -404,7 +404,8 @@ def run_ensemble(ensemble, workers=None, scheduler=None, client=None, resume=Fal
                    if sec["keep_trajectories"] else None, blocked_gap=sec["blocked_gap"])
     if options["trajectories"]:
         Path(options["trajectories"]).mkdir(parents=True, exist_ok=True)
-    params = dict(zip(todo, ens.sample(todo), strict=True))
+    # nothing left to run (a resume after the end): no sample (of shape (0, k)) to draw
+    params = dict(zip(todo, ens.sample(todo), strict=True)) if todo else {}
 
     def tasks():
         for i in todo:

@@ -1,0 +1,154 @@
+"""What every ``driftlog`` subcommand shares: the registry, parser helpers, scenario paths."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from driftlog.errors import DriftlogError
+
+__all__ = ["COMMANDS", "command", "formatter", "sub_parser", "overrides", "scenario_path",
+           "add_set", "in_cases", "case_overrides", "flow_file", "parse_pairs"]
+
+COMMANDS = []  # parser builders of the subcommands, in the order of --help
+
+
+def command(add):
+    """Register a subcommand from its parser builder; the builder's ``cmd`` runs it."""
+    COMMANDS.append(add)
+    return add
+
+
+def formatter(prog):
+    """Argparse formatter of every subcommand (examples kept as written)."""
+    return argparse.RawDescriptionHelpFormatter(prog, max_help_position=32)
+
+
+def sub_parser(sub, name, help, example, description=None):
+    """A subcommand's parser with its help and an example in the epilog."""
+    p = sub.add_parser(name, help=help, description=(description or help),
+                       epilog=f"example:\n  {example}", formatter_class=formatter)
+    return p
+
+
+def overrides(pairs):
+    """--set physics.level=tracer --set time.end=100: a nested dict for load_scenario."""
+    import tomllib
+
+    out = {}
+    for pair in pairs or ():
+        if "=" not in pair:
+            raise DriftlogError(f"--set {pair!r}: expected SECTION.KEY=VALUE")
+        key, value = pair.split("=", 1)
+        try:
+            value = tomllib.loads(f"v = {value}")["v"]
+        except tomllib.TOMLDecodeError:
+            pass  # a bare word: a string
+        node = out
+        parts = key.strip().split(".")
+        for p in parts[:-1]:
+            node = node.setdefault(p, {})
+        node[parts[-1]] = value
+    return out
+
+
+def scenario_path(name):
+    """(scenario file, run name) of a scenario argument: a file, a case folder or a case name."""
+    from driftlog.api import find_case
+
+    if name is None:
+        from driftlog.api import cases_dir
+
+        default = "river_piers" if (cases_dir() / "river_piers" / "scenario.toml").is_file() \
+            else "vortex"
+        return find_case(default), default
+    p = Path(name)
+    if p.is_dir() and (p / "scenario.toml").is_file():
+        p = p / "scenario.toml"
+    if p.suffix == ".toml" or p.exists():
+        from driftlog.files import read_text
+
+        read_text(p, "scenario file")  # missing, a directory, empty, binary, not UTF-8
+        return p, p.stem if p.stem != "scenario" else p.resolve().parent.name
+    return find_case(name), name
+
+
+def add_set(p):
+    """The --set SECTION.KEY=VALUE option of the commands that read a scenario."""
+    p.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",
+                   help="override a scenario value (repeatable), e.g. --set physics.level=tracer")
+
+
+def in_cases(path) -> bool:
+    """Whether a scenario file lies in the repository's cases/.
+
+    Outputs then go to a run folder, so that running the shipped cases does not write into
+    the clone.
+    """
+    from driftlog.api import cases_dir
+
+    try:
+        Path(path).resolve().relative_to(cases_dir().resolve())
+        return True
+    except (ValueError, DriftlogError):
+        return False
+
+
+def case_overrides(path, name, over=None):
+    """Overrides that keep a shipped case's outputs out of the clone.
+
+    For a scenario in the repository's cases/ whose flow is computed by the solver, the flow
+    file goes to the run folder ``driftlog-runs/<case>/`` (and is reused from there), not
+    beside the scenario.
+    """
+    from driftlog.scenario import read_toml
+    from driftlog.schema import merge
+
+    over = dict(over or {})
+    if not in_cases(path) or "path" in over.get("flow", {}):
+        return over
+    flow = read_toml(path)[0].get("flow", {})
+    solver = over.get("flow", {}).get("source", flow.get("source") if isinstance(flow, dict)
+                                      else None) == "solver"
+    if solver:
+        name_ = Path((flow.get("path") if isinstance(flow, dict) else None)
+                     or "solver_flow.nc").name
+        run = (Path("driftlog-runs") / name / name_).resolve()
+        over = merge(over, {"flow": {"path": str(run)}})
+    return over
+
+
+def flow_file(scen):
+    """The flow file a scenario reads or computes (None for an analytic flow)."""
+    sec = scen["flow"]
+    if sec["source"] == "solver":
+        from driftlog.solver.config import _default_path
+
+        return _default_path(scen)  # with the engine's suffix
+    return Path(sec["path"]) if sec["source"] != "analytic" and sec["path"] else None
+
+
+def parse_pairs(pairs, what):
+    """NAME=VALUE arguments (--flow, --option...) as a dict, each value parsed as TOML or JSON."""
+    import json
+
+    out = {}
+    for item in pairs:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise DriftlogError(f"driftlog import: {what} {item!r} must be KEY=VALUE")
+        try:
+            val = json.loads(value)
+        except ValueError:
+            val = value
+            if "," in value:
+                try:
+                    val = [json.loads(v) for v in value.split(",")]
+                except ValueError:
+                    val = value
+        if "." in key:  # units.hu=m3 s-1 -> {"units": {"hu": "m3 s-1"}}
+            head, _, tail = key.partition(".")
+            out.setdefault(head, {})[tail] = val
+        else:
+            out[key] = val
+    return out
