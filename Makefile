@@ -35,4 +35,4 @@ report: install
 	$(BIN)/driftlog report
 
 lint: install-test
-	$(BIN)/ruff check driftlog adapters tests benchmarks
+	$(BIN)/python -m ruff check driftlog adapters tests benchmarks
