@@ -16,18 +16,12 @@ resting, stranded, waiting or departed logs cost nothing in the integrator.
 from __future__ import annotations
 
 import time as _time
-from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 
 from driftlog.columns import (
-    DRY,
     DUDY,
     DVDX,
-    L_PAR,
-    L_PERP,
-    L_ROT,
     NLIN,
     NSTATE,
     NVAR,
@@ -35,105 +29,34 @@ from driftlog.columns import (
     OUTSIDE,
     P_HSTAR,
     STATE_NAMES,
-    THETA,
     UB,
     VB,
     VELOCITY,
-    H,
     U,
     V,
     X,
     Y,
 )
-from driftlog.errors import DriftlogError, ScenarioError
+from driftlog.errors import ScenarioError
 from driftlog.fused import FUSED_METHODS, euler_mesh_step, rk4_mesh_step
 from driftlog.integrators import RK4_C, make_integrator
 from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, WAITING, flotation_depth
 from driftlog.physics import (
     PhysicsOptions,
     log_parameters,
-    rest_drive,
     rhs_kernel,
-    sample_row,
     soak_kernel,
 )
 from driftlog.schema import Key, Section
+from driftlog.stepping import (
+    IntegrationError,
+    StepOptions,
+    StepTooSmallError,
+    classify,
+    step_bound,
+)
 
 __all__ = ["Tracker", "StepOptions", "TIME_SECTION", "StepTooSmallError", "IntegrationError"]
-
-
-class StepTooSmallError(DriftlogError):
-    """The sub-step fell below integrator.min_step."""
-
-
-class IntegrationError(DriftlogError):
-    """The integration diverged (non-finite state)."""
-
-
-@dataclass
-class StepOptions:
-    """Sub-step control (docs/model.md eq. (44))."""
-
-    length_fraction: float = 1.0
-    angle_step: float = np.pi / 4
-    drag_fraction: float = 0.5
-    max_step: float | None = None
-    min_step: float = 1e-9
-
-    @classmethod
-    def from_scenario(cls, section):
-        """From a validated [integrator] section."""
-        return cls(section["length_fraction"], section["angle_step"], section["drag_fraction"],
-                   section["max_step"], section["min_step"])
-
-
-@nb.njit(cache=True)
-def _step_bound(S, length, lin, lf, ang, drag_fraction, explicit):
-    """Largest sub-step allowed by the paper's bounds (and the drag relaxation bound)."""
-    dt = np.inf
-    for i in range(S.shape[0]):
-        sp = np.sqrt(S[i, UB] ** 2 + S[i, VB] ** 2)
-        if sp > 0.0:
-            dt = min(dt, lf * length[i] / sp)
-        om = abs(S[i, OMEGA])
-        if om > 0.0:
-            dt = min(dt, ang / om)
-        if explicit and drag_fraction > 0.0:
-            lam = max(lin[i, L_PAR], max(lin[i, L_PERP], lin[i, L_ROT]))
-            if lam > 0.0:
-                dt = min(dt, drag_fraction / lam)
-    return dt
-
-
-@nb.njit(cache=True)
-def _classify(F, flag, float_depth, status, friction, S, P, opt):
-    """New status from the flow at the logs: left the domain, stranded (dry), resting, floating.
-
-    Below its flotation depth ``float_depth`` a wet log rests; with ``friction`` (initial
-    motion on the bed, ``physics.motion = "friction"``) it moves (status floating: transported)
-    when the flow's forces on it at rest overcome bed friction (``physics.rest_drive``,
-    docs/model.md 6.1), from its state ``S`` and parameter rows ``P``.  Returns how many
-    statuses changed.
-    """
-    changed = 0
-    for i in range(F.shape[0]):
-        if flag[i] == OUTSIDE:
-            s = LEFT
-        elif flag[i] == DRY:
-            s = STRANDED
-        elif F[i, H] < float_depth[i]:
-            s = RESTING
-            if friction:
-                fx, fy, ff = rest_drive(S[i, THETA], sample_row(F, i), P[i], opt)
-                f = np.sqrt(fx * fx + fy * fy)
-                if f > 0.0 and f >= ff:
-                    s = FLOATING
-        else:
-            s = FLOATING
-        if s != status[i]:
-            changed += 1
-        status[i] = s
-    return changed
 
 
 def outside_error(flow, logs, out):
@@ -391,7 +314,7 @@ class Tracker:
             else:
                 self._rhs(self.state, self.t, self.D0, self.lin0)
             explicit = not self.integrator.stiff_stable and self.physics.level != "tracer"
-            dt = min(dt, _step_bound(self.state, self.length, self.lin0, so.length_fraction,
+            dt = min(dt, step_bound(self.state, self.length, self.lin0, so.length_fraction,
                                      so.angle_step, so.drag_fraction, explicit))
         return dt
 
@@ -403,11 +326,11 @@ class Tracker:
         """
         L = self.logs
         if self.physics.motion == "floating":
-            return _classify(F, flag, L.float_depth[idx], status, False, self._no_rows,
+            return classify(F, flag, L.float_depth[idx], status, False, self._no_rows,
                              self._no_rows, self.opt)
         S = L.state[idx] if S is None else S
         P = self.P_all[idx] if P is None else P
-        return _classify(F, flag, P[:, P_HSTAR], status, True, S, P, self.opt)
+        return classify(F, flag, P[:, P_HSTAR], status, True, S, P, self.opt)
 
     def _soak(self, dt):
         """Waterlogging (docs/model.md 6.2): the density of every wet log rises over dt."""
