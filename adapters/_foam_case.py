@@ -7,6 +7,7 @@ A case's written time directories, serial or decomposed (``FoamCase``), the arra
 from __future__ import annotations
 
 import re
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -15,8 +16,8 @@ from driftlog.errors import FlowFileError
 
 from . import foam_io
 
-__all__ = ["NUMBER", "is_openfoam_case", "time_dirs", "processor_dirs", "PolyMesh", "FoamCase",
-           "check_ran"]
+__all__ = ["NUMBER", "clean_case", "is_openfoam_case", "time_dirs", "processor_dirs", "PolyMesh",
+           "FoamCase", "check_ran"]
 
 NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
 
@@ -156,3 +157,17 @@ def check_ran(case: FoamCase, solver):
         raise FlowFileError(f"{part}: only initial fields (time directory {names[0]}, not "
                             f"written by a solver): the case never ran; run {solver} first, "
                             "or pass allow_initial_only=True to import the initial fields")
+
+
+def clean_case(case: Path):
+    """Remove the results of an earlier run: time and processor directories, logs."""
+    if not case.is_dir():
+        return
+    for d in case.iterdir():
+        if d.is_dir() and (NUMBER.match(d.name) or d.name.startswith("processor")):
+            shutil.rmtree(d)
+        elif d.is_file() and d.name.startswith("log."):
+            d.unlink()
+    poly = case / "constant" / "polyMesh"
+    if poly.is_dir():
+        shutil.rmtree(poly)

@@ -25,7 +25,7 @@ from driftlog.errors import FlowFileError
 
 __all__ = ["FoamFile", "read_foam", "foam_path", "parse_dict", "read_label_list",
            "read_points", "read_faces", "read_boundary", "read_internal_field",
-           "write_foam_file", "format_list"]
+           "write_foam_file", "format_list", "format_faces", "write_polymesh_files"]
 
 _TOKEN = re.compile(rb'\s+|//[^\n]*|/\*.*?\*/|"[^"]*"|[{}();\[\]]|[^\s{}();\[\]"]+', re.S)
 _SKIP = re.compile(rb'(?:\s+|//[^\n]*|/\*.*?\*/)*', re.S)
@@ -371,3 +371,36 @@ def format_list(values, fmt="%.17g") -> str:
         lines = buf.getvalue().splitlines()
         buf = io.StringIO("".join(f"({line})\n" for line in lines))
     return f"{a.shape[0]}\n(\n{buf.getvalue()})"
+
+
+def format_faces(faces) -> str:
+    """An ascii OpenFOAM faceList body: one ``n(a b c ...)`` line per face."""
+    return "\n".join(f"{len(f)}({' '.join(map(str, f))})" for f in faces)
+
+
+def write_polymesh_files(folder, points, faces, owner, neighbour, patches, n_cells):
+    """Write ``points``, ``faces``, ``owner``, ``neighbour`` and ``boundary`` of a polyMesh.
+
+    ``faces`` are node lists, internal faces first (ordered by owner then neighbour), then
+    each patch's; ``patches`` are (name, type, start face, face count).  Returns the patch
+    names in order.
+    """
+    folder = Path(folder)
+    note = (f"nPoints:{len(points)}  nCells:{n_cells}  nFaces:{len(faces)}  "
+            f"nInternalFaces:{len(neighbour)}")
+    write_foam_file(folder / "points", "vectorField", "points", format_list(points),
+                    "constant/polyMesh")
+    write_foam_file(folder / "faces", "faceList", "faces",
+                    f"{len(faces)}\n(\n{format_faces(faces)}\n)", "constant/polyMesh")
+    write_foam_file(folder / "owner", "labelList", "owner", format_list(np.asarray(owner)),
+                    "constant/polyMesh", note=note)
+    write_foam_file(folder / "neighbour", "labelList", "neighbour",
+                    format_list(np.asarray(neighbour)), "constant/polyMesh", note=note)
+    body = [f"{len(patches)}", "("]
+    for name, typ, start, count in patches:
+        body += [f"    {name}", "    {", f"        type {typ};",
+                 f"        nFaces {count};", f"        startFace {start};", "    }"]
+    body.append(")")
+    write_foam_file(folder / "boundary", "polyBoundaryMesh", "boundary", "\n".join(body),
+                    "constant/polyMesh")
+    return [p[0] for p in patches]

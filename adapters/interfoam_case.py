@@ -36,8 +36,8 @@ import numpy as np
 from driftlog.errors import FlowFileError
 from driftlog.mesh import Mesh
 
-from .foam_io import format_list, write_foam_file
-from .openfoam_case import _clean, _face_lines
+from ._foam_case import clean_case
+from .foam_io import format_list, write_foam_file, write_polymesh_files
 
 __all__ = ["channel_with_block", "write_extruded_polymesh", "write_interfoam_channel",
            "run_interfoam_channel"]
@@ -130,24 +130,7 @@ def write_extruded_polymesh(case_dir, mesh: Mesh, z_levels, bottom="bed", top="a
         faces.append((mesh.face_nodes[f, :mesh.face_n[f]] + nl * nn).tolist())  # up
         owner.append((nl - 1) * nf + f)
     patches.append((top, "patch", start, nf))
-    note = (f"nPoints:{pts.shape[0]}  nCells:{nf * nl}  nFaces:{len(faces)}  "
-            f"nInternalFaces:{nbr_sorted.size}")
-    write_foam_file(folder / "points", "vectorField", "points", format_list(pts),
-                    "constant/polyMesh")
-    write_foam_file(folder / "faces", "faceList", "faces",
-                    f"{len(faces)}\n(\n{_face_lines(faces)}\n)", "constant/polyMesh")
-    write_foam_file(folder / "owner", "labelList", "owner", format_list(np.array(owner)),
-                    "constant/polyMesh", note=note)
-    write_foam_file(folder / "neighbour", "labelList", "neighbour", format_list(nbr_sorted),
-                    "constant/polyMesh", note=note)
-    body = [f"{len(patches)}", "("]
-    for name, typ, st, count in patches:
-        body += [f"    {name}", "    {", f"        type {typ};", f"        nFaces {count};",
-                 f"        startFace {st};", "    }"]
-    body.append(")")
-    write_foam_file(folder / "boundary", "polyBoundaryMesh", "boundary", "\n".join(body),
-                    "constant/polyMesh")
-    return [p[0] for p in patches]
+    return write_polymesh_files(folder, pts, faces, owner, nbr_sorted, patches, nf * nl)
 
 
 def _fraction(z0, z1, level):
@@ -214,7 +197,7 @@ def write_interfoam_channel(case_dir, mesh: Mesh, level, discharge, height, n_la
     dict: case path, z levels, number of cells, the inflow velocity.
     """
     case = Path(case_dir)
-    _clean(case)
+    clean_case(case)
     if not 0 < level < height:
         raise FlowFileError(f"interFoam channel: level {level} m must lie between the bed (0) "
                             f"and the lid (height {height} m)")

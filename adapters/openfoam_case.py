@@ -40,7 +40,8 @@ import numpy as np
 from driftlog.errors import DriftlogError, FlowFileError
 from driftlog.mesh import Mesh
 
-from .foam_io import format_list, write_foam_file
+from ._foam_case import clean_case
+from .foam_io import format_list, write_foam_file, write_polymesh_files
 
 __all__ = ["foam_available", "foam_env", "write_polymesh", "write_shallow_water_case",
            "run_case", "run_shallow_water", "OpenFOAMError", "BASHRC"]
@@ -73,10 +74,6 @@ def foam_available() -> bool:
 
 
 # --------------------------------------------------------------------- polyMesh
-def _face_lines(nodes_list):
-    return "\n".join(f"{len(f)}({' '.join(map(str, f))})" for f in nodes_list)
-
-
 def write_polymesh(case_dir, mesh: Mesh, thickness=1.0, empty_patch="frontAndBack",
                    patch_types=None):
     """Write ``constant/polyMesh`` of the 2D mesh extruded one cell thick along z.
@@ -125,24 +122,7 @@ def write_polymesh(case_dir, mesh: Mesh, thickness=1.0, empty_patch="frontAndBac
         faces.append((f + n).tolist())  # top: normal up
         owner.append(i)
     patches.append((empty_patch, "empty", start, 2 * mesh.n_faces))
-    note = (f"nPoints:{pts.shape[0]}  nCells:{mesh.n_faces}  nFaces:{len(faces)}  "
-            f"nInternalFaces:{internal.size}")
-    write_foam_file(folder / "points", "vectorField", "points", format_list(pts),
-                    "constant/polyMesh")
-    write_foam_file(folder / "faces", "faceList", "faces",
-                    f"{len(faces)}\n(\n{_face_lines(faces)}\n)", "constant/polyMesh")
-    write_foam_file(folder / "owner", "labelList", "owner", format_list(np.array(owner)),
-                    "constant/polyMesh", note=note)
-    write_foam_file(folder / "neighbour", "labelList", "neighbour", format_list(nbr),
-                    "constant/polyMesh", note=note)
-    body = [f"{len(patches)}", "("]
-    for name, typ, start, count in patches:
-        body += [f"    {name}", "    {", f"        type {typ};",
-                 f"        nFaces {count};", f"        startFace {start};", "    }"]
-    body.append(")")
-    write_foam_file(folder / "boundary", "polyBoundaryMesh", "boundary", "\n".join(body),
-                    "constant/polyMesh")
-    return [p[0] for p in patches]
+    return write_polymesh_files(folder, pts, faces, owner, nbr, patches, mesh.n_faces)
 
 
 # --------------------------------------------------------------------- fields
@@ -247,7 +227,7 @@ def write_shallow_water_case(case_dir, mesh: Mesh, bed=None, boundaries=None, de
     dict with the case path, the time step and the patch names.
     """
     case = Path(case_dir)
-    _clean(case)
+    clean_case(case)
     nf = mesh.n_faces
     if bed is None:
         bed = mesh.face_bed() if mesh.node_z is not None else np.zeros(nf)
@@ -402,20 +382,6 @@ def _fixed_depth(name, b, bed):
     return {"type": "fixedValue", "value": _nonuniform(hout)}, hout
 
 
-def _clean(case: Path):
-    """Remove the results of an earlier run: time and processor directories, logs."""
-    if not case.is_dir():
-        return
-    from ._foam_case import NUMBER
-
-    for d in case.iterdir():
-        if d.is_dir() and (NUMBER.match(d.name) or d.name.startswith("processor")):
-            shutil.rmtree(d)
-        elif d.is_file() and d.name.startswith("log."):
-            d.unlink()
-    poly = case / "constant" / "polyMesh"
-    if poly.is_dir():
-        shutil.rmtree(poly)
 
 
 # --------------------------------------------------------------------- running
