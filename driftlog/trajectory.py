@@ -372,9 +372,10 @@ def write_vtk(path, out_dir=None, every=1):
     """ParaView files for a trajectory file: one .vtu per record time and a .pvd collection.
 
     The logs are line segments (their axis); ``radius``, ``log_id``, ``status`` and ``speed``
-    are point data (on both ends of each segment: what ParaView's Tube filter, "Vary Radius:
-    By Absolute Scalar" with the ``radius`` array, and pyvista's
-    ``tube(scalars="radius", absolute=True)`` use to draw the logs as cylinders), and also
+    are point data (on both ends of each segment: what ParaView's Tube filter, after Extract
+    Surface, with "Vary Radius: By Absolute Scalar" on ``radius``, and pyvista's
+    ``extract_surface().tube(scalars="radius", absolute=True)`` use to draw the logs as
+    cylinders), and also
     cell data.  Each file is written under a temporary name and renamed when complete; the
     .pvd last.  Returns the .pvd path.
     """

@@ -545,6 +545,25 @@ def test_vtk_radius_on_points_and_flow_export(files, tmp_path, capsys):
     assert (tmp_path / "f" / "flow.pvd").read_text().count("<DataSet") == 3
 
 
+def test_vtk_logs_draw_as_tubes_of_their_radius_in_pyvista(files, tmp_path):
+    pv = pytest.importorskip("pyvista")
+    assert main(["vtk", str(files["traj"]), "--out", str(tmp_path / "v")]) == 0
+    lines = pv.read(tmp_path / "v" / "logs_000002.vtu").extract_surface(
+        algorithm="dataset_surface")
+    tube = lines.tube(scalars="radius", absolute=True, n_sides=24)
+    # every point of each tube lies at the log's radius from its axis
+    for i in range(lines.n_lines):
+        a, b = lines.points[2 * i], lines.points[2 * i + 1]
+        axis = (b - a) / np.linalg.norm(b - a)
+        v = tube.points - a
+        along = v @ axis
+        on = (along > -1e-9) & (along < np.linalg.norm(b - a) + 1e-9)
+        dist = np.linalg.norm(v - np.outer(along, axis), axis=1)
+        near = on & (dist < 0.2)
+        assert near.sum() >= 24
+        np.testing.assert_allclose(dist[near], 0.05, rtol=1e-9)
+
+
 def test_info_describes_every_kind(files, capsys, tmp_path):
     out = {}
     for k in ("flow", "traj", "scenario"):
