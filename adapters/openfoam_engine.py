@@ -152,8 +152,8 @@ def _fail(engine, case, log, what, path):
                          f"  ({keep})")
 
 
-def solve_with_shallow_water_foam(scenario, path, attrs, build, progress=False, timeout=None):
-    """Compute a scenario's [solver] section with shallowWaterFoam; write the flow file.
+def solve_with_shallow_water_foam(section, path, attrs, build, progress=False, timeout=None):
+    """Compute a validated [solver] section with shallowWaterFoam; write the flow file.
 
     ``build(section)`` gives driftlog's ``ShallowWaterSolver`` of the section
     (``driftlog.solver.config.build_solver``): its mesh, bed and initial state are the case's.
@@ -175,7 +175,7 @@ def solve_with_shallow_water_foam(scenario, path, attrs, build, progress=False, 
         write_shallow_water_case,
     )
 
-    sec = scenario["solver"]
+    sec = section
     engine = sec["engine"]
     path = Path(path)
     case = path.with_name(path.stem)

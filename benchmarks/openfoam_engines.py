@@ -48,7 +48,7 @@ def children_cpu():
 
 def solve(scen):
     """Compute the section with its engine; (SolveResult, wall s, CPU s)."""
-    from driftlog.solver.config import solve_scenario
+    from driftlog.solving import solve_scenario
 
     w0, c0, k0 = time.perf_counter(), time.process_time(), children_cpu()
     res, path = solve_scenario(scen)

@@ -184,14 +184,15 @@ def check_scenario(scen, logs, output=None, read_flow=True):
     src = scen["flow"]["source"]
     flow = mesh = None
     if src == "solver":
-        from driftlog.solver.config import _default_path, _stored, solver_hash
+        from driftlog.solver.config import solver_hash
+        from driftlog.solving import default_flow_path, stored_flow
 
         sec = scen["solver"]
         if sec["end"] is None:
             raise ScenarioError("solver.end", None, "is required with [flow] source = 'solver':"
                                 " the end time of the flow computation (s)")
-        path = _default_path(scen)
-        state, t_last = _stored(path, solver_hash(sec))
+        path = default_flow_path(scen)
+        state, t_last = stored_flow(path, solver_hash(sec))
         if state is not None and t_last is not None and t_last >= sec["end"]:
             from driftlog.sources import flow_from_scenario
 

@@ -38,7 +38,7 @@ def flow_from_scenario(scenario, progress=False):
 
         field = open_flow(sec["path"], dry_depth=sec["dry_depth"])
     elif src == "solver":
-        from driftlog.solver import flow_from_scenario as solve
+        from driftlog.solving import flow_from_scenario as solve
 
         field = solve(scenario, progress=progress)
     else:

@@ -40,7 +40,7 @@ def flood(tmp_path_factory):
         pytest.skip("Malpasset data not found")
     from driftlog.api import as_scenario
     from driftlog.mesh import read_mesh
-    from driftlog.solver import solve_scenario
+    from driftlog.solving import solve_scenario
 
     tmp = tmp_path_factory.mktemp("malpasset")
     scen = as_scenario(CASE, _reduced(tmp))

@@ -79,7 +79,8 @@ def test_same_scene_on_both_engines(engines):
 @pytest.mark.openfoam
 def test_provenance_and_reuse(engines):
     tmp, scen, flows = engines
-    from driftlog.solver.config import flow_from_scenario, solver_hash
+    from driftlog.solver.config import solver_hash
+    from driftlog.solving import flow_from_scenario
 
     path = tmp / "flow_shallowWaterFoam.nc"
     with netCDF4.Dataset(path) as ds:
@@ -106,7 +107,7 @@ def test_provenance_and_reuse(engines):
 @pytest.mark.openfoam
 def test_decomposed_run_matches_serial(tmp_path):
     """Two processes (decomposePar, mpirun) give the serial run's flow; 40 s of it."""
-    from driftlog.solver.config import flow_from_scenario
+    from driftlog.solving import flow_from_scenario
 
     short = dict(engine="shallowWaterFoam", end=40.0, output_interval=20.0)
     serial = flow_from_scenario(reduced(tmp_path / "serial", **short))
@@ -167,7 +168,7 @@ def test_boundaries_and_states_without_an_openfoam_equivalent(tmp_path):
 def test_openfoam_not_installed(tmp_path, monkeypatch):
     import driftlog.adapters.openfoam_case as oc
 
-    from driftlog.solver.config import flow_from_scenario
+    from driftlog.solving import flow_from_scenario
 
     (tmp_path / "flow_shallowWaterFoam.nc").write_bytes(b"kept")
     monkeypatch.setattr(oc, "foam_env", lambda: None)
@@ -192,7 +193,7 @@ def _fake_solver(tmp_path, script):
 
 
 def test_failing_solver_keeps_the_stored_flow(tmp_path, monkeypatch):
-    from driftlog.solver.config import flow_from_scenario
+    from driftlog.solving import flow_from_scenario
 
     oc, env = _fake_solver(tmp_path, 'echo "--> FOAM FATAL ERROR: cannot find patch"\nexit 1\n')
     monkeypatch.setattr(oc, "foam_env", lambda: env)
@@ -214,7 +215,7 @@ def test_failing_solver_keeps_the_stored_flow(tmp_path, monkeypatch):
 @pytest.mark.openfoam
 def test_diverging_run_is_reported(tmp_path):
     """A 1 cm sheet of water fed 760 m3/s: shallowWaterFoam blows up (or dries a face)."""
-    from driftlog.solver.config import flow_from_scenario
+    from driftlog.solving import flow_from_scenario
 
     scen = reduced(tmp_path, engine="shallowWaterFoam", end=60.0, output_interval=30.0,
                    initial={"type": "level", "value": 0.01, "velocity": [0.0, 0.0]},
@@ -272,7 +273,7 @@ def test_case_folder_given_relative(tmp_path, monkeypatch):
 def test_time_series_boundaries_on_openfoam(tmp_path):
     """A discharge series (flowRateInletVelocity) and a level series (uniformFixedValue):
     the OpenFOAM run follows both."""
-    from driftlog.solver.config import flow_from_scenario
+    from driftlog.solving import flow_from_scenario
 
     scen = load_scenario({
         "flow": {"source": "solver", "path": str(tmp_path / "flow.nc")},

@@ -7,8 +7,9 @@ import pytest
 from driftlog.errors import ScenarioError
 from driftlog.mesher import channel_mesh, rectangle
 from driftlog.scenario import load_scenario
-from driftlog.solver import ShallowWaterSolver, flow_from_scenario
+from driftlog.solver import ShallowWaterSolver
 from driftlog.solver.swashes import have_swashes, swashes_solution
+from driftlog.solving import flow_from_scenario
 
 G = 9.81
 

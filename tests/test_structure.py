@@ -36,8 +36,8 @@ LAYERS = [
     ("trajectories", ["driftlog.trajectory"]),
     ("analysis", ["driftlog.ensemble.summary", "driftlog.ensemble.aggregate"]),
     ("top", ["driftlog", "driftlog.__main__", "driftlog.api", "driftlog.sources",
-             "driftlog.cli", "driftlog.report", "driftlog.scenario", "driftlog.ensemble",
-             "driftlog.compare", "driftlog.plots"]),
+             "driftlog.cli", "driftlog.solving", "driftlog.report", "driftlog.scenario",
+             "driftlog.ensemble", "driftlog.compare", "driftlog.plots"]),
 ]
 
 

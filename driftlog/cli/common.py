@@ -122,9 +122,9 @@ def flow_file(scen):
     """The flow file a scenario reads or computes (None for an analytic flow)."""
     sec = scen["flow"]
     if sec["source"] == "solver":
-        from driftlog.solver.config import _default_path
+        from driftlog.solving import default_flow_path
 
-        return _default_path(scen)  # with the engine's suffix
+        return default_flow_path(scen)  # with the engine's suffix
     return Path(sec["path"]) if sec["source"] != "analytic" and sec["path"] else None
 
 

@@ -33,7 +33,7 @@ def add_solve(sub):
 
 def cmd_solve(args):
     from driftlog.scenario import load_scenario, read_toml
-    from driftlog.solver import solve_scenario
+    from driftlog.solving import solve_scenario
 
     path, name = scenario_path(args.scenario)
     raw = read_toml(path)[0]

@@ -13,13 +13,13 @@ Modules: ``riemann`` (HLL, HLLC), ``reconstruction`` (MUSCL gradients and limite
 ``boundaries`` (conditions by tag), ``friction`` (semi-implicit Manning, time stages),
 ``fluxes`` (edge and face kernels), ``extremes`` (maximum level, depth, speed, arrival),
 ``model`` (the solver and its time step), ``run`` (output, resume), ``config`` (the
-``[solver]`` scenario section and ``flow_from_scenario``).
+``[solver]`` scenario section, the mesh and solver it builds; ``driftlog.solving``, at the
+top, turns a whole scenario into a stored flow).
 """
 
 from driftlog.solver.boundaries import Boundary
-from driftlog.solver.config import build_solver, flow_from_scenario, solve_scenario
+from driftlog.solver.config import build_solver
 from driftlog.solver.model import ShallowWaterSolver
 from driftlog.solver.run import SolveResult
 
-__all__ = ["ShallowWaterSolver", "Boundary", "SolveResult", "flow_from_scenario",
-           "solve_scenario", "build_solver"]
+__all__ = ["ShallowWaterSolver", "Boundary", "SolveResult", "build_solver"]

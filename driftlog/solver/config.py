@@ -27,8 +27,9 @@ The keys are declared here (``SOLVER_SECTION``, ``driftlog scenario keys --secti
     value = 0.05
 
 A flow computed from a ``[solver]`` section stores a hash of the section in its attributes
-(``solver_hash``); ``flow_from_scenario`` reuses the file when the hash matches and it reaches
-the end time, resumes it when it stopped early, and recomputes it otherwise.
+(``solver_hash``); ``driftlog.solving.flow_from_scenario`` reuses the file when the hash
+matches and it reaches the end time, resumes it when it stopped early, and recomputes it
+otherwise.
 
 ``engine = "shallowWaterFoam"`` computes the same section with OpenFOAM instead
 (``driftlog.adapters.openfoam_engine``): its flow file is ``[flow] path`` with
@@ -48,8 +49,8 @@ from driftlog.errors import ScenarioError
 from driftlog.schema import Key, Section
 from driftlog.solver.boundaries import KINDS, as_boundary
 
-__all__ = ["build_mesh", "build_solver", "solve_scenario", "flow_from_scenario",
-           "solver_hash", "check_solver_section", "INITIAL_TYPES"]
+__all__ = ["build_mesh", "build_solver", "solver_hash", "check_solver_section", "partial_path",
+           "estimate_mesh", "INITIAL_TYPES"]
 
 INITIAL_TYPES = ("dry", "level", "depth", "file")
 INITIAL_KEYS = ("type", "value", "polygon", "outside", "velocity", "path", "time")
@@ -237,88 +238,6 @@ def build_solver(sec, mesh=None):
     return s
 
 
-def _default_path(scenario, engine=None):
-    """The flow file of the section's engine.
-
-    [flow] path (or solver_flow.nc beside the scenario) for driftlog, with ``_<engine>``
-    added to its stem for another engine.
-    """
-    from driftlog.adapters.openfoam_engine import engine_flow_path
-
-    p = scenario["flow"].get("path") or ""
-    path = Path(p) if p else scenario.base_dir / "solver_flow.nc"
-    return engine_flow_path(path, engine or scenario["solver"]["engine"])
-
-
-def _stored(path, digest):
-    """('stored', last time) for a flow file computed from the same section, else (None, None)."""
-    import netCDF4
-
-    if not path.is_file():
-        return None, None
-    try:
-        with netCDF4.Dataset(path) as ds:
-            if getattr(ds, "solver_hash", None) != digest:
-                return None, None
-            n = len(ds.dimensions["time"])
-            return "stored", float(ds.variables["time"][n - 1]) if n else None
-    except OSError:
-        return None, None
-
-
-def solve_scenario(scenario, output=None, resume=False, progress=False):
-    """Run the solver of a validated scenario; returns (SolveResult, path of the flow file)."""
-    sec = scenario["solver"]
-    if sec["end"] is None:
-        raise ScenarioError("solver.end", None, "is required to run the solver: the end time "
-                            "of the flow computation (s), in a [solver] section (driftlog "
-                            "scenario keys --section solver lists its keys)")
-    import os
-
-    from driftlog.files import check_output
-
-    path = check_output(Path(output) if output else _default_path(scenario), "flow file")
-    partial = partial_path(path)
-    digest = solver_hash(sec)
-    attrs = dict(scenario.attrs())
-    attrs["solver_hash"] = digest
-    attrs["title"] = scenario["title"] or "driftlog solver flow"
-    if sec["engine"] != "driftlog":
-        from driftlog.adapters.openfoam_engine import solve_with_shallow_water_foam
-
-        return solve_with_shallow_water_foam(scenario, path, attrs, build_solver,
-                                             progress=progress), path
-    from driftlog.errors import FlowFileError
-
-    if resume and not partial.exists() and path.exists():
-        if _stored(path, digest)[0] is None:
-            raise FlowFileError(f"{path}: cannot resume: it was not computed from this "
-                                f"[solver] section (solver_hash differs from {digest}); run "
-                                "without --resume")
-        os.replace(path, partial)  # a finished flow extended to a later end
-    resume = resume and partial.exists()
-    if resume and _stored(partial, digest)[0] is None:
-        raise FlowFileError(f"{partial}: cannot resume: it was not computed from this [solver] "
-                            f"section (solver_hash differs from {digest}); run without --resume")
-    estimate_mesh(sec)
-    if progress:
-        from driftlog._numba import announce_compile
-
-        announce_compile(["solver"])
-    s = build_solver(sec)
-    try:
-        res = s.run(sec["end"], output=partial, output_interval=sec["output_interval"],
-                    progress=progress, resume=resume, attrs=attrs)
-    except KeyboardInterrupt as exc:
-        _, t_last = _stored(partial, digest)
-        exc.add_note(f"kept {partial}: the flow up to t = {t_last} s of {sec['end']} s; "
-                     "driftlog solve SCENARIO --resume continues it")
-        raise
-    os.replace(partial, path)  # complete: under its final name
-    res.path = path
-    return res, path
-
-
 def partial_path(path) -> Path:
     """Where the solver writes a flow file until it is complete (``NAME.partial``)."""
     path = Path(path)
@@ -358,33 +277,6 @@ def estimate_mesh(sec, max_cells=None):
                         f"~{per_cell:g} bytes each, half of the available memory); use a "
                         f"cell_size >= {h * np.sqrt(cells / limit):.3g} m")
     return cells
-
-
-def flow_from_scenario(scenario, progress=False):
-    """The flow of a scenario with [flow] source = 'solver', as a MeshFlowField.
-
-    Reuses ``[flow] path`` when it was computed from the same [solver] section and reaches the
-    end time, resumes it when it stopped before, and computes it otherwise.
-    """
-    from driftlog.flowfile import open_flow
-
-    sec = scenario["solver"]
-    if sec["end"] is None:
-        raise ScenarioError("solver.end", None, "is required with [flow] source = 'solver': "
-                            "the end time of the flow computation (s)")
-    path = _default_path(scenario)
-    digest = solver_hash(sec)
-    state, t_last = _stored(path, digest)
-    if sec["engine"] != "driftlog":  # no resuming an OpenFOAM run
-        if state is None or t_last is None or t_last < sec["end"] - 1e-9 * abs(sec["end"]):
-            solve_scenario(scenario, output=path, progress=progress)
-        return open_flow(path, dry_depth=scenario["flow"]["dry_depth"])
-    if state is None or t_last is None or t_last < sec["end"]:
-        p_state, p_last = _stored(partial_path(path), digest)
-        resume = (p_state is not None and p_last is not None) or \
-            (state is not None and t_last is not None)
-        solve_scenario(scenario, output=path, resume=resume, progress=progress)
-    return open_flow(path, dry_depth=scenario["flow"]["dry_depth"])
 
 
 # --------------------------------------------------------------------- the scenario section

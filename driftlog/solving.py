@@ -1,0 +1,127 @@
+"""A scenario's [solver] section turned into a stored flow: solve it, or reuse what is stored.
+
+The top of the data flow (docs/design.md section 2): the solver (``driftlog.solver``) and the
+OpenFOAM engine (``driftlog.adapters.openfoam_engine``) take the validated [solver] section;
+this module adds what needs the whole scenario: where the flow file goes (``[flow] path``, or
+``solver_flow.nc`` beside the scenario, with the engine's suffix), the scenario written into
+the flow's attributes (provenance), and the reuse of a stored flow while its section's hash
+is unchanged.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from driftlog.errors import ScenarioError
+from driftlog.solver.config import build_solver, estimate_mesh, partial_path, solver_hash
+
+__all__ = ["solve_scenario", "flow_from_scenario", "default_flow_path", "stored_flow"]
+
+
+def default_flow_path(scenario, engine=None):
+    """The flow file of the section's engine.
+
+    [flow] path (or solver_flow.nc beside the scenario) for driftlog, with ``_<engine>``
+    added to its stem for another engine.
+    """
+    from driftlog.adapters.openfoam_engine import engine_flow_path
+
+    p = scenario["flow"].get("path") or ""
+    path = Path(p) if p else scenario.base_dir / "solver_flow.nc"
+    return engine_flow_path(path, engine or scenario["solver"]["engine"])
+
+
+def stored_flow(path, digest):
+    """('stored', last time) for a flow file computed from the same section, else (None, None)."""
+    import netCDF4
+
+    if not path.is_file():
+        return None, None
+    try:
+        with netCDF4.Dataset(path) as ds:
+            if getattr(ds, "solver_hash", None) != digest:
+                return None, None
+            n = len(ds.dimensions["time"])
+            return "stored", float(ds.variables["time"][n - 1]) if n else None
+    except OSError:
+        return None, None
+
+
+def solve_scenario(scenario, output=None, resume=False, progress=False):
+    """Run the solver of a validated scenario; returns (SolveResult, path of the flow file)."""
+    sec = scenario["solver"]
+    if sec["end"] is None:
+        raise ScenarioError("solver.end", None, "is required to run the solver: the end time "
+                            "of the flow computation (s), in a [solver] section (driftlog "
+                            "scenario keys --section solver lists its keys)")
+    import os
+
+    from driftlog.files import check_output
+
+    path = check_output(Path(output) if output else default_flow_path(scenario), "flow file")
+    partial = partial_path(path)
+    digest = solver_hash(sec)
+    attrs = dict(scenario.attrs())
+    attrs["solver_hash"] = digest
+    attrs["title"] = scenario["title"] or "driftlog solver flow"
+    if sec["engine"] != "driftlog":
+        from driftlog.adapters.openfoam_engine import solve_with_shallow_water_foam
+
+        return solve_with_shallow_water_foam(sec, path, attrs, build_solver,
+                                             progress=progress), path
+    from driftlog.errors import FlowFileError
+
+    if resume and not partial.exists() and path.exists():
+        if stored_flow(path, digest)[0] is None:
+            raise FlowFileError(f"{path}: cannot resume: it was not computed from this "
+                                f"[solver] section (solver_hash differs from {digest}); run "
+                                "without --resume")
+        os.replace(path, partial)  # a finished flow extended to a later end
+    resume = resume and partial.exists()
+    if resume and stored_flow(partial, digest)[0] is None:
+        raise FlowFileError(f"{partial}: cannot resume: it was not computed from this [solver] "
+                            f"section (solver_hash differs from {digest}); run without --resume")
+    estimate_mesh(sec)
+    if progress:
+        from driftlog._numba import announce_compile
+
+        announce_compile(["solver"])
+    s = build_solver(sec)
+    try:
+        res = s.run(sec["end"], output=partial, output_interval=sec["output_interval"],
+                    progress=progress, resume=resume, attrs=attrs)
+    except KeyboardInterrupt as exc:
+        _, t_last = stored_flow(partial, digest)
+        exc.add_note(f"kept {partial}: the flow up to t = {t_last} s of {sec['end']} s; "
+                     "driftlog solve SCENARIO --resume continues it")
+        raise
+    os.replace(partial, path)  # complete: under its final name
+    res.path = path
+    return res, path
+
+
+def flow_from_scenario(scenario, progress=False):
+    """The flow of a scenario with [flow] source = 'solver', as a MeshFlowField.
+
+    Reuses ``[flow] path`` when it was computed from the same [solver] section and reaches the
+    end time, resumes it when it stopped before, and computes it otherwise.
+    """
+    from driftlog.flowfile import open_flow
+
+    sec = scenario["solver"]
+    if sec["end"] is None:
+        raise ScenarioError("solver.end", None, "is required with [flow] source = 'solver': "
+                            "the end time of the flow computation (s)")
+    path = default_flow_path(scenario)
+    digest = solver_hash(sec)
+    state, t_last = stored_flow(path, digest)
+    if sec["engine"] != "driftlog":  # no resuming an OpenFOAM run
+        if state is None or t_last is None or t_last < sec["end"] - 1e-9 * abs(sec["end"]):
+            solve_scenario(scenario, output=path, progress=progress)
+        return open_flow(path, dry_depth=scenario["flow"]["dry_depth"])
+    if state is None or t_last is None or t_last < sec["end"]:
+        p_state, p_last = stored_flow(partial_path(path), digest)
+        resume = (p_state is not None and p_last is not None) or \
+            (state is not None and t_last is not None)
+        solve_scenario(scenario, output=path, resume=resume, progress=progress)
+    return open_flow(path, dry_depth=scenario["flow"]["dry_depth"])
