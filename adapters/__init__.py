@@ -59,15 +59,15 @@ KINDS = tuple(r.KIND for r in READERS)
 
 def _register_with_files():
     """Tell ``driftlog.files.sniff`` about the readers of other models' files."""
-    from driftlog import files
+    from driftlog.files import CONTENT_CHECKS, register_reader
 
     from ._netcdf import check_netcdf3_size
 
     for r in READERS:
         if r.KIND not in ("file", "ugrid", "cf_grid", "anuga"):  # NetCDF: sniffed by content
-            files.register_reader(r.KIND, r.can_open)
-    if check_netcdf3_size not in files.CONTENT_CHECKS:
-        files.CONTENT_CHECKS.append(check_netcdf3_size)
+            register_reader(r.KIND, r.can_open)
+    if check_netcdf3_size not in CONTENT_CHECKS:
+        CONTENT_CHECKS.append(check_netcdf3_size)
 
 
 _register_with_files()

@@ -14,7 +14,7 @@ import numpy as np
 
 from driftlog.errors import FlowFileError
 
-from . import foam_io
+from .foam_io import foam_path, read_boundary, read_faces, read_label_list, read_points
 
 __all__ = ["NUMBER", "clean_case", "is_openfoam_case", "time_dirs", "processor_dirs", "PolyMesh",
            "FoamCase", "check_ran"]
@@ -54,12 +54,12 @@ class PolyMesh:
         if not folder.is_dir():
             raise FlowFileError(f"{folder}: no polyMesh directory (run blockMesh first?)")
         for name in ("points", "faces", "owner", "boundary"):
-            if foam_io.foam_path(folder / name) is None:
+            if foam_path(folder / name) is None:
                 raise FlowFileError(f"{folder}: polyMesh file {name!r} is missing")
-        self.points = foam_io.read_points(folder / "points")
-        self.offsets, self.labels = foam_io.read_faces(folder / "faces")
-        self.owner = foam_io.read_label_list(folder / "owner")
-        self.patches = foam_io.read_boundary(folder / "boundary")
+        self.points = read_points(folder / "points")
+        self.offsets, self.labels = read_faces(folder / "faces")
+        self.owner = read_label_list(folder / "owner")
+        self.patches = read_boundary(folder / "boundary")
         self.n_faces = self.offsets.size - 1
         self.n_cells = int(self.owner.max()) + 1 if self.owner.size else 0
         if self.owner.size != self.n_faces:
@@ -70,7 +70,7 @@ class PolyMesh:
     @property
     def neighbour(self):
         if self._neighbour is None:
-            self._neighbour = foam_io.read_label_list(self.folder / "neighbour")
+            self._neighbour = read_label_list(self.folder / "neighbour")
             self.n_cells = max(self.n_cells, int(self._neighbour.max(initial=-1)) + 1)
         return self._neighbour
 
@@ -114,11 +114,11 @@ class FoamCase:
         self.processors = processor_dirs(self.path)
         self.field = field
         root_times = [t for t in time_dirs(self.path)
-                      if foam_io.foam_path(self.path / t[1] / field)]
+                      if foam_path(self.path / t[1] / field)]
         proc_times = []
         if self.processors:
             proc_times = [t for t in time_dirs(self.processors[0])
-                          if foam_io.foam_path(self.processors[0] / t[1] / field)]
+                          if foam_path(self.processors[0] / t[1] / field)]
         if decomposed is None:
             decomposed = bool(self.processors) and len(proc_times) > len(root_times)
         if decomposed and not self.processors:

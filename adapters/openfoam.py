@@ -31,7 +31,6 @@ from driftlog.flow import MeshFlowField
 from driftlog.mesh import Mesh
 from driftlog.schema import Key
 
-from . import foam_io
 from ._common import select_times
 from ._foam_case import (
     FoamCase,
@@ -41,6 +40,7 @@ from ._foam_case import (
     processor_dirs,
     time_dirs,
 )
+from .foam_io import foam_path, read_internal_field, read_label_list
 from .openfoam_vof import depth_average_columns, open_vof
 
 __all__ = ["open_openfoam", "FoamCase", "FoamSnapshots", "depth_average_columns",
@@ -108,8 +108,8 @@ class _TwoDMesh:
             faces, table = _bottom_faces(pm)
             if case.decomposed:
                 addr = part / "constant" / "polyMesh"
-                cmap = foam_io.read_label_list(addr / "cellProcAddressing")
-                pmap = foam_io.read_label_list(addr / "pointProcAddressing")
+                cmap = read_label_list(addr / "cellProcAddressing")
+                pmap = read_label_list(addr / "pointProcAddressing")
                 if cmap.size != pm.n_cells or pmap.size != pm.points.shape[0]:
                     raise FlowFileError(f"{addr}: cellProcAddressing / pointProcAddressing do "
                                         "not match the processor mesh")
@@ -187,7 +187,7 @@ class FoamSnapshots:
         tname = self.case.time_name(i)
         out = None
         for part, cmap in zip(self.case.parts(), self.cell_maps, strict=True):
-            arr = foam_io.read_internal_field(part / tname / field, cmap.size, required=required)
+            arr = read_internal_field(part / tname / field, cmap.size, required=required)
             if arr is None:
                 return None
             if out is None:
@@ -217,14 +217,14 @@ def _bed(case: FoamCase, snaps: FoamSnapshots, two_d: _TwoDMesh, names, notes):
     bed = np.empty(two_d.n_cells)
     found = True
     for part, cmap in zip(case.parts(), two_d.cell_maps, strict=True):
-        arr = foam_io.read_internal_field(part / "constant" / names["bed"], cmap.size,
+        arr = read_internal_field(part / "constant" / names["bed"], cmap.size,
                                           required=False)
         if arr is None:
             found = False
             break
         bed[cmap] = arr
     if not found and case.decomposed:  # decomposePar leaves constant/h0 in the case root
-        arr = foam_io.read_internal_field(case.path / "constant" / names["bed"], two_d.n_cells,
+        arr = read_internal_field(case.path / "constant" / names["bed"], two_d.n_cells,
                                           required=False)
         if arr is not None:
             bed[:], found = arr, True
@@ -306,9 +306,9 @@ def open_openfoam(path, time_range=None, decomposed=None, variables=None, dry_de
 def _detect_mode(path, names, vof):
     for folder in [path] + (processor_dirs(path)[:1] if path.is_dir() else []):
         for _, tname in time_dirs(folder):
-            if foam_io.foam_path(folder / tname / names["depth"]):
+            if foam_path(folder / tname / names["depth"]):
                 return "shallow_water"
-            if foam_io.foam_path(folder / tname / vof["alpha"]):
+            if foam_path(folder / tname / vof["alpha"]):
                 return "vof"
     if not path.is_dir():
         raise FlowFileError(f"{path}: OpenFOAM case directory not found")

@@ -23,9 +23,9 @@ from driftlog.errors import FlowFileError, MeshError
 from driftlog.flow import MeshFlowField
 from driftlog.mesh import Mesh
 
-from . import foam_io
 from ._common import SubsetSnapshots, select_times
 from ._foam_case import FoamCase, PolyMesh, check_ran
+from .foam_io import read_internal_field, read_label_list
 
 __all__ = ["open_vof", "cell_geometry", "depth_average_columns", "VofSnapshots"]
 
@@ -162,8 +162,8 @@ class VofSnapshots:
         qx = np.zeros(nf)
         qy = np.zeros(nf)
         for folder, cells, vol in self.parts:
-            alpha = foam_io.read_internal_field(folder / tname / self.names["alpha"], vol.size)
-            u = foam_io.read_internal_field(folder / tname / self.names["u"], vol.size)
+            alpha = read_internal_field(folder / tname / self.names["alpha"], vol.size)
+            u = read_internal_field(folder / tname / self.names["u"], vol.size)
             face = self.face_of_cell[cells]
             keep = face >= 0
             w = alpha * vol  # unclipped: MULES undershoots (~1e-8) cancel in the column sums
@@ -187,7 +187,7 @@ def open_vof(path, time_range=None, decomposed=None, names=None, dry_depth=1e-3,
         pm = PolyMesh(folder / "constant" / "polyMesh")
         vol, cen, zmin, _, _ = cell_geometry(pm)
         if case.decomposed:
-            cells = foam_io.read_label_list(folder / "constant" / "polyMesh" /
+            cells = read_label_list(folder / "constant" / "polyMesh" /
                                             "cellProcAddressing")
         else:
             cells = np.arange(pm.n_cells)

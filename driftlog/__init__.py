@@ -37,29 +37,12 @@ import importlib.abc
 import importlib.util
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from driftlog._cache import set_numba_cache_dir
 from driftlog._version import __version__
 from driftlog.errors import DriftlogError, FlowFileError, MeshError, ScenarioError
 
 set_numba_cache_dir(Path(__file__).resolve().parent)
-
-if TYPE_CHECKING:  # what __getattr__ gives, for static tools
-    from driftlog.adapters import import_flow, open_flow_source
-    from driftlog.analytic import FreeVortex, SolidBodyRotation, UniformFlow
-    from driftlog.api import TrackResult, track
-    from driftlog.contact import ContactModel, Obstacles
-    from driftlog.ensemble import load_ensemble, run_ensemble
-    from driftlog.flow import FlowField, MeshFlowField
-    from driftlog.flowfile import open_flow, write_flow
-    from driftlog.logs import Logs
-    from driftlog.mesh import Mesh, read_mesh
-    from driftlog.physics import PhysicsOptions
-    from driftlog.scenario import Scenario, load_scenario
-    from driftlog.solver import ShallowWaterSolver
-    from driftlog.tracker import StepOptions, Tracker
-    from driftlog.trajectory import open_trajectories
 
 __all__ = ["__version__", "track", "TrackResult", "load_scenario", "Scenario", "open_flow",
            "write_flow", "open_flow_source", "import_flow", "ShallowWaterSolver", "Mesh",
@@ -69,39 +52,32 @@ __all__ = ["__version__", "track", "TrackResult", "load_scenario", "Scenario", "
            "ScenarioError", "FlowFileError", "MeshError"]
 
 
+# public name -> the module that defines it, imported when the name is first used (by name:
+# the package itself imports nothing above the base layer, so no module's import of
+# ``driftlog.x`` leads back up to the top; type checkers read ``__init__.pyi``)
+_HOMES = {
+    "track": "api", "TrackResult": "api",
+    "load_scenario": "scenario", "Scenario": "scenario",
+    "open_flow": "flowfile", "write_flow": "flowfile",
+    "open_flow_source": "adapters", "import_flow": "adapters",
+    "ShallowWaterSolver": "solver",
+    "Mesh": "mesh", "read_mesh": "mesh",
+    "FlowField": "flow", "MeshFlowField": "flow",
+    "UniformFlow": "analytic", "SolidBodyRotation": "analytic", "FreeVortex": "analytic",
+    "Logs": "logs", "PhysicsOptions": "physics",
+    "Tracker": "tracker", "StepOptions": "tracker",
+    "ContactModel": "contact", "Obstacles": "contact",
+    "open_trajectories": "trajectory",
+    "load_ensemble": "ensemble", "run_ensemble": "ensemble",
+}
+
+
 def __getattr__(name):
     """Import the public name ``name`` from its module when it is first used."""
-    if name in ("track", "TrackResult"):
-        from driftlog import api as mod
-    elif name in ("load_scenario", "Scenario"):
-        from driftlog import scenario as mod
-    elif name in ("open_flow", "write_flow"):
-        from driftlog import flowfile as mod
-    elif name in ("open_flow_source", "import_flow"):
-        from driftlog import adapters as mod
-    elif name == "ShallowWaterSolver":
-        from driftlog import solver as mod
-    elif name in ("Mesh", "read_mesh"):
-        from driftlog import mesh as mod
-    elif name in ("FlowField", "MeshFlowField"):
-        from driftlog import flow as mod
-    elif name in ("UniformFlow", "SolidBodyRotation", "FreeVortex"):
-        from driftlog import analytic as mod
-    elif name == "Logs":
-        from driftlog import logs as mod
-    elif name == "PhysicsOptions":
-        from driftlog import physics as mod
-    elif name in ("Tracker", "StepOptions"):
-        from driftlog import tracker as mod
-    elif name in ("ContactModel", "Obstacles"):
-        from driftlog import contact as mod
-    elif name == "open_trajectories":
-        from driftlog import trajectory as mod
-    elif name in ("load_ensemble", "run_ensemble"):
-        from driftlog import ensemble as mod
-    else:
+    home = _HOMES.get(name)
+    if home is None:
         raise AttributeError(f"module 'driftlog' has no attribute {name!r}")
-    return getattr(mod, name)
+    return getattr(importlib.import_module(f"driftlog.{home}"), name)
 
 
 def __dir__():

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from driftlog import adapters
+import driftlog.adapters as adapters
 from driftlog.analytic import FreeVortex, SolidBodyRotation, UniformFlow
 from driftlog.errors import ScenarioError
 from driftlog.schema import Key, Section

@@ -63,8 +63,13 @@ def _resolve(name, files, current, level, is_package):
 
 
 def import_graph() -> dict[str, set[str]]:
-    """Module -> the driftlog modules it imports (submodules named in ``from`` count as the
-    submodule; a parent package imported implicitly does not count)."""
+    """Module -> the driftlog modules it imports.
+
+    ``from package import name`` counts as an import of the package (its ``__init__`` runs)
+    and, when ``name`` is a submodule, of the submodule too; imports under ``TYPE_CHECKING``
+    and inside functions count; a parent package imported implicitly by ``import a.b.c``
+    does not.
+    """
     files = module_files()
     graph = {}
     for mod, path in files.items():
@@ -77,6 +82,11 @@ def import_graph() -> dict[str, set[str]]:
                         deps.add(alias.name)
             elif isinstance(node, ast.ImportFrom):
                 target = _resolve(node.module, files, mod, node.level, is_package)
+                named = target
+                while named and named not in files:  # "from driftlog.x import y": driftlog.x
+                    named = named.rpartition(".")[0]
+                if named:
+                    deps.add(named)
                 for alias in node.names:
                     sub = f"{target}.{alias.name}"
                     if sub in files:

@@ -1,0 +1,32 @@
+# The public API for type checkers and editors: driftlog/__init__.py imports these lazily, by
+# name, so that the package itself imports nothing above the base layer (no import circle).
+from driftlog._version import __version__ as __version__
+from driftlog.adapters import import_flow as import_flow
+from driftlog.adapters import open_flow_source as open_flow_source
+from driftlog.analytic import FreeVortex as FreeVortex
+from driftlog.analytic import SolidBodyRotation as SolidBodyRotation
+from driftlog.analytic import UniformFlow as UniformFlow
+from driftlog.api import TrackResult as TrackResult
+from driftlog.api import track as track
+from driftlog.contact import ContactModel as ContactModel
+from driftlog.contact import Obstacles as Obstacles
+from driftlog.ensemble import load_ensemble as load_ensemble
+from driftlog.ensemble import run_ensemble as run_ensemble
+from driftlog.errors import DriftlogError as DriftlogError
+from driftlog.errors import FlowFileError as FlowFileError
+from driftlog.errors import MeshError as MeshError
+from driftlog.errors import ScenarioError as ScenarioError
+from driftlog.flow import FlowField as FlowField
+from driftlog.flow import MeshFlowField as MeshFlowField
+from driftlog.flowfile import open_flow as open_flow
+from driftlog.flowfile import write_flow as write_flow
+from driftlog.logs import Logs as Logs
+from driftlog.mesh import Mesh as Mesh
+from driftlog.mesh import read_mesh as read_mesh
+from driftlog.physics import PhysicsOptions as PhysicsOptions
+from driftlog.scenario import Scenario as Scenario
+from driftlog.scenario import load_scenario as load_scenario
+from driftlog.solver import ShallowWaterSolver as ShallowWaterSolver
+from driftlog.tracker import StepOptions as StepOptions
+from driftlog.tracker import Tracker as Tracker
+from driftlog.trajectory import open_trajectories as open_trajectories
