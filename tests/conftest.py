@@ -70,3 +70,18 @@ def mixed_mesh():
     x[inner] += r.uniform(-0.2, 0.2, inner.sum())
     y[inner] += r.uniform(-0.2, 0.2, inner.sum())
     return Mesh(x, y, np.array(faces))
+
+
+def breaking_after(flow, t_break):
+    """A copy of ``flow`` whose sampling raises KeyboardInterrupt past ``t_break`` (a Ctrl-C in
+    the middle of a run, for the resume tests)."""
+
+    class Breaks(type(flow)):
+        def sample_into(self, x, y, t, face, out, flag):
+            if t > t_break:
+                raise KeyboardInterrupt
+            super().sample_into(x, y, t, face, out, flag)
+
+    broken = Breaks.__new__(Breaks)
+    broken.__dict__.update(flow.__dict__)
+    return broken

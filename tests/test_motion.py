@@ -7,6 +7,7 @@ predicted time.
 """
 import numpy as np
 import pytest
+from conftest import breaking_after
 
 from driftlog.analytic import UniformFlow
 from driftlog.errors import ScenarioError
@@ -234,14 +235,7 @@ flush_interval = 1
     full = track(scen, output=tmp_path / "full.nc").dataset()
     flow = flow_from_scenario(load_scenario(scen))
 
-    class Breaks(type(flow)):
-        def sample_into(self, x, y, t, face, out, flag):
-            if t > 21.3:
-                raise KeyboardInterrupt
-            super().sample_into(x, y, t, face, out, flag)
-
-    broken = Breaks.__new__(Breaks)
-    broken.__dict__.update(flow.__dict__)
+    broken = breaking_after(flow, 21.3)
     with pytest.raises(KeyboardInterrupt):
         track(scen, flow=broken, output=tmp_path / "r.nc")
     again = track(scen, output=tmp_path / "r.nc", resume=True).dataset()

@@ -1,6 +1,7 @@
 """The tracker: statuses (lift-off, settling, stranding, leaving), release, landing, seeding."""
 import numpy as np
 import pytest
+from conftest import breaking_after
 
 from driftlog.analytic import SolidBodyRotation, UniformFlow, on_mesh
 from driftlog.api import choose_physics, track
@@ -257,14 +258,7 @@ flush_interval = 1
     full = track(scen, output=tmp_path / "full.nc").dataset()
     flow = flow_from_scenario(load_scenario(scen))
 
-    class Breaks(type(flow)):
-        def sample_into(self, x, y, t, face, out, flag):
-            if t > 11.3:
-                raise KeyboardInterrupt
-            super().sample_into(x, y, t, face, out, flag)
-
-    broken = Breaks.__new__(Breaks)
-    broken.__dict__.update(flow.__dict__)
+    broken = breaking_after(flow, 11.3)
     with pytest.raises(KeyboardInterrupt):
         track(scen, flow=broken, output=tmp_path / "r.nc")
     assert (tmp_path / "r.nc.partial").is_file() and not (tmp_path / "r.nc").exists()
