@@ -24,13 +24,23 @@ import numba as nb
 
 from driftlog._numba import kernel
 from driftlog.columns import NLIN, NVAR, X, Y
-from driftlog.flow import sample_point
-from driftlog.integrators import euler_row, put_row, rk4_final_row, rk4_stage_row, row
-from driftlog.physics import log_rhs
+from driftlog.flow import sample_point, sample_point_columns
+from driftlog.integrators import (
+    etd_coeffs_row,
+    etd_nonlinear_row,
+    etd_stage_row,
+    euler_row,
+    lin_row,
+    put_row,
+    rk4_final_row,
+    rk4_stage_row,
+    row,
+)
+from driftlog.physics import O_LEVEL, O_MOTION, O_ROT, TRACER, log_rhs, stage_columns
 
-__all__ = ["euler_mesh_step", "rk4_mesh_step", "FUSED_METHODS"]
+__all__ = ["euler_mesh_step", "rk4_mesh_step", "etd_mesh_step", "FUSED_METHODS"]
 
-FUSED_METHODS = ("euler", "rk4")
+FUSED_METHODS = ("euler", "rk4", "exponential")
 
 
 @nb.njit(cache=True, inline="always")
@@ -38,7 +48,14 @@ def _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a, inv_
             dry_depth, recovered, loc):
     """Store the new state s, sample the flow there, and the next step's first stage."""
     put_row(out, i, s)
-    f, fg, fl = sample_point(s[X], s[Y], hint, a, inv_dt, vals, dry_depth, recovered, loc)
+    if opt[O_LEVEL] == TRACER:
+        # what tracer mode reads of the flow at the logs: the depth (status), the velocity and
+        # its rotation (the synced state), and the slope when the bed friction test needs it
+        f, fg, fl = sample_point_columns(s[X], s[Y], hint, a, inv_dt, vals, dry_depth,
+                                         recovered, loc, True, opt[O_ROT] > 0.0, False,
+                                         opt[O_MOTION] != 0.0, False)
+    else:
+        f, fg, fl = sample_point(s[X], s[Y], hint, a, inv_dt, vals, dry_depth, recovered, loc)
     face[i] = f
     flag[i] = fg
     for k in range(NVAR):
@@ -53,8 +70,16 @@ def _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a, inv_
 @nb.njit(cache=True, inline="always")
 def _rk4_stage(s0, k, dt, d, hint, a, inv_dt, vals, dry_depth, recovered, loc, p, opt):
     """The derivative at RK4 stage k: its state from s0 and d, the flow there, the forces."""
-    s = rk4_stage_row(s0, k, dt, d)
-    _, _, fl = sample_point(s[X], s[Y], hint, a, inv_dt, vals, dry_depth, recovered, loc)
+    return _stage_rhs(rk4_stage_row(s0, k, dt, d), hint, a, inv_dt, vals, dry_depth, recovered,
+                      loc, p, opt)
+
+
+@nb.njit(cache=True, inline="always")
+def _stage_rhs(s, hint, a, inv_dt, vals, dry_depth, recovered, loc, p, opt):
+    """The derivative at stage state s: the flow there (the columns the forces read), forces."""
+    depth, rot, full, slope = stage_columns(opt)
+    _, _, fl = sample_point_columns(s[X], s[Y], hint, a, inv_dt, vals, dry_depth, recovered,
+                                    loc, depth, rot, full, slope, False)
     dk, _ = log_rhs(s, fl, p, opt, False)
     return dk
 
@@ -96,5 +121,37 @@ def rk4_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
         d3 = _rk4_stage(s0, 3, dt, d2, hint, a_e, inv_e, vals_e, dry_depth, recovered, loc, p,
                         opt)
         s = rk4_final_row(s0, dt, d0, d1, d2, d3)
+        _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a_e, inv_e,
+                vals_e, dry_depth, recovered, loc)
+
+
+@kernel
+def etd_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
+                  a_m, inv_m, vals_m, a_e, inv_e, vals_e, dry_depth, recovered, loc):
+    """Exponential RK4 (ETDRK4) step of every log from states S0, first stage D0 and drag
+    linearisation lin0 (frozen over the step).
+
+    The stages of ``ExponentialRK4.step`` (``integrators.etd_stage_row``) in registers, with
+    the exponential coefficients computed once per log and step (the general path's stage
+    kernels compute them at every stage: the same numbers).  Stage times and node values and
+    the outputs as ``rk4_mesh_step``.
+    """
+    for i in nb.prange(S0.shape[0]):
+        hint = face[i]
+        p = P[i]
+        s0 = row(S0, i)
+        ln = lin_row(lin0, i)
+        c = etd_coeffs_row(ln, dt)
+        n0 = etd_nonlinear_row(s0, row(D0, i), ln)
+        sa = etd_stage_row(1, dt, s0, s0, ln, c, n0, n0, n0, n0)
+        na = etd_nonlinear_row(sa, _stage_rhs(sa, hint, a_m, inv_m, vals_m, dry_depth,
+                                              recovered, loc, p, opt), ln)
+        sb = etd_stage_row(2, dt, s0, s0, ln, c, n0, na, na, na)
+        nb_ = etd_nonlinear_row(sb, _stage_rhs(sb, hint, a_m, inv_m, vals_m, dry_depth,
+                                               recovered, loc, p, opt), ln)
+        sc = etd_stage_row(3, dt, s0, sa, ln, c, n0, na, nb_, nb_)
+        nc = etd_nonlinear_row(sc, _stage_rhs(sc, hint, a_e, inv_e, vals_e, dry_depth,
+                                              recovered, loc, p, opt), ln)
+        s = etd_stage_row(4, dt, s0, s0, ln, c, n0, na, nb_, nc)
         _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a_e, inv_e,
                 vals_e, dry_depth, recovered, loc)
