@@ -128,13 +128,13 @@ def rk4_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
 @kernel
 def etd_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
                   a_m, inv_m, vals_m, a_e, inv_e, vals_e, dry_depth, recovered, loc):
-    """Exponential RK4 (ETDRK4) step of every log from states S0, first stage D0 and drag
-    linearisation lin0 (frozen over the step).
+    """Exponential RK4 (ETDRK4) step of every log from states S0 and first stage D0.
 
-    The stages of ``ExponentialRK4.step`` (``integrators.etd_stage_row``) in registers, with
-    the exponential coefficients computed once per log and step (the general path's stage
-    kernels compute them at every stage: the same numbers).  Stage times and node values and
-    the outputs as ``rk4_mesh_step``.
+    The drag linearisation lin0 is frozen over the step.  The stages of
+    ``ExponentialRK4.step`` (``integrators.etd_stage_row``) in registers, with the
+    exponential coefficients computed once per log and step (the general path's stage kernels
+    compute them at every stage: the same numbers).  Stage times and node values and the
+    outputs as ``rk4_mesh_step``.
     """
     for i in nb.prange(S0.shape[0]):
         hint = face[i]

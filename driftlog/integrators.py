@@ -183,7 +183,7 @@ def etd_nonlinear_row(s, d, ln):
 
 @nb.njit(cache=True, inline="always")
 def _etd_vel(cp, cq, cr, wx, wy, bu, bv, bo, nu, nv, no):
-    """c base + q N on the velocity: operators act as c_perp x + (c_par - c_perp)(w.x) w.
+    """The velocity part e2 base + q N: operators act as c_perp x + (c_par - c_perp)(w.x) w.
 
     ``cp``, ``cq``, ``cr``: (e2, q) pairs along w, across w and for rotation.
     """

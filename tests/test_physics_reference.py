@@ -265,7 +265,9 @@ def test_ganser_slope_is_the_derivative():
     for p in P:
         q = 1.7
         for s in (1e-4, 0.03, 0.7, 4.0):
-            f = lambda x: _ganser_cds(x, q, p, opt)[0]  # noqa: E731
+            def f(x, p=p, q=q):
+                return _ganser_cds(x, q, p, opt)[0]
+
             exact = _ganser_cds(s, q, p, opt)[1] / s
             errs = []
             for ds in (1e-2 * s, 5e-3 * s):
