@@ -11,6 +11,7 @@ difference's truncation error.
 """
 import itertools
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -281,3 +282,26 @@ def test_ganser_slope_is_the_derivative():
         for s in (0.0, 0.01, 1.0, 5.0):
             ref = ref_cds(s, p[P_DV], p[P_PSI], p[P_K2], s_eff, 1000.0, 1e-3)
             assert _ganser_cds(s, p[P_QSIDE], p, opt)[0] == pytest.approx(ref, rel=1e-13)
+
+
+# whole trajectories: the final states of tests/test_fused.py's scene (200 logs, 20 s on a
+# draining, meandering channel: logs leave, strand, cross many faces) as the code before issue
+# 15 computed them (commit bdea483).  Where the step sizes stay the same (full RK4: the length
+# bound and max_step set them) only round-off separates the two; where the drag relaxation
+# bound sets the step (drag level) or the exponential integrator integrates the linearised
+# drag, the analytic rate along w replaces a forward difference whose relative error was
+# ~5e-7, and the trajectories move by that much of their local truncation error.
+BEFORE = Path(__file__).parent / "data" / "physics_before_issue15.npz"
+
+
+@pytest.mark.parametrize("level,method,tol", [("full", "rk4", 1e-9), ("drag", "rk4", 1e-5),
+                                              ("full", "exponential", 1e-6)])
+def test_trajectories_agree_with_the_code_before(level, method, tol):
+    from test_fused import run
+
+    ref = np.load(BEFORE)
+    tr, logs = run(level, True, method, fused=True)
+    key = f"{level}_{method}"
+    assert tr.stats["substeps"] == int(ref[key + "_substeps"])
+    np.testing.assert_array_equal(logs.status, ref[key + "_status"])
+    np.testing.assert_allclose(logs.state, ref[key + "_state"], rtol=0, atol=tol)
