@@ -48,15 +48,18 @@ def _side_state(f, dx, dy, h, hu, hv, z, hdry, order, grad):
 
 
 @kernel
-def edge_fluxes(edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad, order, riemann,
-                g, hdry, slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed):
-    """Fluxes of every edge times its length; ``speed`` = length times the largest wave speed.
+def edge_fluxes(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad, order,
+                riemann, g, hdry, slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed):
+    """Fluxes of the edges ``edges`` times their length; ``speed``: length x largest wave speed.
 
+    ``edges`` lists the edges to compute (the active set's, ``driftlog.solver.layout``); the
+    others keep their values.
     ``fx0, fy0`` is the momentum flux leaving face ``edge_faces[e, 0]``, ``fx1, fy1`` the one
     entering face ``edge_faces[e, 1]`` (they differ by the bed source terms).
     """
     half_g = 0.5 * g
-    for e in nb.prange(edge_faces.shape[0]):
+    for i in nb.prange(edges.shape[0]):
+        e = edges[i]
         a = edge_faces[e, 0]
         b = edge_faces[e, 1]
         n1 = nx[e]
@@ -98,10 +101,14 @@ def edge_fluxes(edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad, orde
 
 
 @kernel
-def face_residuals(face_edges, face_n, edge_faces, area, fmass, fx0, fy0, fx1, fy1, speed,
-                   order, dh, dhu, dhv, rate):
-    """d/dt of h, hu, hv on each face and its time-step bound ``rate`` (dt * rate <= 1)."""
-    for f in nb.prange(face_edges.shape[0]):
+def face_residuals(faces, face_edges, face_n, edge_faces, area, fmass, fx0, fy0, fx1, fy1,
+                   speed, order, dh, dhu, dhv, rate):
+    """d/dt of h, hu, hv on the faces ``faces``, and their time-step bound ``rate``.
+
+    dt * rate <= 1; ``faces``: the active set's faces (``driftlog.solver.layout``).
+    """
+    for i in nb.prange(faces.shape[0]):
+        f = faces[i]
         rh = 0.0
         rx = 0.0
         ry = 0.0
