@@ -19,12 +19,20 @@ mean of its edge values, each of which must stay non-negative).
 from __future__ import annotations
 
 import numba as nb
+import numpy as np
 
 from driftlog._numba import kernel
 from driftlog.solver.boundaries import boundary_flux
 from driftlog.solver.riemann import riemann_flux
 
-__all__ = ["edge_fluxes", "face_residuals"]
+__all__ = ["edge_fluxes", "face_residuals", "face_sides"]
+
+
+def face_sides(face_edges, edge_faces):
+    """(n_faces, nmax) uint8: 1 where face f is side 0 of its edge ``face_edges[f, k]``."""
+    e = np.maximum(face_edges, 0)
+    f = np.arange(face_edges.shape[0])[:, None]
+    return np.ascontiguousarray((face_edges >= 0) & (edge_faces[e, 0] == f), dtype=np.uint8)
 
 
 @nb.njit(cache=True, inline="always")
@@ -101,11 +109,13 @@ def edge_fluxes(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, gra
 
 
 @kernel
-def face_residuals(faces, face_edges, face_n, edge_faces, area, fmass, fx0, fy0, fx1, fy1,
+def face_residuals(faces, face_edges, face_n, face_side, area, fmass, fx0, fy0, fx1, fy1,
                    speed, order, dh, dhu, dhv, rate):
     """d/dt of h, hu, hv on the faces ``faces``, and their time-step bound ``rate``.
 
-    dt * rate <= 1; ``faces``: the active set's faces (``driftlog.solver.layout``).
+    dt * rate <= 1; ``faces``: the active set's faces (``driftlog.solver.layout``);
+    ``face_side[f, k]`` is 1 when face f is side 0 of its k-th edge (the normal points out of
+    it), 0 when it is side 1 (``face_sides``: a per-face table, not a lookup in the edges').
     """
     for i in nb.prange(faces.shape[0]):
         f = faces[i]
@@ -115,7 +125,7 @@ def face_residuals(faces, face_edges, face_n, edge_faces, area, fmass, fx0, fy0,
         rs = 0.0
         for k in range(face_n[f]):
             e = face_edges[f, k]
-            if edge_faces[e, 0] == f:
+            if face_side[f, k]:
                 rh -= fmass[e]
                 rx -= fx0[e]
                 ry -= fy0[e]

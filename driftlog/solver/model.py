@@ -19,7 +19,7 @@ import numpy as np
 from driftlog.errors import ScenarioError
 from driftlog.solver.boundaries import DEPTH, DISCHARGE, LEVEL, BoundarySet
 from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes
-from driftlog.solver.fluxes import edge_fluxes, face_residuals
+from driftlog.solver.fluxes import edge_fluxes, face_residuals, face_sides
 from driftlog.solver.friction import euler_stage, heun_average
 from driftlog.solver.layout import ORDERINGS, active_set, edge_order, face_order, mark_active
 from driftlog.solver.reconstruction import NGRAD, limited_gradients, lsq_geometry
@@ -184,6 +184,7 @@ class ShallowWaterSolver:
         fe = mesh.face_edges[perm]
         self._fe = np.ascontiguousarray(np.where(fe >= 0, einv[np.maximum(fe, 0)], -1))
         self._fn = faces_(mesh.face_n)
+        self._side = face_sides(self._fe, self._ef)
         self._nbr = np.ascontiguousarray(new_face(mesh.face_neighbours[perm]))
         a = mesh.edge_faces[:, 0]
         b = np.where(mesh.edge_faces[:, 1] >= 0, mesh.edge_faces[:, 1], a)
@@ -341,7 +342,7 @@ class ShallowWaterSolver:
         m._k_edges(edges, m._ef, m._nx, m._ny, m._len, m._off0, m._off1, h, hu, hv, m._z,
                    m._grad, m.order, RIEMANN[m.riemann], m.gravity, m.dry_depth, bs.slot,
                    bs.kind, bs.value, fm, fx0, fy0, fx1, fy1, sp)
-        m._k_faces(faces, m._fe, m._fn, m._ef, m._area, fm, fx0, fy0, fx1, fy1, sp, m.order,
+        m._k_faces(faces, m._fe, m._fn, m._side, m._area, fm, fx0, fy0, fx1, fy1, sp, m.order,
                    dh, dhu, dhv, rate)
         return float(rate.max())
 
