@@ -1,9 +1,13 @@
-"""Contacts (issue 5): detection and resolution cost, whole-step cost, contact-time methods.
+"""Contacts (issues 5, 15): detection and resolution cost, whole-step cost, contact-time methods.
 
 1. Detection + resolution per step (broad phase, exact narrow phase, impulses) for 1e3, 1e4,
    1e5 logs, sparse (logs 3 lengths apart) and dense (packed 0.12 L apart, so that every log
    has neighbours within its motion), native vs FCL backend (FCL only where it takes under a
-   minute: said in the table), 1 and 2 threads.
+   minute: said in the table), 1 and 2 threads; native on a sequence of steps (the logs move
+   and bounce) with the broad phase searched afresh at each step and kept between steps
+   (issue 15: ``broadphase.PairCache``), the same contacts either way (checked).
+1b. Side by side with Box2D (pybox2d 2.3.10) on the same pile of capsule logs with no flow:
+   time per step, per touching contact, and momentum/energy drift.
 2. Whole sub-step cost with and without contacts: the tracker on a uniform flow (full physics,
    RK4), free step vs event-driven sub-step vs Moreau-Jean step.
 3. Contact times: conservative advancement vs the paper's dichotomy on 200 random oblique
@@ -29,7 +33,7 @@ from _common import RESULTS, best_time, machine, write_table
 from driftlog.columns import NSTATE, OMEGA, POSITION, THETA, UB, VB, VELOCITY, X, Y
 from driftlog.contact import BallisticLogs, ContactModel, Obstacles, run_contacts
 from driftlog.contact.geometry import capsule_gap, log_endpoints
-from driftlog.contact.impulses import resolve_impulses
+from driftlog.contact.impulses import kinetic_energy, momenta, resolve_islands
 from driftlog.contact.toi import motion_margin
 
 L, R = 1.0, 0.05
@@ -49,16 +53,47 @@ def field(n, dense, rng):
     return BallisticLogs(S, L, R)
 
 
-def detection_step(model, b, dt=0.05):
-    """One contact step's detection and resolution (what the event method does per step)."""
+def detection_step(model, b, dt=0.05, in_place=False):
+    """One contact step's detection and resolution (what the event method does per step).
+
+    Returns (candidate pairs, touching contacts, impulses).
+    """
     tol = model.tolerance * R
     C = model.detect(b, motion_margin(b.state, b.length, b.radius, dt, tol))
     touch = C.select(C.gap <= tol)
-    S = b.state.copy()
+    S = b.state if in_place else b.state.copy()
     imp = np.zeros(len(touch))
-    resolve_impulses(S, 1 / b.mass, 1 / b.inertia, touch.body1, touch.body2, touch.res, 0.5,
-                     1e-12, 10 ** 6, imp)
-    return len(C)
+    events = resolve_islands(S, 1 / b.mass, 1 / b.inertia, touch.body1, touch.body2,
+                             touch.res, 0.5, 1e-12, 10 ** 6, imp)
+    return len(C), len(touch), events
+
+
+class _TimedLogs(BallisticLogs):
+    """Force-free logs that time their own free motion (left out of the contact cost)."""
+
+    wall = 0.0
+
+    def advance(self, dt):
+        t0 = time.perf_counter()
+        super().advance(dt)
+        self.wall += time.perf_counter() - t0
+
+
+def moving_steps(b0, keep, steps, dt=0.05):
+    """``steps`` event-driven sub-steps (conservative advancement, eps 0.5) of the field, the
+    broad phase kept between detections or searched afresh at each; wall time of the contact
+    work per sub-step (detections, contact times, impulses; the free motion is not timed).
+    Returns (seconds per sub-step, detections per sub-step, grid searches, final state,
+    simulated seconds)."""
+    b = _TimedLogs(b0.state, L, R)
+    m = ContactModel(restitution=0.5)
+    m.keep_broad_phase = keep
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        m.substep(b, dt)
+    wall = time.perf_counter() - t0 - b.wall
+    return (wall / steps, m.stats["detections"] / steps, m.backend.cache.builds, b.state,
+            b.t)
 
 
 def part_detection(quick, rows):
@@ -84,15 +119,32 @@ def part_detection(quick, rows):
                                              if threads == 2 else
                                              f"skipped: about {est:.0f} s per step"))
                             continue
+                    m.keep_broad_phase = False
                     detection_step(m, b)  # compile, warm up
-                    pairs = detection_step(m, b)
+                    pairs = detection_step(m, b)[0]
                     sec = best_time(lambda m=m, b=b: detection_step(m, b), repeat=2,
                                     min_time=0.1)
                     rows.append(dict(logs=n, scene="dense" if dense else "sparse",
-                                     backend=backend, threads=threads, candidate_pairs=pairs,
-                                     ms_per_step=1e3 * sec,
+                                     backend=backend, threads=threads, broad_phase="fresh",
+                                     candidate_pairs=pairs, ms_per_step=1e3 * sec,
                                      us_per_pair=1e6 * sec / max(pairs, 1), note=""))
                     print(rows[-1])
+                    if backend == "native" and dense:
+                        steps = 20 if quick or n > 10_000 else 60
+                        moving_steps(b, True, 2)  # compile
+                        fresh = moving_steps(b, False, steps)
+                        kept = moving_steps(b, True, steps)
+                        assert np.array_equal(fresh[3], kept[3])  # the same run, bit for bit
+                        for name, r in (("fresh, event run", fresh), ("kept, event run", kept)):
+                            rows.append(dict(
+                                logs=n, scene="dense" if dense else "sparse", backend=backend,
+                                threads=threads, broad_phase=name, candidate_pairs="",
+                                ms_per_step=1e3 * r[0], us_per_pair="",
+                                note=f"per sub-step: {steps} sub-steps ({r[4]:.2g} s), "
+                                f"{r[1]:.1f} detections each"
+                                + (f", grid searched {r[2]} times" if name.startswith("kept")
+                                   else "")))
+                            print(rows[-1])
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
 
 
@@ -129,6 +181,137 @@ def part_whole_step(quick, rows):
                              ms_per_substep=1e3 * wall / steps, simulated_s=sim,
                              simulated_s_per_wall_s=sim / wall))
             print(rows[-1])
+
+
+# ----------------------------------------------------------------- Box2D side by side
+B2_DT = 1.0 / 60.0
+
+
+def pile(n, rng):
+    """n logs packed 1.02 L apart, random angles, converging on the centre at up to 1 m/s."""
+    g = int(np.ceil(np.sqrt(n)))
+    xs = np.arange(g) * 1.02 * L
+    gx, gy = np.meshgrid(xs, xs)
+    S = np.zeros((n, NSTATE))
+    S[:, X], S[:, Y] = gx.ravel()[:n], gy.ravel()[:n]
+    S[:, THETA] = rng.uniform(0, np.pi, n)
+    c = S[:, X:Y + 1].mean(0)
+    S[:, UB:VB + 1] = (-(S[:, X:Y + 1] - c) / (0.5 * xs[-1] + L)
+                       + rng.normal(0, 0.3, (n, 2)))
+    S[:, OMEGA] = rng.normal(0, 0.5, n)
+    return S
+
+
+def invariants(S, mass, inertia):
+    """Kinetic energy, linear momentum (2), angular momentum about the origin; and scales
+    (sum of |m U|, sum of |m r x U| + |I omega|) the drifts are measured against."""
+    e = kinetic_energy(S, mass, inertia)
+    px, py, lz = momenta(S, mass, inertia)
+    p_scale = float(np.sum(mass * np.hypot(S[:, UB], S[:, VB])))
+    l_scale = float(np.sum(np.abs(mass * (S[:, X] * S[:, VB] - S[:, Y] * S[:, UB]))
+                           + np.abs(inertia * S[:, OMEGA])))
+    return e, np.array([px, py]), lz, p_scale, l_scale
+
+
+def drifts(before, after):
+    e0, p0, l0, ps, ls = before
+    e1, p1, l1, _, _ = after
+    return dict(energy_change=(e1 - e0) / e0, momentum_drift=float(np.abs(p1 - p0).max()) / ps,
+                angular_momentum_drift=abs(l1 - l0) / ls)
+
+
+def box2d_run(S0, mass, inertia, t_end, eps):
+    """The pile in Box2D: each log a body of a box (L x 2r) and two end circles (radius r),
+    its mass and inertia set to the log's; no gravity, no friction, no damping, no sleep;
+    steps of 1/60 s with 8 velocity and 3 position iterations (Box2D's defaults)."""
+    import Box2D as b2
+
+    world = b2.b2World(gravity=(0, 0), doSleep=False)
+    bodies = []
+    for k in range(S0.shape[0]):
+        body = world.CreateDynamicBody(position=(S0[k, X], S0[k, Y]), angle=S0[k, THETA],
+                                       linearDamping=0.0, angularDamping=0.0)
+        kw = dict(friction=0.0, restitution=eps, density=1.0)
+        body.CreateFixture(b2.b2FixtureDef(shape=b2.b2PolygonShape(box=(0.5 * L, R)), **kw))
+        for e in (-0.5 * L, 0.5 * L):
+            body.CreateFixture(b2.b2FixtureDef(shape=b2.b2CircleShape(pos=(e, 0), radius=R),
+                                               **kw))
+        body.massData = b2.b2MassData(mass=float(mass[k]), center=(0, 0), I=float(inertia[k]))
+        body.linearVelocity = (S0[k, UB], S0[k, VB])
+        body.angularVelocity = S0[k, OMEGA]
+        bodies.append(body)
+
+    def state():
+        S = np.zeros_like(S0)
+        for k, body in enumerate(bodies):
+            S[k, X], S[k, Y] = body.position
+            S[k, THETA] = body.angle
+            S[k, UB], S[k, VB] = body.linearVelocity
+            S[k, OMEGA] = body.angularVelocity
+        return S
+
+    steps = int(round(t_end / B2_DT))
+    world.Step(B2_DT, 8, 3)  # the first step builds the contact list (timed apart)
+    S1 = state()
+    wall, touching, pairs = 0.0, 0, 0
+    for _ in range(steps - 1):
+        t0 = time.perf_counter()
+        world.Step(B2_DT, 8, 3)
+        wall += time.perf_counter() - t0
+        pairs += world.contactCount
+        touching += sum(1 for c in world.contacts if c.touching)
+    return dict(steps=steps - 1, wall=wall, pairs=pairs, touching=touching, S_start=S1,
+                S_end=state(), simulated=(steps - 1) * B2_DT)
+
+
+def driftlog_run(S_start, mass, inertia, t_end, eps, method):
+    """The same pile in driftlog: force-free logs, ``method`` contacts, steps of at most 1/60 s
+    (Moreau-Jean shortens them near contacts to a quarter radius of motion; the event method
+    ends them at each contact)."""
+    b = BallisticLogs(S_start, L, R)
+    b.mass, b.inertia = mass.copy(), inertia.copy()
+    m = ContactModel(method=method, restitution=eps, rest_speed=0.0)
+    m.check_overlap = False
+    steps, wall, touching = 0, 0.0, 0
+    t0 = time.perf_counter()
+    while b.t < t_end - 1e-12:
+        m.substep(b, min(B2_DT, t_end - b.t))
+        steps += 1
+        touching += np.unique(m._active).size
+    wall = time.perf_counter() - t0
+    return dict(steps=steps, wall=wall, touching=touching, S_end=b.state.copy(),
+                simulated=b.t, min_gap=m.stats["min_gap"], pairs=np.nan,
+                advances=b.advances)
+
+
+def part_box2d(quick, rows):
+    rng = np.random.default_rng(5)
+    t_end = 1.0 if quick else 2.0
+    for n in (1_000, 10_000):
+        S0 = pile(n, rng)
+        b = BallisticLogs(S0, L, R)
+        mass, inertia = b.mass, b.inertia
+        for eps in (1.0, 0.5):
+            ref = box2d_run(S0, mass, inertia, t_end + B2_DT, eps)
+            inv0 = invariants(ref["S_start"], mass, inertia)
+            runs = [("Box2D 2.3.10", ref)]
+            numba.set_num_threads(1)
+            for method in ("moreau", "event"):
+                if method == "event" and n > 1_000 and quick:
+                    continue
+                driftlog_run(ref["S_start"][:50], mass[:50], inertia[:50], 0.05, eps, method)
+                runs.append((f"driftlog {method}", driftlog_run(ref["S_start"], mass, inertia,
+                                                                t_end, eps, method)))
+            for name, r in runs:
+                d = drifts(inv0, invariants(r["S_end"], mass, inertia))
+                rows.append(dict(
+                    logs=n, restitution=eps, engine=name, steps=r["steps"],
+                    simulated_s=r["simulated"], ms_per_step=1e3 * r["wall"] / r["steps"],
+                    touching_per_step=r["touching"] / r["steps"],
+                    us_per_contact=1e6 * r["wall"] / max(r["touching"], 1),
+                    wall_s_per_simulated_s=r["wall"] / r["simulated"], **d))
+                print(rows[-1])
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
 
 
 # ----------------------------------------------------------------- contact times
@@ -314,12 +497,28 @@ def run(quick):
     rows = []
     part_detection(quick, rows)
     write_table("contact_detection", rows, ["logs", "scene", "backend", "threads",
-                                            "candidate_pairs", "ms_per_step", "us_per_pair",
-                                            "note"],
+                                            "broad_phase", "candidate_pairs", "ms_per_step",
+                                            "us_per_pair", "note"],
                 "Contact detection + resolution per step",
                 "Broad phase (hashed grid), exact narrow phase and impulses of one step; logs "
                 f"L = {L} m, r = {R} m, random angles and speeds ~1 m/s; margin = motion over "
                 "0.05 s. Re-create: `python benchmarks/contact_benchmark.py`.")
+    rows_b2 = []
+    part_box2d(quick, rows_b2)
+    write_table("contact_box2d", rows_b2, ["logs", "restitution", "engine", "steps",
+                                           "simulated_s", "ms_per_step", "touching_per_step",
+                                           "us_per_contact", "wall_s_per_simulated_s",
+                                           "energy_change", "momentum_drift",
+                                           "angular_momentum_drift"],
+                "Side by side with Box2D: a pile of capsule logs, no flow",
+                f"Logs L = {L} m, r = {R} m packed 1.02 L apart, converging at up to 1 m/s, no "
+                "gravity, friction or damping; 1 thread. Box2D: steps of 1/60 s, 8 velocity + 3 "
+                "position iterations, capsules as a box and two circles, the logs' masses and "
+                "inertias; collisions slower than b2_velocityThreshold = 1 m/s do not bounce "
+                "(Box2D's rule). driftlog: the same start state (after Box2D's first step), "
+                "steps of at most 1/60 s. Touching: Box2D's touching contacts; driftlog's "
+                "pairs in contact or pushing. Drifts relative to the sum of |m U| (momentum) "
+                "and of |m r x U| + |I omega| (angular momentum).")
     rows2 = []
     part_whole_step(quick, rows2)
     write_table("contact_step", rows2, ["logs", "contact", "substeps", "ms_per_substep",
@@ -348,7 +547,7 @@ def run(quick):
                 "positions within a step.")
     out["fcl"] = fcl_note()
     print(out["fcl"])
-    out.update(detection=rows, step=rows2, contact_times=rows3, grazing=rows4)
+    out.update(detection=rows, box2d=rows_b2, step=rows2, contact_times=rows3, grazing=rows4)
     (RESULTS / "contact.json").write_text(json.dumps(out, indent=1, default=str))
 
 

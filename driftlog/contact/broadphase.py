@@ -318,31 +318,40 @@ def _kept_log_pairs(x, y, ex, ey, kept, cell):
     fresh grid's order: neighbour cell (column by column) of j around i, then j.
     """
     m = kept.shape[0]
+    n = x.size
     out = np.empty((m, 2), np.int64)
-    keys = np.empty(m, np.int64)
-    rows = np.empty(m, np.int64)
+    keys = np.empty(16, np.int64)
+    rows = np.empty(16, np.int64)
+    cx = np.empty(n, np.int64)
+    cy = np.empty(n, np.int64)
+    for i in range(n):
+        cx[i] = np.int64(np.floor(x[i] / cell))
+        cy[i] = np.int64(np.floor(y[i] / cell))
     c = 0
     a = 0
     while a < m:
         i = kept[a, 0]
-        lo = c
-        ix, iy = np.floor(x[i] / cell), np.floor(y[i] / cell)
+        xi, yi, exi, eyi, ix, iy = x[i], y[i], ex[i], ey[i], cx[i], cy[i]
+        s = 0
         while a < m and kept[a, 0] == i:
             j = kept[a, 1]
             a += 1
-            if abs(x[i] - x[j]) > ex[i] + ex[j] or abs(y[i] - y[j]) > ey[i] + ey[j]:
+            if abs(xi - x[j]) > exi + ex[j] or abs(yi - y[j]) > eyi + ey[j]:
                 continue
-            dx = np.floor(x[j] / cell) - ix
-            dy = np.floor(y[j] / cell) - iy
-            if abs(dx) > 1.0 or abs(dy) > 1.0:
+            dx, dy = cx[j] - ix, cy[j] - iy
+            if abs(dx) > 1 or abs(dy) > 1:
                 continue  # (round-off at a cell's edge) the fresh grid does not see it either
-            keys[c] = np.int64((dx + 1.0) * 3.0 + dy + 1.0) * x.size + j
-            rows[c] = j
+            if s == keys.size:
+                keys = np.concatenate((keys, np.empty(s, np.int64)))
+                rows = np.concatenate((rows, np.empty(s, np.int64)))
+            keys[s] = ((dx + 1) * 3 + dy + 1) * n + j
+            rows[s] = j
+            s += 1
+        _sort_segment(keys, rows, 0, s)
+        for q in range(s):
+            out[c, 0] = i
+            out[c, 1] = rows[q]
             c += 1
-        _sort_segment(keys, rows, lo, c)
-        for q in range(lo, c):
-            out[q, 0] = i
-            out[q, 1] = rows[q]
     return out[:c].copy()
 
 
@@ -399,14 +408,20 @@ class PairCache:
     ----------
     skin_factor : float
         The kept boxes are the boxes of the first call inflated by ``skin_factor`` times the
-        per-log ``skin`` passed (how far a log moves in a sub-step): about that many sub-steps
-        of motion before the grid is searched again.
+        per-log ``skin`` passed (how far a log moves in a sub-step).
+    adapt : bool
+        Adjust ``skin_factor`` at each search (halved when the last kept list served more
+        than 32 calls, doubled when it served fewer than 4; within 1/256 .. 4): thinner
+        boxes, fewer kept pairs to filter, where sub-steps are much shorter than the step
+        the skin was given for (event-driven contact in a crowd).
     """
 
-    def __init__(self, skin_factor=2.0):
+    def __init__(self, skin_factor=2.0, adapt=True):
         self.skin_factor = float(skin_factor)
+        self.adapt = bool(adapt)
         self.builds = 0
         self.reuses = 0
+        self._served = 0
         self._kept = None
 
     def clear(self):
@@ -436,6 +451,12 @@ class PairCache:
                  or (ids is not None and not np.array_equal(k["ids"], ids))
                  or not _inside(x, y, ex, ey, k["x"], k["y"], k["ex"], k["ey"]))
         if fresh:
+            if self.adapt and self._kept is not None:
+                if self._served > 32:
+                    self.skin_factor = max(self.skin_factor * 0.5, 1.0 / 256.0)
+                elif self._served < 4:
+                    self.skin_factor = min(self.skin_factor * 2.0, 4.0)
+            self._served = 0
             s = self.skin_factor * np.asarray(skin, float)
             exb, eyb = ex + s, ey + s
             k = self._kept = dict(n=n, static=static, x=x.copy(), y=y.copy(), ex=exb, ey=eyb,
@@ -445,6 +466,7 @@ class PairCache:
             self.builds += 1
         else:
             self.reuses += 1
+            self._served += 1
         if n < 2:
             ll = np.empty((0, 2), np.int64)
         else:

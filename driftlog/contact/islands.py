@@ -8,7 +8,9 @@ obstacles do not join islands: a wall has infinite mass, so two logs pressed on 
 do not push each other through it.
 
 ``islands`` labels them with a union-find (path halving, union by the smaller root) in one
-pass over the pairs; ``island_runs`` groups the contacts of each island in their given order.
+pass over the pairs; ``island_runs`` groups the contacts of each island in their given order;
+``swept_islands`` finds the pairs first, from the boxes the logs' centres swept over a time
+(per-log clocks: ``driftlog.clocks``).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 
 from driftlog.errors import ArgumentError
 
-__all__ = ["islands", "island_labels", "island_runs"]
+__all__ = ["islands", "island_labels", "island_runs", "swept_islands"]
 
 
 @nb.njit(cache=True, inline="always")
@@ -108,3 +110,38 @@ def island_runs(labels, count, body1):
         order[fill[q]] = c
         fill[q] += 1
     return order, start
+
+
+def swept_islands(swept, reach):
+    """Islands of logs from the boxes their centres swept: (labels, pairs).
+
+    Parameters
+    ----------
+    swept : (n, 4) array
+        xmin, ymin, xmax, ymax of each log's centre over the time considered.
+    reach : (n,) array or float
+        How far the log's surface reaches from its centre (L / 2 + r), plus any margin.
+
+    Returns
+    -------
+    labels : (n,) int64
+        As ``islands``.
+    pairs : (k, 2) int64
+        The logs whose swept capsule boxes overlap (``broadphase.grid_pairs``' order).
+    """
+    from driftlog.contact.broadphase import grid_pairs
+
+    b = np.asarray(swept, float)
+    if b.ndim != 2 or b.shape[1] != 4:
+        raise ArgumentError(f"swept_islands: swept must be an (n, 4) array of xmin, ymin, "
+                            f"xmax, ymax, got shape {b.shape}")
+    n = b.shape[0]
+    r = np.broadcast_to(np.asarray(reach, float), (n,))
+    if not (np.all(np.isfinite(b)) and np.all(np.isfinite(r)) and np.all(r >= 0)
+            and np.all(b[:, 2:] >= b[:, :2])):
+        raise ArgumentError("swept_islands: boxes must be finite with xmax >= xmin and "
+                            "ymax >= ymin, reach finite and >= 0")
+    x, y = 0.5 * (b[:, 0] + b[:, 2]), 0.5 * (b[:, 1] + b[:, 3])
+    ex, ey = 0.5 * (b[:, 2] - b[:, 0]) + r, 0.5 * (b[:, 3] - b[:, 1]) + r
+    pairs = grid_pairs(x, y, ex, ey)
+    return islands(pairs, n), pairs

@@ -189,6 +189,18 @@ class ContactModel:
                                         np.empty(0, np.int64)]),
                         np.vstack([r_ll, r_lo]), b1 * (n + owner.size) + other)
 
+    def set_skin(self, bodies, dt):
+        """How far each log may move before the next detection: its motion over dt.
+
+        (At least the mean motion of the logs: a slow log hit by a fast one speeds up.)
+
+        The kept broad phase inflates its boxes by this (times ``PairCache.skin_factor``);
+        ``substep`` calls it.  It changes the cost only, never the contacts found.
+        """
+        m = motion_margin(bodies.state, bodies.length, bodies.radius, dt, self._tol(bodies))
+        # a slow log hit by a fast one moves faster after the impulse: at least the mean
+        self._skin = np.maximum(m, m.mean()) if m.size else m
+
     def islands(self, bodies, dt):
         """Contact islands of ``bodies`` over a step dt: an island label per log.
 
@@ -286,9 +298,7 @@ class ContactModel:
         if bodies.state.shape[0] == 0:
             bodies.advance(dt)
             return dt
-        # how far each log may move in this sub-step: the kept broad phase's skin
-        self._skin = motion_margin(bodies.state, bodies.length, bodies.radius, dt,
-                                   self._tol(bodies))
+        self.set_skin(bodies, dt)
         if self.method == "moreau":
             return self._moreau(bodies, dt)
         return self._event(bodies, dt)
