@@ -411,13 +411,13 @@ class PairCache:
         The kept boxes are the boxes of the first call inflated by ``skin_factor`` times the
         per-log ``skin`` passed (how far a log moves in a sub-step).
     adapt : bool
-        Adjust ``skin_factor`` at each search (halved when the last kept list served more
-        than 32 calls, doubled when it served fewer than 4; within 1/256 .. 4): thinner
-        boxes, fewer kept pairs to filter, where sub-steps are much shorter than the step
-        the skin was given for (event-driven contact in a crowd).
+        Adjust ``skin_factor`` at each search: halved when the kept list has served 32 calls
+        (the grid is then searched again, with thinner boxes), doubled when it served fewer
+        than 4; within 1/256 .. 4.  Fewer kept pairs to filter where sub-steps are much
+        shorter than the step the skin was given for (event-driven contact in a crowd).
     """
 
-    def __init__(self, skin_factor=2.0, adapt=True):
+    def __init__(self, skin_factor=1.0, adapt=True):
         self.skin_factor = float(skin_factor)
         self.adapt = bool(adapt)
         self.builds = 0
@@ -449,11 +449,12 @@ class PairCache:
         n = x.size
         k = self._kept
         fresh = (k is None or k["n"] != n or k["static"] is not static
+                 or (self.adapt and self._served >= 32 and self.skin_factor > 1.0 / 256.0)
                  or (ids is not None and not np.array_equal(k["ids"], ids))
                  or not _inside(x, y, ex, ey, k["x"], k["y"], k["ex"], k["ey"]))
         if fresh:
             if self.adapt and self._kept is not None:
-                if self._served > 32:
+                if self._served >= 32:
                     self.skin_factor = max(self.skin_factor * 0.5, 1.0 / 256.0)
                 elif self._served < 4:
                     self.skin_factor = min(self.skin_factor * 2.0, 4.0)

@@ -33,7 +33,7 @@ from driftlog.contact.islands import islands
 from driftlog.contact.moreau import moreau_solve
 from driftlog.contact.native import NativeBackend, end_contacts
 from driftlog.contact.obstacles import Obstacles
-from driftlog.contact.toi import conservative_step, motion_margin
+from driftlog.contact.toi import conservative_step, motion_margin, skin
 from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.schema import Key, Section
 
@@ -197,9 +197,7 @@ class ContactModel:
         The kept broad phase inflates its boxes by this (times ``PairCache.skin_factor``);
         ``substep`` calls it.  It changes the cost only, never the contacts found.
         """
-        m = motion_margin(bodies.state, bodies.length, bodies.radius, dt, self._tol(bodies))
-        # a slow log hit by a fast one moves faster after the impulse: at least the mean
-        self._skin = np.maximum(m, m.mean()) if m.size else m
+        self._skin = skin(bodies.state, bodies.length, bodies.radius, dt)
 
     def islands(self, bodies, dt):
         """Contact islands of ``bodies`` over a step dt: an island label per log.
