@@ -19,6 +19,7 @@ import time as _time
 
 import numpy as np
 
+from driftlog.clocks import CLOCKS, DIVERGED, RK4, TOO_SMALL, per_log_mesh_advance
 from driftlog.columns import (
     DUDY,
     DVDX,
@@ -126,6 +127,17 @@ class Tracker:
         self._d0_valid = False
         self.step_options = step or StepOptions()
         self.contact = contact
+        self.clock = self.step_options.clock
+        if self.clock not in CLOCKS:
+            raise ScenarioError("integrator.clock", self.clock,
+                                "must be one of " + ", ".join(CLOCKS))
+        if self.clock == "per_log" and (self._kernel is None
+                                        or self._kernel.node_pair is None):
+            raise ScenarioError(
+                "integrator.clock", self.clock,
+                f"per-log clocks run in the fused mesh kernels: they need a mesh flow sampled P1 "
+                f"(this flow: {getattr(flow, 'name', type(flow).__name__)}) and "
+                f"integrator.method euler or rk4 (here {method!r}); use clock = 'global'")
         self.t = float(t_start)
         t0f, t1f = flow.time_span
         self.t_end = float(t_end if t_end is not None else t1f)
@@ -317,6 +329,63 @@ class Tracker:
             dt = min(dt, step_bound(self.state, self.length, self.lin0, so.length_fraction,
                                      so.angle_step, so.drag_fraction, explicit))
         return dt
+
+    # ----------------------------------------------------------------- per-log clocks
+    def _per_log_interval(self, stop):
+        """Advance every floating log to ``stop`` with its own sub-steps (``driftlog.clocks``).
+
+        Returns each log's swept box (n, 4: xmin, ymin, xmax, ymax of its centre).  A log
+        whose status changes on the way stops there; ``_update_status`` then classifies it
+        from the flow sampled where it stopped (``F``, as the global clock would).
+        """
+        so, kern, n = self.step_options, self._kernel, self.act.size
+        if not self._d0_valid:
+            self._rhs(self.state, self.t, self.D0, self.lin0)
+        vals_c, T0c, gap_c, t_split = kern.node_pair(self.t)
+        if stop >= t_split:
+            vals_n, T0n, gap_n, _ = kern.node_pair(stop)
+        else:
+            vals_n, T0n, gap_n = vals_c, T0c, gap_c
+        friction = self.physics.motion != "floating"
+        thr = (self.P[:, P_HSTAR].copy() if friction
+               else np.ascontiguousarray(self.logs.float_depth[self.act]))
+        t_log, dt_min, dt_max = np.empty(n), np.empty(n), np.empty(n)
+        nsteps, code = np.empty(n, np.int64), np.empty(n, np.int8)
+        box = np.empty((n, 4))
+        tracer = self.physics.level == "tracer"
+        explicit = not self.integrator.stiff_stable and not tracer
+        method = RK4 if self.integrator.name == "rk4" else 0
+        per_log_mesh_advance(
+            self.state, self.D0, self.lin0, self.face, self.F, self.flag, self.P, self.opt,
+            self.t, stop, self.time_tol, method, np.ascontiguousarray(self.length),
+            so.length_fraction, so.angle_step, so.drag_fraction, explicit,
+            so.max_step if so.max_step else np.inf, so.min_step, tracer,
+            bool(self.physics.rotation), thr, friction, vals_c, T0c, gap_c, vals_n, T0n,
+            gap_n, t_split, kern.dry_depth, kern.recovered, kern.locator, t_log, nsteps,
+            dt_min, dt_max, box, code)
+        self._F_valid = self._d0_valid = True
+        k = int(nsteps.sum())
+        st = self.stats
+        st["log_substeps"] = st.get("log_substeps", 0) + k
+        st["rhs_evaluations"] += k * (4 if method == RK4 else 1)
+        if k:
+            st["min_dt"] = min(st["min_dt"], float(dt_min[nsteps > 0].min()))
+            st["max_dt"] = max(st["max_dt"], float(dt_max.max()))
+        bad = np.flatnonzero(code == TOO_SMALL)
+        if bad.size:
+            i = bad[0]
+            raise StepTooSmallError(
+                f"sub-step below integrator.min_step = {so.min_step} s for log "
+                f"{int(self.ids[i])} at t = {t_log[i]} s; a log spins or moves too fast for its "
+                "length (check the flow at the logs) or lower integrator.min_step")
+        bad = np.flatnonzero(code == DIVERGED)
+        if bad.size:
+            raise IntegrationError(
+                f"the {self.integrator.name} integration diverged at t = {t_log[bad[0]]:.6g} s "
+                f"(logs {self.ids[bad[:5]].tolist()}): the step is too long for the drag "
+                "relaxation time; use integrator.method = 'exponential' or set "
+                "integrator.drag_fraction > 0")
+        return box
 
     # ----------------------------------------------------------------- statuses
     def _classify(self, F, flag, idx, status, S=None, P=None):
@@ -520,8 +589,19 @@ class Tracker:
             self._record()
         out_i = int(np.searchsorted(self._outputs, self.t + self.time_tol))
         so = self.step_options
+        per_log = self.clock == "per_log"
         try:
             for stop in self._stops:
+                if per_log and self.act.size and self.contact is None and self.t < stop:
+                    t_before = self.t
+                    self._per_log_interval(stop)
+                    self.t = stop
+                    self._soak(stop - t_before)
+                    self.stats["substeps"] += 1
+                    self._release()
+                    self._update_status()
+                    if bar is not None:
+                        bar.update(stop - t_before)
                 while self.t < stop:
                     t_before = self.t
                     dt = min(self.max_step(), stop - self.t)
