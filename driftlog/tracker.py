@@ -19,7 +19,7 @@ import time as _time
 
 import numpy as np
 
-from driftlog.clocks import CLOCKS, DIVERGED, RK4, TOO_SMALL, per_log_mesh_advance
+from driftlog.clocks import CLOCKS, per_log_interval
 from driftlog.columns import (
     DUDY,
     DVDX,
@@ -330,63 +330,6 @@ class Tracker:
                                      so.angle_step, so.drag_fraction, explicit))
         return dt
 
-    # ----------------------------------------------------------------- per-log clocks
-    def _per_log_interval(self, stop):
-        """Advance every floating log to ``stop`` with its own sub-steps (``driftlog.clocks``).
-
-        Returns each log's swept box (n, 4: xmin, ymin, xmax, ymax of its centre).  A log
-        whose status changes on the way stops there; ``_update_status`` then classifies it
-        from the flow sampled where it stopped (``F``, as the global clock would).
-        """
-        so, kern, n = self.step_options, self._kernel, self.act.size
-        if not self._d0_valid:
-            self._rhs(self.state, self.t, self.D0, self.lin0)
-        vals_c, T0c, gap_c, t_split = kern.node_pair(self.t)
-        if stop >= t_split:
-            vals_n, T0n, gap_n, _ = kern.node_pair(stop)
-        else:
-            vals_n, T0n, gap_n = vals_c, T0c, gap_c
-        friction = self.physics.motion != "floating"
-        thr = (self.P[:, P_HSTAR].copy() if friction
-               else np.ascontiguousarray(self.logs.float_depth[self.act]))
-        t_log, dt_min, dt_max = np.empty(n), np.empty(n), np.empty(n)
-        nsteps, code = np.empty(n, np.int64), np.empty(n, np.int8)
-        box = np.empty((n, 4))
-        tracer = self.physics.level == "tracer"
-        explicit = not self.integrator.stiff_stable and not tracer
-        method = RK4 if self.integrator.name == "rk4" else 0
-        per_log_mesh_advance(
-            self.state, self.D0, self.lin0, self.face, self.F, self.flag, self.P, self.opt,
-            self.t, stop, self.time_tol, method, np.ascontiguousarray(self.length),
-            so.length_fraction, so.angle_step, so.drag_fraction, explicit,
-            so.max_step if so.max_step else np.inf, so.min_step, tracer,
-            bool(self.physics.rotation), thr, friction, vals_c, T0c, gap_c, vals_n, T0n,
-            gap_n, t_split, kern.dry_depth, kern.recovered, kern.locator, t_log, nsteps,
-            dt_min, dt_max, box, code)
-        self._F_valid = self._d0_valid = True
-        k = int(nsteps.sum())
-        st = self.stats
-        st["log_substeps"] = st.get("log_substeps", 0) + k
-        st["rhs_evaluations"] += k * (4 if method == RK4 else 1)
-        if k:
-            st["min_dt"] = min(st["min_dt"], float(dt_min[nsteps > 0].min()))
-            st["max_dt"] = max(st["max_dt"], float(dt_max.max()))
-        bad = np.flatnonzero(code == TOO_SMALL)
-        if bad.size:
-            i = bad[0]
-            raise StepTooSmallError(
-                f"sub-step below integrator.min_step = {so.min_step} s for log "
-                f"{int(self.ids[i])} at t = {t_log[i]} s; a log spins or moves too fast for its "
-                "length (check the flow at the logs) or lower integrator.min_step")
-        bad = np.flatnonzero(code == DIVERGED)
-        if bad.size:
-            raise IntegrationError(
-                f"the {self.integrator.name} integration diverged at t = {t_log[bad[0]]:.6g} s "
-                f"(logs {self.ids[bad[:5]].tolist()}): the step is too long for the drag "
-                "relaxation time; use integrator.method = 'exponential' or set "
-                "integrator.drag_fraction > 0")
-        return box
-
     # ----------------------------------------------------------------- statuses
     def _classify(self, F, flag, idx, status, S=None, P=None):
         """Statuses of the logs ``idx`` from the flow at them; how many changed.
@@ -432,8 +375,12 @@ class Tracker:
                               for r, d in zip(L.radius[idx], L.density[idx], strict=True)]
         self.P_all[:] = log_parameters(L.length, L.radius, L.density, L.float_depth)
 
-    def _update_status(self):
-        """Re-classify floating logs (left, stranded, resting) and the resting ones (refloat)."""
+    def _update_status(self, pool=None):
+        """Re-classify floating logs (left, stranded, resting) and the resting ones (refloat).
+
+        ``pool``: only these logs move now (a contact island under per-log clocks): the
+        floating ones among them stay active, idle logs are left for the synchronisation time.
+        """
         L = self.logs
         changed = scattered = False
         if self.act.size:
@@ -448,14 +395,15 @@ class Tracker:
         idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
         # on a steady flow an idle log can only change when it has just stopped
         # (waterlogging changes the logs themselves)
-        if idle.size and (not self._steady or changed or self._first_check
-                          or self.physics.waterlogging != "off"):
+        if pool is None and idle.size and (not self._steady or changed or self._first_check
+                                           or self.physics.waterlogging != "off"):
             changed |= self._check_idle(idle)
         self._first_check = False
         if changed:
             if not scattered and self.act.size:
                 self._scatter()
-            self._set_active(np.flatnonzero(L.status == FLOATING))
+            self._set_active(np.flatnonzero(L.status == FLOATING) if pool is None
+                             else pool[L.status[pool] == FLOATING])
 
     def _check_idle(self, idx):
         L = self.logs
@@ -572,6 +520,58 @@ class Tracker:
         self._recorded_left[idx[L.status[idx] == LEFT]] = True
 
     # ----------------------------------------------------------------- the loop
+    def _global_steps(self, stop, bar, pool=None, swept=None):
+        """Algorithm 1 up to ``stop``: all active logs share each sub-step.
+
+        ``pool``: only these logs (a contact island under per-log clocks, ``driftlog.clocks``):
+        no releases, waterlogging or idle checks (the synchronisation time does them);
+        ``swept`` (len(pool), 4) grows to the bounding box of their centres.
+        """
+        so = self.step_options
+        while self.t < stop:
+            t_before = self.t
+            dt = min(self.max_step(), stop - self.t)
+            if self.act.size == 0:
+                dt = stop - self.t
+            if dt < so.min_step and stop - self.t > so.min_step:
+                raise StepTooSmallError(
+                    f"sub-step {dt:.3g} s below integrator.min_step = {so.min_step} s at "
+                    f"t = {self.t} s; a log spins or moves too fast for its length "
+                    "(check the flow at the logs) or lower integrator.min_step")
+            if self.contact is not None and self.act.size:
+                self.contact.substep(self, dt)
+            else:
+                self.advance(dt, have_d0=True)
+            if not np.all(np.isfinite(self.state)):
+                bad = self.ids[~np.isfinite(self.state).all(axis=1)]
+                raise IntegrationError(
+                    f"the {self.integrator.name} integration diverged at "
+                    f"t = {self.t:.6g} s "
+                    f"(logs {bad[:5].tolist()}): the step is too long for the drag "
+                    "relaxation time; use integrator.method = 'exponential' or set "
+                    "integrator.drag_fraction > 0")
+            if stop - self.t <= self.time_tol:
+                self.t = stop  # land exactly
+            taken = self.t - t_before
+            if pool is None:
+                self._soak(taken)
+            st = self.stats
+            st["substeps"] += 1
+            st["min_dt"] = min(st["min_dt"], taken)
+            st["max_dt"] = max(st["max_dt"], taken)
+            if swept is not None and self.act.size:
+                k = np.searchsorted(pool, self.act)
+                x, y = self.state[:, X], self.state[:, Y]
+                swept[k, 0] = np.minimum(swept[k, 0], x)
+                swept[k, 1] = np.minimum(swept[k, 1], y)
+                swept[k, 2] = np.maximum(swept[k, 2], x)
+                swept[k, 3] = np.maximum(swept[k, 3], y)
+            if pool is None:
+                self._release()
+            self._update_status(pool)
+            if bar is not None:
+                bar.update(taken)
+
     def run(self):
         """Run to t_end; returns the Logs (their final state)."""
         wall = _time.perf_counter()
@@ -588,54 +588,12 @@ class Tracker:
         if not self._resumed:
             self._record()
         out_i = int(np.searchsorted(self._outputs, self.t + self.time_tol))
-        so = self.step_options
         per_log = self.clock == "per_log"
         try:
             for stop in self._stops:
-                if per_log and self.act.size and self.contact is None and self.t < stop:
-                    t_before = self.t
-                    self._per_log_interval(stop)
-                    self.t = stop
-                    self._soak(stop - t_before)
-                    self.stats["substeps"] += 1
-                    self._release()
-                    self._update_status()
-                    if bar is not None:
-                        bar.update(stop - t_before)
-                while self.t < stop:
-                    t_before = self.t
-                    dt = min(self.max_step(), stop - self.t)
-                    if self.act.size == 0:
-                        dt = stop - self.t
-                    if dt < so.min_step and stop - self.t > so.min_step:
-                        raise StepTooSmallError(
-                            f"sub-step {dt:.3g} s below integrator.min_step = {so.min_step} s at "
-                            f"t = {self.t} s; a log spins or moves too fast for its length "
-                            "(check the flow at the logs) or lower integrator.min_step")
-                    if self.contact is not None and self.act.size:
-                        self.contact.substep(self, dt)
-                    else:
-                        self.advance(dt, have_d0=True)
-                    if not np.all(np.isfinite(self.state)):
-                        bad = self.ids[~np.isfinite(self.state).all(axis=1)]
-                        raise IntegrationError(
-                            f"the {self.integrator.name} integration diverged at "
-                            f"t = {self.t:.6g} s "
-                            f"(logs {bad[:5].tolist()}): the step is too long for the drag "
-                            "relaxation time; use integrator.method = 'exponential' or set "
-                            "integrator.drag_fraction > 0")
-                    if stop - self.t <= self.time_tol:
-                        self.t = stop  # land exactly
-                    taken = self.t - t_before
-                    self._soak(taken)
-                    st = self.stats
-                    st["substeps"] += 1
-                    st["min_dt"] = min(st["min_dt"], taken)
-                    st["max_dt"] = max(st["max_dt"], taken)
-                    self._release()
-                    self._update_status()
-                    if bar is not None:
-                        bar.update(taken)
+                if per_log and self.act.size and self.t < stop:
+                    per_log_interval(self, stop, bar)
+                self._global_steps(stop, bar)
                 while (out_i < self._outputs.size
                        and self._outputs[out_i] <= self.t + self.time_tol):
                     self._record()
