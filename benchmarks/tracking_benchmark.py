@@ -5,15 +5,18 @@ and the tracker's bookkeeping (statuses, step control).  Flow: a free vortex sam
 Malpasset mesh (46,691 triangles, two snapshots: a real unstructured mesh, interpolated in
 space and time).  Logs: n = 1e3 ... 1e6, L = 2 m, r = 0.2 m, rho_b = 700 kg/m3, spread over the
 valley.  Each physics level (tracer, drag, full) and integrator (euler, rk4, exponential), on 1
-and 2 threads; Euler and RK4 on the fused per-log kernels (``driftlog.fused``, the default on
-mesh flows) and, for full physics, on the general stage-by-stage path too.  Rates are per
+and 2 threads; on the fused per-log kernels (``driftlog.fused``, the default on mesh flows) and,
+for full physics, on the general stage-by-stage path too.  Rates are per
 CPU second of the process (``time.process_time``: the machine is shared, wall time counts
 other people's jobs), i.e. per core.
 
-    python benchmarks/tracking_benchmark.py [--quick]
+    python benchmarks/tracking_benchmark.py [--quick | --breakdown | --targets [--label NAME]]
 
 writes benchmarks/results/tracking.csv and .md, and tracking_breakdown.csv and .md (where
-an RK4 log-step's time goes).
+an RK4 log-step's time goes); ``--targets`` only the issue's two targets at 1e5 logs on one
+thread (full-physics RK4, tracer) beside the other combinations, best of 3 runs, into
+tracking_targets_NAME.csv and .md (run it with two versions of the code, e.g. ``git stash``
+or a second worktree, for a before/after table from one session).
 """
 
 import argparse
@@ -195,7 +198,7 @@ def run(quick=False):
     combos = [(level, method) for level in ("tracer", "drag", "full")
               for method in ("euler", "rk4", "exponential")]
     # the general path beside the fused one, for full physics
-    combos += [("full", "euler", False), ("full", "rk4", False)]
+    combos += [("full", "euler", False), ("full", "rk4", False), ("full", "exponential", False)]
     rows = []
     for n in sizes:
         x, y = points(mesh, n, rng)

@@ -131,7 +131,7 @@ class Tracker:
         if self.clock not in CLOCKS:
             raise ScenarioError("integrator.clock", self.clock,
                                 "must be one of " + ", ".join(CLOCKS))
-        if self.clock == "per_log" and (self._kernel is None
+        if self.clock == "per_log" and (self._kernel is None or method not in ("euler", "rk4")
                                         or self._kernel.node_pair is None):
             raise ScenarioError(
                 "integrator.clock", self.clock,
