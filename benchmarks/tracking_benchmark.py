@@ -10,7 +10,8 @@ for full physics, on the general stage-by-stage path too.  Rates are per
 CPU second of the process (``time.process_time``: the machine is shared, wall time counts
 other people's jobs), i.e. per core.
 
-    python benchmarks/tracking_benchmark.py [--quick | --breakdown | --targets [--label NAME]]
+    python benchmarks/tracking_benchmark.py [--quick | --breakdown | --targets | --forces]
+                                            [--label NAME]
 
 writes benchmarks/results/tracking.csv and .md, and tracking_breakdown.csv and .md (where
 an RK4 log-step's time goes); ``--targets`` only the issue's two targets at 1e5 logs on one
@@ -31,7 +32,7 @@ from driftlog.analytic import FreeVortex, on_mesh
 from driftlog.columns import X, Y
 from driftlog.fused import rk4_mesh_step
 from driftlog.logs import Logs
-from driftlog.physics import PhysicsOptions, rhs_kernel
+from driftlog.physics import PhysicsOptions, log_parameters, rhs_kernel
 from driftlog.tracker import StepOptions, Tracker
 
 
@@ -188,6 +189,42 @@ def targets(n=100_000, steps=20, repeat=3, label=""):
     return rows
 
 
+def forces(n=100_000, repeat=7, label=""):
+    """CPU ns per force evaluation (``rhs_kernel``, serial), with and without the linearisation.
+
+    1e5 logs (L = 2 m, r = 0.2 m, rho_b = 700 kg/m3) at random angles and velocities in a
+    random flow sample 5 m deep; the forces alone, no sampling, best of ``repeat`` runs.
+    """
+    import os
+
+    rng = np.random.default_rng(3)
+    S = np.zeros((n, 6))
+    S[:, 2] = rng.uniform(0, np.pi, n)
+    S[:, 3:5] = rng.normal(0, 1, (n, 2))
+    S[:, 5] = rng.normal(0, 0.1, n)
+    F = np.zeros((n, 12))
+    F[:, 0] = 5.0
+    F[:, 1:3] = rng.normal(0, 1.5, (n, 2))
+    F[:, 3:9] = rng.normal(0, 0.01, (n, 6))
+    P = log_parameters(np.full(n, 2.0), np.full(n, 0.2), np.full(n, 700.0), np.full(n, 0.3))
+    D, lin = np.empty((n, 6)), np.empty((n, 5))
+    rows = []
+    for level in ("drag", "full"):
+        opt = PhysicsOptions(level=level).vector()
+        for want in (False, True):
+            load0 = os.getloadavg()[0]
+            ns = per_log(n, rhs_kernel.serial, S, F, P, opt, D, lin, want, repeat=repeat)
+            rows.append(dict(code=label, level=level, linearisation=want, ns_per_log=ns,
+                             load=f"{load0:.1f}-{os.getloadavg()[0]:.1f}"))
+            print(rows[-1], flush=True)
+    write_table("tracking_forces" + (f"_{label}" if label else ""), rows,
+                ["code", "level", "linearisation", "ns_per_log", "load"],
+                "One force evaluation (rhs_kernel, 1 thread, CPU ns per log, best of "
+                f"{repeat})", "1e5 logs, random states and flow; no sampling. Re-create: "
+                "`python benchmarks/tracking_benchmark.py --forces`.")
+    return rows
+
+
 def run(quick=False):
     mesh = malpasset_mesh()
     x0, y0, x1, y1 = mesh.bounds
@@ -232,9 +269,13 @@ if __name__ == "__main__":
     p.add_argument("--breakdown", action="store_true", help="only where an RK4 step goes")
     p.add_argument("--targets", action="store_true",
                    help="only the issue's 1e5-log targets on 1 thread (full RK4, tracer)")
-    p.add_argument("--label", default="", help="name of the code measured (--targets)")
+    p.add_argument("--forces", action="store_true",
+                   help="only the cost of one force evaluation (1 thread)")
+    p.add_argument("--label", default="", help="name of the code measured (--targets, --forces)")
     a = p.parse_args()
-    if a.targets:
+    if a.forces:
+        forces(label=a.label)
+    elif a.targets:
         targets(label=a.label)
     elif a.breakdown:
         m = malpasset_mesh()
