@@ -130,8 +130,13 @@ def extremes_operator(dom, arrival_depth):
     return Extremes(dom)
 
 
-def run_one(name, end, work):
-    """Run ``name`` to ``end`` s in this process; write its extremes (.npz) and facts (.json)."""
+def run_one(name, end, work, anuga_bed="centroids"):
+    """Run ``name`` to ``end`` s in this process; write its extremes (.npz) and facts (.json).
+
+    ``anuga_bed``: ANUGA's elevation is driftlog's face bed at the centroids ('centroids',
+    constant per triangle: the very same bed) or the mesh's node elevations at the vertices
+    ('vertices', continuous, piecewise linear); both have the same centroid values.
+    """
     from driftlog.floodsetup import MALPASSET_MANNING, malpasset_solver
 
     kind, order, label = RUNS[name]
@@ -181,6 +186,15 @@ def run_one(name, end, work):
         dom = anuga_domain(mesh, bed=bed, depth=h0, flow_algorithm=order,
                            boundaries={"sea": sea}, manning=MALPASSET_MANNING, name=name,
                            datadir=str(work), threads=1)
+        if anuga_bed == "vertices":
+            # the mesh's node elevations at the triangles' vertices (ANUGA's usual bed:
+            # continuous, piecewise linear); the centroid values stay driftlog's face bed
+            # (mean of the nodes), the stage is set again on them
+            dom.set_quantity("elevation", mesh.node_z[mesh.face_nodes[:, :3]],
+                             location="vertices")
+            if not np.allclose(dom.quantities["elevation"].centroid_values, bed, atol=1e-9):
+                raise RuntimeError("ANUGA's centroid bed differs from driftlog's face bed")
+            dom.set_quantity("stage", bed + h0, location="centroids")
         op = extremes_operator(dom, arrival_depth)
         setup_cpu = time.process_time() - cpu_start
         steps = 0
@@ -195,11 +209,12 @@ def run_one(name, end, work):
         max_level, max_depth, arrival = op.max_level, op.max_depth, op.arrival
         max_level = np.where(np.isfinite(max_level), max_level, np.nan)
         facts.update(steps=int(steps), wall_s=wall, cpu_s=cpu,
-                     volume_m3=float(np.sum(h * mesh.face_area)),
+                     volume_m3=float(np.nansum(h * mesh.face_area)),
                      arrival_depth_m=arrival_depth, anuga=anuga.__version__,
                      scheme=f"{order}: {dom.get_timestepping_method()}, beta_w "
                             f"{float(dom.beta_w):g}, CFL {float(dom.CFL):g}",
-                     cfl=float(dom.CFL), sea_boundary="Flather_external_stage_zero_velocity")
+                     cfl=float(dom.CFL), sea_boundary="Flather_external_stage_zero_velocity",
+                     anuga_bed=anuga_bed, nan_faces=int(np.isnan(h).sum()))
         Path(work, dom.get_name() + ".sww").unlink(missing_ok=True)
     facts["setup_cpu_s"] = setup_cpu
     facts["cell_updates_per_cpu_s"] = mesh.n_faces * facts["steps"] / facts["cpu_s"]
@@ -214,14 +229,15 @@ def _children_cpu():
     return ru.ru_utime + ru.ru_stime
 
 
-def run_child(name, end, work):
+def run_child(name, end, work, anuga_bed="centroids"):
     """Run ``name`` in a child process; add its process's wall and CPU time to its facts."""
     cpu0, t0 = _children_cpu(), time.perf_counter()
     Path(work).mkdir(parents=True, exist_ok=True)
     log = Path(work) / f"{name}.log"
     with open(log, "w") as f:
         rc = subprocess.call([sys.executable, str(Path(__file__).resolve()), "--child", name,
-                              "--end", str(end), "--work", str(work)], stdout=f,
+                              "--end", str(end), "--work", str(work), "--anuga-bed", anuga_bed],
+                             stdout=f,
                              stderr=subprocess.STDOUT)
     if rc != 0:
         print(log.read_text()[-3000:])
@@ -248,6 +264,8 @@ def compare_run(name, work, end, mesh, observations):
                               facts["end_s"])
     if end < FULL_END:
         rows = observed_reach(rows, end / 2)
+    # a face whose state became NaN keeps a NaN maximum depth (np.maximum propagates it)
+    facts["nan_faces"] = int(np.isnan(ex["max_depth"]).sum())
     return facts, rows, headline(rows)
 
 
@@ -276,7 +294,7 @@ def report(work, end, names, stem, notes=""):
             "worst_point": f"{head['worst_point']} {head['worst_error_m']:+.1f} m",
             "arrival_rms_s": head["arrival_rms_s"], "arrival_n": head["arrival_n"],
             "cell_updates_per_cpu_s": facts["cell_updates_per_cpu_s"],
-            "dry": ", ".join(head["dry"]) or "-",
+            "nan_faces": facts["nan_faces"], "dry": ", ".join(head["dry"]) or "-",
             "not_reached": ", ".join(head["not_reached"]) or "-"})
     ratios = {}
     cpu = {n: out[n]["facts"]["cpu_s"] for n in done}
@@ -297,12 +315,13 @@ def report(work, end, names, stem, notes=""):
         f"after the other. CPU: the run's own CPU time (driftlog `run`, ANUGA `evolve`); "
         f"process CPU: the whole child process (imports, mesh, set-up). Level RMSE over the "
         f"police points and gauges the run wets; arrival RMS over the timed points it reaches "
-        f"(arrival: depth > 0.05 m); compared on {scope}."
+        f"(arrival: depth > 0.05 m); compared on {scope}. nan_faces: triangles whose state "
+        f"became NaN during the run."
         + (f" Not finished: {', '.join(missing)}." if missing else "")
         + (f" {notes}" if notes else ""))
     columns = ["run", "steps", "cpu_s", "wall_s", "process_cpu_s", "level_rmse_m", "level_n",
-               "worst_point", "arrival_rms_s", "arrival_n", "cell_updates_per_cpu_s", "dry",
-               "not_reached"]
+               "worst_point", "arrival_rms_s", "arrival_n", "cell_updates_per_cpu_s",
+               "nan_faces", "dry", "not_reached"]
     write_table(stem, table, columns, f"Malpasset beside ANUGA ({end:g} s)", text_notes)
     lines = ["", "| ratio | value |", "|---|---|"]
     lines += [f"| {k} | {v:.2f} |" for k, v in ratios.items()]
@@ -378,12 +397,15 @@ def main(argv=None):
     p.add_argument("--reuse", action="store_true", help="skip runs already finished in --work")
     p.add_argument("--report-only", action="store_true", help="table the finished runs only")
     p.add_argument("--notes", default="", help="a line for the table's notes")
+    p.add_argument("--anuga-bed", default="centroids", choices=("centroids", "vertices"),
+                   help="ANUGA's bed: driftlog's face bed, constant per triangle (default), or "
+                   "the node elevations at the vertices")
     p.add_argument("--child", choices=list(RUNS), help=argparse.SUPPRESS)
     a = p.parse_args(argv)
     end = a.end or (120.0 if a.quick else FULL_END)
     work = Path(a.work or f"/tmp/malpasset_peers_{end:g}")
     if a.child:
-        run_one(a.child, end, work)
+        run_one(a.child, end, work, a.anuga_bed)
         return 0
     if not a.report_only:
         try:
@@ -395,7 +417,7 @@ def main(argv=None):
                 print(f"{n}: reused from {work}")
                 continue
             print(f"{n}: running to {end:g} s ...", flush=True)
-            facts = run_child(n, end, work)
+            facts = run_child(n, end, work, a.anuga_bed)
             facts["commit"] = _commit() if n.startswith("driftlog") else facts.get("anuga")
             (work / f"{n}.json").write_text(json.dumps(facts, indent=1))
             print(f"{n}: {facts['steps']} steps, {facts['cpu_s']:.1f} CPU s, "
