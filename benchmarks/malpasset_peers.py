@@ -296,9 +296,29 @@ def report(work, end, names, stem, notes=""):
             "cell_updates_per_cpu_s": facts["cell_updates_per_cpu_s"],
             "nan_faces": facts["nan_faces"], "dry": ", ".join(head["dry"]) or "-",
             "not_reached": ", ".join(head["not_reached"]) or "-"})
+    # the same points for every run: those every finished run wets (levels) or reaches
+    # (arrivals), so that a point one run leaves dry does not change the others' sample
+    from malpasset_compare import headline
+
+    def ids(rows, key):
+        return {r["id"] for r in rows if np.isfinite(r[key])}
+
+    lev_ids = set.intersection(*(ids(out[n]["points"], "level_error_m") for n in done))
+    arr_ids = set.intersection(*(ids(out[n]["points"], "arrival_error_s") for n in done))
+    for n, row in zip(done, table, strict=True):
+        pts = out[n]["points"]
+        lev = headline([r for r in pts if r["id"] in lev_ids])
+        arr = headline([r for r in pts if r["id"] in arr_ids])
+        out[n]["common"] = {"level_rmse_m": lev["level_rmse_m"], "level_n": lev["level_n"],
+                            "worst_point": lev["worst_point"],
+                            "worst_error_m": lev["worst_error_m"],
+                            "arrival_rms_s": arr["arrival_rms_s"], "arrival_n": arr["arrival_n"]}
+        row["level_rmse_common_m"] = lev["level_rmse_m"]
+        row["arrival_rms_common_s"] = arr["arrival_rms_s"]
     ratios = {}
     cpu = {n: out[n]["facts"]["cpu_s"] for n in done}
     head = {n: out[n]["headline"] for n in done}
+    common = {n: out[n]["common"] for n in done}
     if "anuga-DE0" in cpu:
         for n in ("driftlog-o1", "driftlog-o2"):
             if n in cpu:
@@ -307,6 +327,8 @@ def report(work, end, names, stem, notes=""):
         for k in ("level_rmse_m", "arrival_rms_s"):
             ratios[f"driftlog-o2 {k} / DE1's"] = _ratio(head["driftlog-o2"][k],
                                                         head["anuga-DE1"][k])
+            ratios[f"driftlog-o2 {k} / DE1's, common points"] = _ratio(
+                common["driftlog-o2"][k], common["anuga-DE1"][k])
     missing = [n for n in names if n not in done]
     scope = (f"all points with an observed value ({FULL_END:g} s)" if end >= FULL_END else
              f"the points up to where the observed front is at {end / 2:g} s (half the run)")
@@ -315,13 +337,16 @@ def report(work, end, names, stem, notes=""):
         f"after the other. CPU: the run's own CPU time (driftlog `run`, ANUGA `evolve`); "
         f"process CPU: the whole child process (imports, mesh, set-up). Level RMSE over the "
         f"police points and gauges the run wets; arrival RMS over the timed points it reaches "
-        f"(arrival: depth > 0.05 m); compared on {scope}. nan_faces: triangles whose state "
+        f"(arrival: depth > 0.05 m); compared on {scope}. `_common`: over the points every "
+        f"run here wets ({len(lev_ids)}: {', '.join(sorted(lev_ids))}) or reaches "
+        f"({len(arr_ids)}: {', '.join(sorted(arr_ids))}). nan_faces: triangles whose state "
         f"became NaN during the run."
         + (f" Not finished: {', '.join(missing)}." if missing else "")
         + (f" {notes}" if notes else ""))
     columns = ["run", "steps", "cpu_s", "wall_s", "process_cpu_s", "level_rmse_m", "level_n",
-               "worst_point", "arrival_rms_s", "arrival_n", "cell_updates_per_cpu_s",
-               "nan_faces", "dry", "not_reached"]
+               "worst_point", "arrival_rms_s", "arrival_n", "level_rmse_common_m",
+               "arrival_rms_common_s", "cell_updates_per_cpu_s", "nan_faces", "dry",
+               "not_reached"]
     write_table(stem, table, columns, f"Malpasset beside ANUGA ({end:g} s)", text_notes)
     lines = ["", "| ratio | value |", "|---|---|"]
     lines += [f"| {k} | {v:.2f} |" for k, v in ratios.items()]
@@ -336,6 +361,7 @@ def report(work, end, names, stem, notes=""):
     print(extra)
     (RESULTS / f"{stem}.json").write_text(json.dumps(
         {"end_s": end, "runs": out, "ratios": ratios, "missing": missing,
+         "common_level_points": sorted(lev_ids), "common_arrival_points": sorted(arr_ids),
          "notes": text_notes}, indent=1, default=float))
     plot(out, RESULTS / f"{stem}.png", end)
     return out, ratios
