@@ -368,24 +368,31 @@ def report(work, end, names, stem, notes=""):
 
 
 def plot(out, path, end):
-    """Work-precision: level RMSE and arrival RMS against the run's CPU time."""
+    """Work-precision: level RMSE and arrival RMS (over the points every run wets / reaches)
+    against the run's CPU time."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
 
     style = {"driftlog-o1": "o", "driftlog-o2": "s", "anuga-DE0": "^", "anuga-DE1": "v"}
     colour = {"driftlog-o1": "C0", "driftlog-o2": "C0", "anuga-DE0": "C3", "anuga-DE1": "C3"}
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
-    for ax, key, what in ((axes[0], "level_rmse_m", "maximum-level RMSE (m)"),
-                          (axes[1], "arrival_rms_s", "arrival-time RMS (s)")):
+    n_lev = next(iter(out.values()))["common"]["level_n"]
+    n_arr = next(iter(out.values()))["common"]["arrival_n"]
+    for ax, key, what in ((axes[0], "level_rmse_m", f"maximum-level RMSE, {n_lev} points (m)"),
+                          (axes[1], "arrival_rms_s", f"arrival-time RMS, {n_arr} points (s)")):
         for n, r in out.items():
-            x, y = r["facts"]["cpu_s"], r["headline"][key]
+            x, y = r["facts"]["cpu_s"], r["common"][key]
             ax.plot(x, y, style[n], color=colour[n], ms=9, mfc="none" if "o1" in n
                     or "DE0" in n else colour[n], label=r["facts"]["label"])
             ax.annotate(r["facts"]["label"], (x, y), fontsize=8, xytext=(6, 4),
                         textcoords="offset points")
         ax.set_xscale("log")
+        ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel(f"CPU time of the run, one thread (s), {end:g} s simulated")
         ax.set_ylabel(what)
         ax.grid(True, which="both", alpha=0.3)
