@@ -25,22 +25,12 @@ import numba as nb
 from driftlog._numba import kernel
 from driftlog.columns import NLIN, NVAR, X, Y
 from driftlog.flow import sample_point, sample_point_columns
-from driftlog.integrators import (
-    etd_coeffs_row,
-    etd_nonlinear_row,
-    etd_stage_row,
-    euler_row,
-    lin_row,
-    put_row,
-    rk4_final_row,
-    rk4_stage_row,
-    row,
-)
+from driftlog.integrators import euler_row, put_row, rk4_final_row, rk4_stage_row, row
 from driftlog.physics import O_LEVEL, O_MOTION, O_ROT, TRACER, log_rhs, stage_columns
 
-__all__ = ["euler_mesh_step", "rk4_mesh_step", "etd_mesh_step", "FUSED_METHODS"]
+__all__ = ["euler_mesh_step", "rk4_mesh_step", "FUSED_METHODS"]
 
-FUSED_METHODS = ("euler", "rk4", "exponential")
+FUSED_METHODS = ("euler", "rk4")
 
 
 @nb.njit(cache=True, inline="always")
@@ -124,34 +114,3 @@ def rk4_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
         _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a_e, inv_e,
                 vals_e, dry_depth, recovered, loc)
 
-
-@kernel
-def etd_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
-                  a_m, inv_m, vals_m, a_e, inv_e, vals_e, dry_depth, recovered, loc):
-    """Exponential RK4 (ETDRK4) step of every log from states S0 and first stage D0.
-
-    The drag linearisation lin0 is frozen over the step.  The stages of
-    ``ExponentialRK4.step`` (``integrators.etd_stage_row``) in registers, with the
-    exponential coefficients computed once per log and step (the general path's stage kernels
-    compute them at every stage: the same numbers).  Stage times and node values and the
-    outputs as ``rk4_mesh_step``.
-    """
-    for i in nb.prange(S0.shape[0]):
-        hint = face[i]
-        p = P[i]
-        s0 = row(S0, i)
-        ln = lin_row(lin0, i)
-        c = etd_coeffs_row(ln, dt)
-        n0 = etd_nonlinear_row(s0, row(D0, i), ln)
-        sa = etd_stage_row(1, dt, s0, s0, ln, c, n0, n0, n0, n0)
-        na = etd_nonlinear_row(sa, _stage_rhs(sa, hint, a_m, inv_m, vals_m, dry_depth,
-                                              recovered, loc, p, opt), ln)
-        sb = etd_stage_row(2, dt, s0, s0, ln, c, n0, na, na, na)
-        nb_ = etd_nonlinear_row(sb, _stage_rhs(sb, hint, a_m, inv_m, vals_m, dry_depth,
-                                               recovered, loc, p, opt), ln)
-        sc = etd_stage_row(3, dt, s0, sa, ln, c, n0, na, nb_, nb_)
-        nc = etd_nonlinear_row(sc, _stage_rhs(sc, hint, a_e, inv_e, vals_e, dry_depth,
-                                              recovered, loc, p, opt), ln)
-        s = etd_stage_row(4, dt, s0, s0, ln, c, n0, na, nb_, nc)
-        _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a_e, inv_e,
-                vals_e, dry_depth, recovered, loc)

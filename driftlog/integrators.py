@@ -45,8 +45,7 @@ from driftlog.columns import (
 from driftlog.schema import Key, Section
 
 __all__ = ["Integrator", "make_integrator", "phi_functions", "METHODS", "RK4_C", "row",
-           "put_row", "euler_row", "rk4_stage_row", "rk4_final_row", "lin_row", "etd_coeffs_row",
-           "etd_nonlinear_row", "etd_stage_row"]
+           "put_row", "euler_row", "rk4_stage_row", "rk4_final_row"]
 
 METHODS = ("euler", "rk4", "exponential")
 # classical RK4 nodes: stage k (0 to 3) at t0 + RK4_C[k] dt
@@ -161,123 +160,86 @@ def _etd_coeffs(lam, h):
     return e, e2, 0.5 * h * q1, p1 - 3.0 * p2 + 4.0 * p3, p2 - 2.0 * p3, 4.0 * p3 - p2
 
 
-@nb.njit(cache=True, inline="always")
-def etd_coeffs_row(ln, h):
-    """The ETDRK4 coefficients of one log over step h: ``_etd_coeffs`` of its three rates.
-
-    ``ln``: the log's drag linearisation (NLIN tuple); returns the 18 coefficients as three
-    6-tuples (along w, across w, rotation), each (e^z, e^{z/2}, (h/2) phi1(z/2), f1, f2, f3).
-    """
-    return (_etd_coeffs(ln[L_PAR], h), _etd_coeffs(ln[L_PERP], h), _etd_coeffs(ln[L_ROT], h))
-
-
-@nb.njit(cache=True, inline="always")
-def etd_nonlinear_row(s, d, ln):
-    """N = D + M S_vel for one log: the nonlinear part, M the drag linearisation ``ln``."""
-    lp, lq, wx, wy = ln[L_PAR], ln[L_PERP], ln[L_WX], ln[L_WY]
-    u, v = s[UB], s[VB]
-    dd = wx * u + wy * v
-    return (d[X], d[Y], d[THETA], d[UB] + lq * u + (lp - lq) * dd * wx,
-            d[VB] + lq * v + (lp - lq) * dd * wy, d[OMEGA] + ln[L_ROT] * s[OMEGA])
-
-
-@nb.njit(cache=True, inline="always")
-def _etd_vel(cp, cq, cr, wx, wy, bu, bv, bo, nu, nv, no):
-    """The velocity part e2 base + q N: operators act as c_perp x + (c_par - c_perp)(w.x) w.
-
-    ``cp``, ``cq``, ``cr``: (e2, q) pairs along w, across w and for rotation.
-    """
-    e2p, qp = cp
-    e2q, qq = cq
-    e2r, qr = cr
-    dot_b = wx * bu + wy * bv
-    dot_n = wx * nu + wy * nv
-    return (e2q * bu + (e2p - e2q) * dot_b * wx + qq * nu + (qp - qq) * dot_n * wx,
-            e2q * bv + (e2p - e2q) * dot_b * wy + qq * nv + (qp - qq) * dot_n * wy,
-            e2r * bo + qr * no)
-
-
-@nb.njit(cache=True, inline="always")
-def etd_stage_row(stage, h, s0, sa, ln, c, n0, na, nb, nc):
-    """One ETDRK4 stage of one log (stages 1 to 3: the next stage state; 4: the step's end).
-
-    ``s0``: the state at the step's start, ``sa`` the first stage state; ``ln`` the drag
-    linearisation frozen at the start, ``c`` its coefficients (``etd_coeffs_row``); ``n0``
-    ... ``nc`` the nonlinear parts (``etd_nonlinear_row``) of the stages so far.
-    """
-    wx, wy = ln[L_WX], ln[L_WY]
-    cp, cq, cr = c
-    ep, e2p, qp, f1p, f2p, f3p = cp
-    eq, e2q, qq, f1q, f2q, f3q = cq
-    er, e2r, qr, f1r, f2r, f3r = cr
-    # positions and angle: no linear part (classical RK4 coefficients)
-    if stage == 1:
-        pos = (s0[X] + 0.5 * h * n0[X], s0[Y] + 0.5 * h * n0[Y],
-               s0[THETA] + 0.5 * h * n0[THETA])
-        vel = _etd_vel((e2p, qp), (e2q, qq), (e2r, qr), wx, wy, s0[UB], s0[VB], s0[OMEGA],
-                       n0[UB], n0[VB], n0[OMEGA])
-    elif stage == 2:
-        pos = (s0[X] + 0.5 * h * na[X], s0[Y] + 0.5 * h * na[Y],
-               s0[THETA] + 0.5 * h * na[THETA])
-        vel = _etd_vel((e2p, qp), (e2q, qq), (e2r, qr), wx, wy, s0[UB], s0[VB], s0[OMEGA],
-                       na[UB], na[VB], na[OMEGA])
-    elif stage == 3:
-        pos = (sa[X] + 0.5 * h * (2.0 * nb[X] - n0[X]),
-               sa[Y] + 0.5 * h * (2.0 * nb[Y] - n0[Y]),
-               sa[THETA] + 0.5 * h * (2.0 * nb[THETA] - n0[THETA]))
-        vel = _etd_vel((e2p, qp), (e2q, qq), (e2r, qr), wx, wy, sa[UB], sa[VB], sa[OMEGA],
-                       2.0 * nb[UB] - n0[UB], 2.0 * nb[VB] - n0[VB],
-                       2.0 * nb[OMEGA] - n0[OMEGA])
-    else:
-        c6 = h / 6.0
-        pos = (_rk4_mix(s0[X], c6, n0[X], na[X], nb[X], nc[X]),
-               _rk4_mix(s0[Y], c6, n0[Y], na[Y], nb[Y], nc[Y]),
-               _rk4_mix(s0[THETA], c6, n0[THETA], na[THETA], nb[THETA], nc[THETA]))
-        u0, v0 = s0[UB], s0[VB]
-        dot0 = wx * u0 + wy * v0
-        ru = eq * u0 + (ep - eq) * dot0 * wx
-        rv = eq * v0 + (ep - eq) * dot0 * wy
-        ro = er * s0[OMEGA]
-        # h (f1 N0 + 2 f2 (Na + Nb) + f3 Nc), per direction
-        dn = wx * n0[UB] + wy * n0[VB]
-        ru += h * (f1q * n0[UB] + (f1p - f1q) * dn * wx)
-        rv += h * (f1q * n0[VB] + (f1p - f1q) * dn * wy)
-        ro += h * f1r * n0[OMEGA]
-        nu, nv, no = na[UB] + nb[UB], na[VB] + nb[VB], na[OMEGA] + nb[OMEGA]
-        cp2, cq2, cr2 = 2.0 * f2p, 2.0 * f2q, 2.0 * f2r
-        dn = wx * nu + wy * nv
-        ru += h * (cq2 * nu + (cp2 - cq2) * dn * wx)
-        rv += h * (cq2 * nv + (cp2 - cq2) * dn * wy)
-        ro += h * cr2 * no
-        dn = wx * nc[UB] + wy * nc[VB]
-        ru += h * (f3q * nc[UB] + (f3p - f3q) * dn * wx)
-        rv += h * (f3q * nc[VB] + (f3p - f3q) * dn * wy)
-        ro += h * f3r * nc[OMEGA]
-        vel = (ru, rv, ro)
-    return (pos[0], pos[1], pos[2], vel[0], vel[1], vel[2])
-
-
-@nb.njit(cache=True, inline="always")
-def lin_row(A, i):
-    """Row i of a linearisation array (n, NLIN) as a tuple."""
-    return (A[i, L_PAR], A[i, L_PERP], A[i, L_WX], A[i, L_WY], A[i, L_ROT])
-
-
 @kernel(size_arg=2)
 def _etd_stage(stage, h, S0, Sa, lin, N0, Na, Nb, Nc, out):
     """One ETDRK4 stage; N are the nonlinear parts D + M S_vel (M the linearised drag)."""
     for i in nb.prange(S0.shape[0]):
-        ln = lin_row(lin, i)
-        put_row(out, i, etd_stage_row(stage, h, row(S0, i), row(Sa, i), ln,
-                                      etd_coeffs_row(ln, h), row(N0, i), row(Na, i),
-                                      row(Nb, i), row(Nc, i)))
+        lp, lq, lr = lin[i, L_PAR], lin[i, L_PERP], lin[i, L_ROT]
+        wx, wy = lin[i, L_WX], lin[i, L_WY]
+        # positions and angle: no linear part (classical RK4 coefficients)
+        for k in range(X, THETA + 1):
+            if stage == 1:
+                out[i, k] = S0[i, k] + 0.5 * h * N0[i, k]
+            elif stage == 2:
+                out[i, k] = S0[i, k] + 0.5 * h * Na[i, k]
+            elif stage == 3:
+                out[i, k] = Sa[i, k] + 0.5 * h * (2.0 * Nb[i, k] - N0[i, k])
+            else:
+                out[i, k] = _rk4_mix(S0[i, k], h / 6.0, N0[i, k], Na[i, k], Nb[i, k], Nc[i, k])
+        # velocity: operators act as c_perp x + (c_par - c_perp)(w.x) w
+        ep, e2p, qp, f1p, f2p, f3p = _etd_coeffs(lp, h)
+        eq, e2q, qq, f1q, f2q, f3q = _etd_coeffs(lq, h)
+        er, e2r, qr, f1r, f2r, f3r = _etd_coeffs(lr, h)
+        if stage == 1 or stage == 2:
+            base_u, base_v, base_o = S0[i, UB], S0[i, VB], S0[i, OMEGA]
+            src = N0 if stage == 1 else Na
+            nu, nv, no = src[i, UB], src[i, VB], src[i, OMEGA]
+            # e2 base + q N
+            dot_b = wx * base_u + wy * base_v
+            dot_n = wx * nu + wy * nv
+            out[i, UB] = e2q * base_u + (e2p - e2q) * dot_b * wx + qq * nu + (qp - qq) * dot_n * wx
+            out[i, VB] = e2q * base_v + (e2p - e2q) * dot_b * wy + qq * nv + (qp - qq) * dot_n * wy
+            out[i, OMEGA] = e2r * base_o + qr * no
+        elif stage == 3:
+            base_u, base_v, base_o = Sa[i, UB], Sa[i, VB], Sa[i, OMEGA]
+            nu = 2.0 * Nb[i, UB] - N0[i, UB]
+            nv = 2.0 * Nb[i, VB] - N0[i, VB]
+            no = 2.0 * Nb[i, OMEGA] - N0[i, OMEGA]
+            dot_b = wx * base_u + wy * base_v
+            dot_n = wx * nu + wy * nv
+            out[i, UB] = e2q * base_u + (e2p - e2q) * dot_b * wx + qq * nu + (qp - qq) * dot_n * wx
+            out[i, VB] = e2q * base_v + (e2p - e2q) * dot_b * wy + qq * nv + (qp - qq) * dot_n * wy
+            out[i, OMEGA] = e2r * base_o + qr * no
+        else:
+            u0, v0 = S0[i, UB], S0[i, VB]
+            dot0 = wx * u0 + wy * v0
+            ru = eq * u0 + (ep - eq) * dot0 * wx
+            rv = eq * v0 + (ep - eq) * dot0 * wy
+            ro = er * S0[i, OMEGA]
+            # h (f1 N0 + 2 f2 (Na + Nb) + f3 Nc), per direction
+            for which in range(3):
+                if which == 0:
+                    nu, nv, no = N0[i, UB], N0[i, VB], N0[i, OMEGA]
+                    cp, cq, cr = f1p, f1q, f1r
+                elif which == 1:
+                    nu = Na[i, UB] + Nb[i, UB]
+                    nv = Na[i, VB] + Nb[i, VB]
+                    no = Na[i, OMEGA] + Nb[i, OMEGA]
+                    cp, cq, cr = 2.0 * f2p, 2.0 * f2q, 2.0 * f2r
+                else:
+                    nu, nv, no = Nc[i, UB], Nc[i, VB], Nc[i, OMEGA]
+                    cp, cq, cr = f3p, f3q, f3r
+                dn = wx * nu + wy * nv
+                ru += h * (cq * nu + (cp - cq) * dn * wx)
+                rv += h * (cq * nv + (cp - cq) * dn * wy)
+                ro += h * cr * no
+            out[i, UB] = ru
+            out[i, VB] = rv
+            out[i, OMEGA] = ro
 
 
 @kernel
 def _add_linear(S, D, lin, N):
     """N = D + M S_vel: the nonlinear part, M the drag linearisation frozen at the step start."""
     for i in nb.prange(S.shape[0]):
-        put_row(N, i, etd_nonlinear_row(row(S, i), row(D, i), lin_row(lin, i)))
+        for k in range(X, THETA + 1):
+            N[i, k] = D[i, k]
+        lp, lq, wx, wy = lin[i, L_PAR], lin[i, L_PERP], lin[i, L_WX], lin[i, L_WY]
+        u, v = S[i, UB], S[i, VB]
+        d = wx * u + wy * v
+        N[i, UB] = D[i, UB] + lq * u + (lp - lq) * d * wx
+        N[i, VB] = D[i, VB] + lq * v + (lp - lq) * d * wy
+        N[i, OMEGA] = D[i, OMEGA] + lin[i, L_ROT] * S[i, OMEGA]
 
 
 class Integrator:

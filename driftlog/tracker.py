@@ -39,7 +39,7 @@ from driftlog.columns import (
     Y,
 )
 from driftlog.errors import ScenarioError
-from driftlog.fused import FUSED_METHODS, etd_mesh_step, euler_mesh_step, rk4_mesh_step
+from driftlog.fused import FUSED_METHODS, euler_mesh_step, rk4_mesh_step
 from driftlog.integrators import RK4_C, make_integrator
 from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, WAITING, flotation_depth
 from driftlog.physics import (
@@ -131,7 +131,7 @@ class Tracker:
         if self.clock not in CLOCKS:
             raise ScenarioError("integrator.clock", self.clock,
                                 "must be one of " + ", ".join(CLOCKS))
-        if self.clock == "per_log" and (self._kernel is None or method not in ("euler", "rk4")
+        if self.clock == "per_log" and (self._kernel is None
                                         or self._kernel.node_pair is None):
             raise ScenarioError(
                 "integrator.clock", self.clock,
@@ -301,12 +301,10 @@ class Tracker:
         head = (self.state, self.D0, self.lin0, self._next, self.face, self.F, self.flag,
                 self.P, self.opt, dt, True)
         # node values in the order the general path asks for them (the flow caches one pair)
-        if self.integrator.name in ("rk4", "exponential"):
-            # exponential RK4 has RK4's stage times
+        if self.integrator.name == "rk4":
             vals_m, a_m, inv_m = kern.node_values(t0 + RK4_C[1] * dt)  # stages 1 and 2
             vals_e, a_e, inv_e = kern.node_values(t0 + RK4_C[3] * dt)
-            step = rk4_mesh_step if self.integrator.name == "rk4" else etd_mesh_step
-            step(*head, a_m, inv_m, vals_m, a_e, inv_e, vals_e, *tail)
+            rk4_mesh_step(*head, a_m, inv_m, vals_m, a_e, inv_e, vals_e, *tail)
             self.stats["rhs_evaluations"] += 3
         else:
             vals_e, a_e, inv_e = kern.node_values(t0 + dt)

@@ -43,7 +43,7 @@ def run(level, rotation, method, fused, flow=FLOW, t_end=20.0):
     return tr, logs
 
 
-@pytest.mark.parametrize("method", ["euler", "rk4", "exponential"])
+@pytest.mark.parametrize("method", ["euler", "rk4"])
 @pytest.mark.parametrize("level,rotation", [("tracer", True), ("tracer", False),
                                             ("drag", True), ("drag", False),
                                             ("full", True), ("full", False)])
@@ -66,12 +66,11 @@ def test_fused_step_equals_general_path_bit_for_bit(level, rotation, method):
     assert np.max(b.state[b.status == FLOATING, 0] - start[b.status == FLOATING]) > 8.0
 
 
-@pytest.mark.parametrize("method", ["rk4", "exponential"])
-def test_steady_vortex_on_a_mesh_bit_for_bit(method):
+def test_steady_vortex_on_a_mesh_rk4_bit_for_bit():
     """One snapshot (steady), logs circling through many faces for a whole revolution."""
     flow = on_mesh(FreeVortex(20.0, center=(15.0, 5.0), core_radius=1.0, depth=2.0), MESH)
-    general, a = run("full", True, method, fused=False, flow=flow, t_end=30.0)
-    fused, b = run("full", True, method, fused=True, flow=flow, t_end=30.0)
+    general, a = run("full", True, "rk4", fused=False, flow=flow, t_end=30.0)
+    fused, b = run("full", True, "rk4", fused=True, flow=flow, t_end=30.0)
     np.testing.assert_array_equal(b.state, a.state)
     np.testing.assert_array_equal(b.face, a.face)
 
@@ -79,7 +78,7 @@ def test_steady_vortex_on_a_mesh_bit_for_bit(method):
 def test_fused_path_only_where_it_applies():
     logs = Logs([5.0], [5.0])
     assert Tracker(FLOW, logs, method="rk4", t_end=1.0).fused
-    assert Tracker(FLOW, logs, method="exponential", t_end=1.0).fused
+    assert not Tracker(FLOW, logs, method="exponential", t_end=1.0).fused
     assert not Tracker(FLOW, logs, method="rk4", t_end=1.0, fused=False).fused
     analytic = FreeVortex(20.0, center=(15.0, 5.0), core_radius=1.0, depth=2.0)
     assert not Tracker(analytic, logs, method="rk4", t_end=1.0).fused
