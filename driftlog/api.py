@@ -208,7 +208,7 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         if flow is not None:
             raise ScenarioError("coupling.enabled", True, "a coupled run computes its own flow: "
                                 "no flow can be given")
-        coupling = start_coupling(scen, out, progress=progress)
+        coupling = start_coupling(scen, out)
         flow = coupling.flow
     if flow is None:
         flow = flow_from_scenario(scen, progress=progress)
@@ -266,7 +266,8 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     if progress:
         from driftlog._numba import announce_compile
 
-        announce_compile(["tracking"] + (["contacts"] if contact is not None else []))
+        announce_compile((["solver"] if coupling is not None else []) + ["tracking"]
+                         + (["contacts"] if contact is not None else []))
     if resume:
         from driftlog.trajectory import last_states
 

@@ -45,7 +45,7 @@ class SolverFlow(MeshFlowField):
 
     Sampled like any mesh flow (P1 on recovered node values, linear in time between the two
     states), fused kernels included.  ``push(solver)`` makes the solver's state the end of
-    the interval (the old end becomes its start); ``restart(solver)`` makes it both.
+    the interval (the old end becomes its start).
     """
 
     def __init__(self, solver, dry_depth, name="coupled solver flow"):
@@ -63,12 +63,6 @@ class SolverFlow(MeshFlowField):
         nodes = self._load(0)[3]
         self._snap.clear()
         return nodes
-
-    def restart(self, solver):
-        """Start and end of the interval at the solver's current state."""
-        self._nodes0 = self._nodes1 = self._nodes_of(solver)
-        self._t0 = self._t1 = float(solver.t)
-        self._vals = None
 
     def push(self, solver):
         """The solver has stepped: its state ends the interval, the previous end starts it."""
@@ -108,27 +102,81 @@ class SolverFlow(MeshFlowField):
 class CoupledTracker(Tracker):
     """The tracker of a coupled run: its landing times come from the solver's steps.
 
-    It also keeps, per log, the momentum (kg m/s) the water gave it in its free sub-steps
-    since the last hand-over (``received``): m_b times the velocity change of each
-    ``advance``.
+    It keeps, per log, the momentum (kg m/s) the water gave it since the last hand-over
+    (``received``): m_eff dU_b over each free sub-step (``advance``), m_eff = m_b + rho V_b / 2
+    the log and the water it entrains (docs/model.md (33)), i.e. the impulse of the fluid
+    forces F_D + F_P.  A contact changes a log's velocity by impulses on m_b only (the paper's
+    eq. 11-15); the entrained water's share m_a dU_b (m_a = rho V_b / 2) of that change is
+    passed on to the contact too (``to_contacts``, kg m/s): a log held on a pier then passes the
+    whole drag to it, as a log at rest would.
     """
 
     def __init__(self, coupling, logs, *args, **kwargs):
         self.coupling = coupling
-        self.received = np.zeros((len(logs), 2))
+        n = len(logs)
+        self.received = np.zeros((n, 2))
+        self.to_contacts = np.zeros(2)
+        self._last_u = np.zeros((n, 2))  # velocity at the end of each log's last free sub-step
+        self._stamp = np.full(n, -1, np.int64)  # which free sub-step that was
+        self._advances = 0
         super().__init__(coupling.flow, logs, *args, **kwargs)
+        if self.physics.fluid_volume != "body":
+            raise ScenarioError("physics.fluid_volume", self.physics.fluid_volume, "[coupling] "
+                                "needs fluid_volume = 'body' (a constant added mass)")
+        self.added_mass = 0.5 * self.physics.water_density * logs.volume
+
+    def _contact_changes(self):
+        """Account the entrained water's share of the velocity changes since the last advance."""
+        if self.act.size == 0:
+            return
+        ok = self._stamp[self.act] == self._advances
+        if not ok.any():
+            return
+        idx = self.act[ok]
+        du = self.state[ok][:, UB:VB + 1] - self._last_u[idx]
+        ma = self.added_mass[idx]
+        self.to_contacts -= (ma[:, None] * du).sum(axis=0)
+        self._last_u[idx] = self.state[ok][:, UB:VB + 1]
 
     def advance(self, dt, have_d0=False):
         """``Tracker.advance``, keeping the momentum the water gives each floating log."""
         n = self.state.shape[0]
         if n:
+            self._contact_changes()
             u0 = self.state[:, UB].copy()
             v0 = self.state[:, VB].copy()
-            mass = self.mass
+            m = self.mass + self.added_mass[self.act]
         super().advance(dt, have_d0)
+        self._advances += 1
         if n:
-            self.received[self.act, 0] += mass * (self.state[:, UB] - u0)
-            self.received[self.act, 1] += mass * (self.state[:, VB] - v0)
+            self.received[self.act, 0] += m * (self.state[:, UB] - u0)
+            self.received[self.act, 1] += m * (self.state[:, VB] - v0)
+            self._last_u[self.act, 0] = self.state[:, UB]
+            self._last_u[self.act, 1] = self.state[:, VB]
+            self._stamp[self.act] = self._advances
+
+    def save(self):
+        """``Tracker.save`` and the momentum accounts (a rejected sub-step gives nothing)."""
+        return super().save() + (self.received.copy(), self.to_contacts.copy(),
+                                 self._last_u.copy(), self._stamp.copy(), self._advances)
+
+    def restore(self, saved):
+        """Put back what ``save`` returned."""
+        super().restore(saved[:-5])
+        rec, tc, lu, st, adv = saved[-5:]
+        np.copyto(self.received, rec)
+        np.copyto(self.to_contacts, tc)
+        np.copyto(self._last_u, lu)
+        np.copyto(self._stamp, st)
+        self._advances = adv
+
+    def momentum(self):
+        """Momentum of the logs and the water they entrain, sum of m_eff U_b (kg m/s)."""
+        L = self.logs
+        if self.act.size:
+            self._scatter()
+        m = L.mass + self.added_mass
+        return np.array([np.dot(m, L.state[:, UB]), np.dot(m, L.state[:, VB])])
 
     def _landing_times(self, t_origin=None):
         """Outputs, releases and the end as before; hydrodynamic steps from the solver."""
@@ -195,8 +243,9 @@ class Coupling:
         k = 0
         outputs = tracker._outputs
         while k < fixed.size:
-            if self.handover(tracker):
-                self.flow.restart(s)
+            # the reaction enters the solver's next step; the logs' interval starts from the
+            # state before it (one node projection per step, not two)
+            self.handover(tracker)
             if self.writer is not None and np.any(np.abs(outputs - s.t) <= tol):
                 self.writer(s)
             target = fixed[k]
@@ -216,6 +265,7 @@ class Coupling:
 
         Returns True when the solver's state changed.
         """
+        tracker._contact_changes()
         got = tracker.received
         idx = np.flatnonzero((got[:, 0] != 0.0) | (got[:, 1] != 0.0))
         if idx.size == 0:
@@ -288,7 +338,7 @@ class FlowOutput:
         self._w.close()
 
 
-def start_coupling(scenario, trajectory_path, progress=False):
+def start_coupling(scenario, trajectory_path):
     """The solver of a coupled scenario run alone to ``[time] start``, and its ``Coupling``.
 
     The flow file (``coupled_flow_path``) is opened and gets the spun-up state as its first
@@ -300,10 +350,6 @@ def start_coupling(scenario, trajectory_path, progress=False):
     sec = scenario["solver"]
     estimate_mesh(sec)
     path = check_output(coupled_flow_path(scenario, trajectory_path), "flow file")
-    if progress:
-        from driftlog._numba import announce_compile
-
-        announce_compile(["solver"])
     solver = build_solver(sec)
     t0 = float(scenario["time"]["start"])
     if t0 < solver.t:
@@ -353,6 +399,9 @@ def _check_coupling(t, prefix, scen):
         raise ScenarioError("physics.waterlogging", phys.get("waterlogging"), "[coupling] with "
                             "waterlogging is not supported yet (the logs' mass changes outside "
                             "the momentum balance)")
+    if phys.get("fluid_volume", "body") != "body":
+        raise ScenarioError("physics.fluid_volume", phys.get("fluid_volume"), "[coupling] needs "
+                            "fluid_volume = 'body' (a constant added mass)")
     if flow.get("steady_at") is not None:
         raise ScenarioError("flow.steady_at", flow.get("steady_at"), "a coupled flow cannot be "
                             "frozen: remove steady_at or [coupling]")

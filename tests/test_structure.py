@@ -37,7 +37,7 @@ LAYERS = [
     ("analysis", ["driftlog.ensemble.summary", "driftlog.ensemble.aggregate"]),
     ("top", ["driftlog", "driftlog.__main__", "driftlog.api", "driftlog.sources",
              "driftlog.cli", "driftlog.solving", "driftlog.report", "driftlog.scenario",
-             "driftlog.ensemble", "driftlog.compare", "driftlog.plots"]),
+             "driftlog.ensemble", "driftlog.compare", "driftlog.plots", "driftlog.coupling"]),
 ]
 
 
