@@ -120,6 +120,9 @@ class CoupledTracker(Tracker):
         self._stamp = np.full(n, -1, np.int64)  # which free sub-step that was
         self._advances = 0
         super().__init__(coupling.flow, logs, *args, **kwargs)
+        if getattr(self.step_options, "clock", "global") != "global":
+            raise ScenarioError("integrator.clock", self.step_options.clock, "[coupling] takes "
+                                "the global clock: every log lands on each hydrodynamic step")
         if self.physics.fluid_volume != "body":
             raise ScenarioError("physics.fluid_volume", self.physics.fluid_volume, "[coupling] "
                                 "needs fluid_volume = 'body' (a constant added mass)")
@@ -399,6 +402,10 @@ def _check_coupling(t, prefix, scen):
         raise ScenarioError("physics.waterlogging", phys.get("waterlogging"), "[coupling] with "
                             "waterlogging is not supported yet (the logs' mass changes outside "
                             "the momentum balance)")
+    clock = (scen.get("integrator") or {}).get("clock", "global")
+    if clock != "global":
+        raise ScenarioError("integrator.clock", clock, "[coupling] takes the global clock (the "
+                            "paper's Algorithm 1): every log lands on each hydrodynamic step")
     if phys.get("fluid_volume", "body") != "body":
         raise ScenarioError("physics.fluid_volume", phys.get("fluid_volume"), "[coupling] needs "
                             "fluid_volume = 'body' (a constant added mass)")

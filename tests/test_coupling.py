@@ -228,6 +228,7 @@ def test_coupled_track_writes_its_flow_and_balance(tmp_path):
     ({"physics": {"level": "tracer"}}, "physics.level"),
     ({"physics": {"fluid_volume": "submerged"}}, "physics.fluid_volume"),
     ({"physics": {"motion": "friction"}}, "physics.motion"),
+    ({"integrator": {"clock": "per_log"}}, "integrator.clock"),
 ])
 def test_coupling_refuses_what_it_cannot_couple(change, key):
     base = {"flow": {"source": "solver"},

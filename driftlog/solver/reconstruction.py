@@ -59,9 +59,14 @@ def lsq_geometry(mesh):
 
 
 @kernel
-def limited_gradients(h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset, grad):
-    """Fill ``grad`` (n_faces, 8) with the limited gradients of eta, h, hu, hv."""
-    for f in nb.prange(h.shape[0]):
+def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset,
+                      grad):
+    """Fill ``grad`` (n_faces, 8) with the limited gradients of eta, h, hu, hv on ``faces``.
+
+    ``faces``: the active set's faces (``driftlog.solver.layout``); other rows keep theirs.
+    """
+    for i in nb.prange(faces.shape[0]):
+        f = faces[i]
         for k in range(NGRAD):
             grad[f, k] = 0.0
         if h[f] <= hdry or (minv[f, 0] == 0.0 and minv[f, 2] == 0.0):
