@@ -29,9 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
-from driftlog.columns import THETA, UB, VB, X, Y
+from driftlog.columns import NQ, Q_ETA, Q_H, Q_UX, THETA, UB, VB, X, Y
 from driftlog.errors import ScenarioError
-from driftlog.flow import InMemorySnapshots, MeshFlowField
+from driftlog.flow import InMemorySnapshots, MeshFlowField, _set_gradients
 from driftlog.schema import Key, Section
 from driftlog.solver.momentum import add_face_momentum, face_momentum
 from driftlog.tracker import Tracker
@@ -58,10 +58,22 @@ class SolverFlow(MeshFlowField):
         self._vals = None
 
     def _nodes_of(self, solver):
-        self.source = InMemorySnapshots([solver.t], solver.h, solver.hu, solver.hv, self.name)
-        self._snap.clear()
-        nodes = self._load(0)[3]
-        self._snap.clear()
+        """Node columns of the solver's state, as ``MeshFlowField._load`` makes them.
+
+        Without its checks and copies: the solver's own arrays, finite by construction (the
+        flow file's writer checks them at every output).
+        """
+        h, hu, hv = solver.h, solver.hu, solver.hv
+        P, Px, Py = self.mesh.node_operators()
+        u, v = self._velocity(h, hu, hv)
+        eta = h + self.bed
+        nodes = np.empty((self.mesh.n_nodes, NQ))
+        nodes[:, Q_H:Q_ETA + 1] = P @ np.column_stack([h, u, v, eta])
+        np.maximum(nodes[:, Q_H], 0.0, out=nodes[:, Q_H])
+        if self.gradient == "recovered":
+            _set_gradients(nodes, Px, Py, np.column_stack([u, v, eta]))
+        else:
+            nodes[:, Q_UX:] = 0.0
         return nodes
 
     def push(self, solver):
