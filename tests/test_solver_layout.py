@@ -58,8 +58,10 @@ def test_renumbering_and_active_set_change_nothing_on_a_dry_bed_dam_break(order)
     # the front has not reached the end: part of the channel is dry
     assert (plain.h == 0.0).sum() > mesh.n_faces // 3
     assert abs(plain.volume_error()) < 1e-13 * plain.volume()
-    for renumber, active in (("none", True), ("rcm", False), ("rcm", True), ("hilbert", True)):
-        s = _dam_break(mesh, order, renumber=renumber, active_set=active)
+    for renumber, active, par in (("none", True, False), ("rcm", False, False),
+                                  ("rcm", True, False), ("hilbert", True, False),
+                                  ("rcm", True, True)):  # the prange kernels too
+        s = _dam_break(mesh, order, renumber=renumber, active_set=active, parallel=par)
         s.advance_to(1.0)
         _same(s, plain)
         if active:  # the dry part of the channel was skipped

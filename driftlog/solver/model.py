@@ -148,7 +148,11 @@ class ShallowWaterSolver:
         self.renumber = renumber
         self.active_set = bool(active_set)
         # internal numbering: face i of the kernels is the mesh's face _perm[i], edge j its
-        # edge eperm[j] (each face keeps the order of its edges, each edge its orientation)
+        # edge eperm[j] (each face keeps the order of its edges, each edge its orientation).
+        # EVERY per-face or per-edge array a kernel reads must be in it: build it from the
+        # internal arrays below (_z, _nbr, _fe, _ef, _area...) or map a mesh-numbered one with
+        # faces_() / edges_(); face indices stored in an array map through new_face().
+        # tests/test_solver_layout.py (renumbered == plain, bit for bit) catches a miss.
         ne = mesh.n_edges
         perm = face_order(mesh, renumber)
         self._identity = renumber == "none"
