@@ -14,8 +14,12 @@ __all__ = ["face_momentum", "add_face_momentum"]
 
 
 def face_momentum(solver) -> tuple[float, float]:
-    """Momentum of the water in the domain per unit density, (sum A h u, sum A h v) (m4/s)."""
-    return float(np.dot(solver._area, solver.hu)), float(np.dot(solver._area, solver.hv))
+    """Momentum of the water in the domain per unit density, (sum A h u, sum A h v) (m4/s).
+
+    Summed in the mesh's numbering (the round-off does not depend on the internal one).
+    """
+    area = solver.mesh.face_area
+    return float(np.dot(area, solver.hu)), float(np.dot(area, solver.hv))
 
 
 def add_face_momentum(solver, face, px, py, density):
@@ -28,7 +32,7 @@ def add_face_momentum(solver, face, px, py, density):
     ----------
     solver : ShallowWaterSolver
     face : (k,) int array
-        Faces of the impulses (>= 0).
+        Faces of the impulses (>= 0), in the mesh's numbering.
     px, py : (k,) arrays
         Momentum given to the water at each (kg m/s).
     density : float
@@ -46,10 +50,20 @@ def add_face_momentum(solver, face, px, py, density):
     sx = np.bincount(face, weights=px, minlength=nf)
     sy = np.bincount(face, weights=py, minlength=nf)
     hit = np.flatnonzero((sx != 0.0) | (sy != 0.0))
-    dry = solver.h[hit] <= solver.dry_depth
+    inv = getattr(solver, "_inv", None)
+    k = hit if inv is None or getattr(solver, "_identity", True) else inv[hit]
+    h, hu, hv = _arrays(solver)
+    dry = h[k] <= solver.dry_depth
     lost = hit[dry]
-    wet = hit[~dry]
-    scale = 1.0 / (density * solver._area[wet])
-    solver.hu[wet] += sx[wet] * scale
-    solver.hv[wet] += sy[wet] * scale
+    wet, kw = hit[~dry], k[~dry]
+    scale = 1.0 / (density * solver.mesh.face_area[wet])
+    hu[kw] += sx[wet] * scale
+    hv[kw] += sy[wet] * scale
     return float(sx[lost].sum()), float(sy[lost].sum())
+
+
+def _arrays(solver):
+    """The solver's own state arrays (internal numbering where it renumbers faces)."""
+    if hasattr(solver, "_hu"):
+        return solver._h, solver._hu, solver._hv
+    return solver.h, solver.hu, solver.hv
