@@ -47,10 +47,21 @@ def _side_state(f, dx, dy, h, hu, hv, z, hdry, order, grad):
             (hv[f] + grad[f, 6] * dx + grad[f, 7] * dy) / he, eta - he)
 
 
+@nb.njit(cache=True, inline="always")
+def _share(h_side, h_face):
+    """max(1, h_side / h_face): an edge's outflow is at most speed * h_side (1 when dry)."""
+    if h_face <= 0.0 or h_side <= h_face:
+        return 1.0
+    return h_side / h_face
+
+
 @kernel
 def edge_fluxes(edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad, order, riemann,
-                g, hdry, slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed):
+                g, hdry, slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1):
     """Fluxes of every edge times its length; ``speed`` = length times the largest wave speed.
+
+    At second order ``speed`` and ``speed1`` hold that product for each side, times
+    max(1, h_side / h_face) (the side's share of the face's positivity bound).
 
     ``fx0, fy0`` is the momentum flux leaving face ``edge_faces[e, 0]``, ``fx1, fy1`` the one
     entering face ``edge_faces[e, 1]`` (they differ by the bed source terms).
@@ -75,7 +86,7 @@ def edge_fluxes(edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad, orde
             fy0[e] = ln * (fnA * n2 + ft * n1)
             fx1[e] = 0.0
             fy1[e] = 0.0
-            speed[e] = ln * sp
+            speed[e] = ln * sp if order == 1 else ln * sp * _share(hA, h[a])
             continue
         hB, uB, vB, zB = _side_state(b, off1[e, 0], off1[e, 1], h, hu, hv, z, hdry, order, grad)
         unB = uB * n1 + vB * n2
@@ -94,12 +105,16 @@ def edge_fluxes(edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad, orde
         fy0[e] = ln * (fnA * n2 + ft * n1)
         fx1[e] = ln * (fnB * n1 - ft * n2)
         fy1[e] = ln * (fnB * n2 + ft * n1)
-        speed[e] = ln * sp
+        if order == 1:
+            speed[e] = ln * sp
+        else:
+            speed[e] = ln * sp * _share(hA, h[a])
+            speed1[e] = ln * sp * _share(hB, h[b])
 
 
 @kernel
 def face_residuals(face_edges, face_n, edge_faces, area, fmass, fx0, fy0, fx1, fy1, speed,
-                   order, dh, dhu, dhv, rate):
+                   speed1, order, dh, dhu, dhv, rate):
     """d/dt of h, hu, hv on each face and its time-step bound ``rate`` (dt * rate <= 1)."""
     for f in nb.prange(face_edges.shape[0]):
         rh = 0.0
@@ -112,17 +127,15 @@ def face_residuals(face_edges, face_n, edge_faces, area, fmass, fx0, fy0, fx1, f
                 rh -= fmass[e]
                 rx -= fx0[e]
                 ry -= fy0[e]
+                rs += speed[e]
             else:
                 rh += fmass[e]
                 rx += fx1[e]
                 ry += fy1[e]
-            if order == 1:
-                rs += speed[e]
-            else:
-                rs = max(rs, speed[e])
+                rs += speed[e] if order == 1 else speed1[e]
         inv = 1.0 / area[f]
         dh[f] = rh * inv
         dhu[f] = rx * inv
         dhv[f] = ry * inv
-        rate[f] = rs * inv if order == 1 else face_n[f] * rs * inv
+        rate[f] = rs * inv
 
