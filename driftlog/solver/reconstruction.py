@@ -70,13 +70,16 @@ def _bj(phi, g_x, g_y, ex, ey, qc, qmin, qmax, ext):
 
 
 @kernel
-def limited_gradients(h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset, grad):
-    """Fill ``grad`` (n_faces, 8) with the limited gradients of eta, h, hu, hv.
+def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset,
+                      grad):
+    """Fill ``grad`` (n_faces, 8) with the limited gradients of eta, h, hu, hv on ``faces``.
 
+    ``faces``: the active set's faces (``driftlog.solver.layout``); other rows keep theirs.
     One pass over the neighbours gathers the four least-squares sums, their ranges and the
     velocities' range; one pass over the edges limits the four gradients.
     """
-    for f in nb.prange(h.shape[0]):
+    for i in nb.prange(faces.shape[0]):
+        f = faces[i]
         for k in range(NGRAD):
             grad[f, k] = 0.0
         hi = h[f]
