@@ -25,7 +25,7 @@ import numpy as np
 
 from driftlog.columns import CX, CY, GAP, NX, NY, OMEGA, UB, VB, X, Y
 
-__all__ = ["conservative_step", "motion_margin"]
+__all__ = ["conservative_step", "motion_margin", "skin"]
 
 
 @nb.njit(cache=True)
@@ -68,3 +68,23 @@ def motion_margin(S, length, radius, dt, tol):
     """How far each log's surface can move in dt at its current velocities, plus tol."""
     speed = np.hypot(S[:, UB], S[:, VB]) + np.abs(S[:, OMEGA]) * (0.5 * length + radius)
     return speed * dt + tol
+
+
+@nb.njit(cache=True)
+def skin(S, length, radius, horizon):
+    """How far each log may move: its motion over ``horizon``, at least the logs' mean.
+
+    The mean is the floor: a log hit by another changes speed.  The kept broad phase's
+    skin: a cost setting only, never a bound the contacts rely on.
+    """
+    n = S.shape[0]
+    out = np.empty(n)
+    total = 0.0
+    for i in range(n):
+        v = abs(S[i, UB]) + abs(S[i, VB]) + abs(S[i, OMEGA]) * (0.5 * length[i] + radius[i])
+        out[i] = v * horizon
+        total += v
+    floor = total / max(n, 1) * horizon
+    for i in range(n):
+        out[i] = max(out[i], floor)
+    return out
