@@ -16,7 +16,6 @@ contact steps among its own logs, so its next contact ends only its own step
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 
 from driftlog.clock_kernel import (
@@ -27,6 +26,7 @@ from driftlog.clock_kernel import (
     TOO_SMALL,
     per_log_mesh_advance,
 )
+from driftlog.contact.islands import island_labels
 from driftlog.logs import FLOATING
 
 __all__ = ["CLOCKS", "per_log_interval", "free_advance", "contact_advance", "touching"]
@@ -191,8 +191,8 @@ def contact_advance(tr, stop, max_tries=3):
         L.status[act0] = status0
         F_end, flag_end = E_F.copy(), E_flag.copy()
         labels = (np.where(pool_mask, 0, np.arange(1, n + 1)) if one_pool
-                  else _components(n, np.ascontiguousarray(edges[:, 0]),
-                                     np.ascontiguousarray(edges[:, 1])))
+                  else island_labels(n, np.ascontiguousarray(edges[:, 0]),
+                                     np.ascontiguousarray(edges[:, 1]))[0])
         order = sub[np.argsort(labels[sub], kind="stable")]
         cuts = np.flatnonzero(np.diff(labels[order])) + 1
         swept = np.column_stack([S0[:, 0], S0[:, 1], S0[:, 0], S0[:, 1]])
@@ -239,33 +239,6 @@ def contact_advance(tr, stop, max_tries=3):
     pos = np.searchsorted(act0, final)
     tr.F[:], tr.flag[:] = F_end[pos], flag_end[pos]
     tr._F_valid = True
-
-
-@nb.njit(cache=True)
-def _components(n, a, b):
-    """Connected component of each of n nodes over the edges a[k] - b[k] (union-find).
-
-    Labels are the smallest node of each component.
-    """
-    parent = np.arange(n)
-    for k in range(a.size):
-        i, j = a[k], b[k]
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        while parent[j] != j:
-            parent[j] = parent[parent[j]]
-            j = parent[j]
-        if i < j:
-            parent[j] = i
-        elif j < i:
-            parent[i] = j
-    for i in range(n):
-        r = i
-        while parent[r] != r:
-            r = parent[r]
-        parent[i] = r
-    return parent
 
 
 def _island_start(model, kept):
