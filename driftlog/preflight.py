@@ -237,10 +237,11 @@ def estimate_run(scen, output=None):
     """Refuse (``SizeError``) a run too large for this machine, before anything is allocated.
 
     Memory: about 2 kB per log for the tracker (state, integrator stages, flow samples,
-    contacts) and the buffered records (``flush_interval`` records of 85 bytes per log), and
-    the final rewrite of the trajectory file, 32 bytes per observation (one variable at a
-    time, with its sort order).  Disk: 85 bytes per observation, twice (the ``.partial`` file
-    and the final file).  Returns (logs, observations, bytes of memory).
+    contacts) and the buffered records (``flush_interval`` records of 85 bytes per log, at most
+    ``trajectory.MAX_BUFFERED_OBS`` observations), and the final rewrite of the trajectory
+    file, 16 bytes per observation (one variable at a time, with its sort order).  Disk: 85
+    bytes per observation, twice (the ``.partial`` file and the final file).  Returns (logs,
+    observations, bytes of memory).
     """
     import shutil
 
@@ -250,7 +251,10 @@ def estimate_run(scen, output=None):
     tm = scen["time"]
     records = int((tm["end"] - tm["start"]) / tm["output_interval"]) + 2
     nobs = float(n) * records
-    mem = n * (2000.0 + 85.0 * scen["output"]["flush_interval"]) + 32.0 * nobs
+    from driftlog.trajectory import MAX_BUFFERED_OBS
+
+    buffered = min(float(n) * scen["output"]["flush_interval"], MAX_BUFFERED_OBS)
+    mem = n * 2000.0 + 85.0 * buffered + 16.0 * nobs
     advice = ("fewer logs (count), a longer [time] output_interval, or an ensemble "
               "(driftlog ensemble) that runs the logs in members")
     check_fits(mem, f"tracking {n:.3g} logs over {records} records ({nobs:.3g} observations)",
