@@ -127,7 +127,10 @@ class MeshKernel(NamedTuple):
     ``node_values(t) -> (values (n_nodes, 2 NQ), time weight a, 1 / snapshot gap)``: the
     snapshot pair around t at the nodes; ``dry_depth``; ``recovered``: gradients are the P1
     interpolation of recovered node gradients (else the P1 interpolant's own); ``locator``:
-    the mesh's ``Locator``.  A flow whose ``sample_into`` is exactly ``sample_mesh_kernel``
+    the mesh's ``Locator``; ``node_pair(t) -> (values, t_i, gap, t_next)``: the same pair with
+    its start time, length (0 for a steady flow) and the time from which the next pair applies
+    (the per-log clocks, ``driftlog.clocks``, weight each stage time themselves).  A flow whose
+    ``sample_into`` is exactly ``sample_mesh_kernel``
     over these gives it (the fused step then reproduces the general path bit for bit).
     """
 
@@ -135,6 +138,7 @@ class MeshKernel(NamedTuple):
     dry_depth: float
     recovered: bool
     locator: Locator
+    node_pair: Callable[[float], tuple] | None = None
 
 
 class FlowField:
@@ -572,13 +576,26 @@ class MeshFlowField(FlowField):
             self._pair = (i, j)
         return self._pair_vals, a, inv_dt
 
+    def node_pair(self, t):
+        """The node values of ``node_values(t)`` with the pair's start, length and end (s).
+
+        ``node_values(t')`` is this pair's values with weight ``(t' - start) / length`` for
+        ``start <= t' < end``; length 0 and end inf for a steady flow (one snapshot).
+        """
+        i, j, _, _ = self._interval(t)
+        vals, _, _ = self.node_values(t)
+        if i == j:
+            return vals, 0.0, 0.0, np.inf
+        return vals, float(self._times[i]), float(self._times[j] - self._times[i]), float(
+            self._times[j])
+
     def mesh_kernel(self) -> MeshKernel | None:
         """Node values, dry depth, gradient choice and locator for the fused kernels.
 
         A subclass that samples otherwise (its own ``sample_into``) must return None.
         """
         return MeshKernel(self.node_values, self.dry_depth, self.gradient == "recovered",
-                          self.mesh.locator())
+                          self.mesh.locator(), self.node_pair)
 
     def sample_into(self, x, y, t, face, out, flag):
         """Locate and sample P1 on the node values of the snapshots around t (in numba)."""

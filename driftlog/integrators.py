@@ -351,4 +351,8 @@ INTEGRATOR_SECTION = Section("integrator", [
         exclusive_min=True),
     Key("min_step", "float", 1e-9, "sub-steps below this are an error (the run stops with a "
         "message)", "s", min=0.0, exclusive_min=True),
+    Key("clock", "str", "global", "global: every floating log advances with the smallest "
+        "sub-step any needs (the paper's Algorithm 1); per_log: each log with its own sub-steps, "
+        "logs meeting at outputs, snapshots, releases and contacts (mesh flows, euler or rk4)",
+        choices=("global", "per_log")),
 ], doc="time integration (docs/model.md sections 11-12)")

@@ -32,19 +32,25 @@ class IntegrationError(DriftlogError):
 
 @dataclass
 class StepOptions:
-    """Sub-step control (docs/model.md eq. (44))."""
+    """Sub-step control (docs/model.md eq. (44)).
+
+    ``clock``: "global" (Algorithm 1: every floating log takes the smallest sub-step any
+    needs) or "per_log" (each log its own sub-steps between synchronisation times,
+    ``driftlog.clocks``; docs/model.md section 11.1).
+    """
 
     length_fraction: float = 1.0
     angle_step: float = np.pi / 4
     drag_fraction: float = 0.5
     max_step: float | None = None
     min_step: float = 1e-9
+    clock: str = "global"
 
     @classmethod
     def from_scenario(cls, section):
         """From a validated [integrator] section."""
         return cls(section["length_fraction"], section["angle_step"], section["drag_fraction"],
-                   section["max_step"], section["min_step"])
+                   section["max_step"], section["min_step"], section.get("clock", "global"))
 
 
 @nb.njit(cache=True)

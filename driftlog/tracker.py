@@ -19,6 +19,7 @@ import time as _time
 
 import numpy as np
 
+from driftlog.clocks import CLOCKS, per_log_interval
 from driftlog.columns import (
     DUDY,
     DVDX,
@@ -126,6 +127,17 @@ class Tracker:
         self._d0_valid = False
         self.step_options = step or StepOptions()
         self.contact = contact
+        self.clock = self.step_options.clock
+        if self.clock not in CLOCKS:
+            raise ScenarioError("integrator.clock", self.clock,
+                                "must be one of " + ", ".join(CLOCKS))
+        if self.clock == "per_log" and (self._kernel is None
+                                        or self._kernel.node_pair is None):
+            raise ScenarioError(
+                "integrator.clock", self.clock,
+                f"per-log clocks run in the fused mesh kernels: they need a mesh flow sampled P1 "
+                f"(this flow: {getattr(flow, 'name', type(flow).__name__)}) and "
+                f"integrator.method euler or rk4 (here {method!r}); use clock = 'global'")
         self.t = float(t_start)
         t0f, t1f = flow.time_span
         self.t_end = float(t_end if t_end is not None else t1f)
@@ -363,8 +375,12 @@ class Tracker:
                               for r, d in zip(L.radius[idx], L.density[idx], strict=True)]
         self.P_all[:] = log_parameters(L.length, L.radius, L.density, L.float_depth)
 
-    def _update_status(self):
-        """Re-classify floating logs (left, stranded, resting) and the resting ones (refloat)."""
+    def _update_status(self, pool=None):
+        """Re-classify floating logs (left, stranded, resting) and the resting ones (refloat).
+
+        ``pool``: only these logs move now (a contact island under per-log clocks): the
+        floating ones among them stay active, idle logs are left for the synchronisation time.
+        """
         L = self.logs
         changed = scattered = False
         if self.act.size:
@@ -379,14 +395,15 @@ class Tracker:
         idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
         # on a steady flow an idle log can only change when it has just stopped
         # (waterlogging changes the logs themselves)
-        if idle.size and (not self._steady or changed or self._first_check
-                          or self.physics.waterlogging != "off"):
+        if pool is None and idle.size and (not self._steady or changed or self._first_check
+                                           or self.physics.waterlogging != "off"):
             changed |= self._check_idle(idle)
         self._first_check = False
         if changed:
             if not scattered and self.act.size:
                 self._scatter()
-            self._set_active(np.flatnonzero(L.status == FLOATING))
+            self._set_active(np.flatnonzero(L.status == FLOATING) if pool is None
+                             else pool[L.status[pool] == FLOATING])
 
     def _check_idle(self, idx):
         L = self.logs
@@ -503,6 +520,58 @@ class Tracker:
         self._recorded_left[idx[L.status[idx] == LEFT]] = True
 
     # ----------------------------------------------------------------- the loop
+    def _global_steps(self, stop, bar, pool=None, swept=None):
+        """Algorithm 1 up to ``stop``: all active logs share each sub-step.
+
+        ``pool``: only these logs (a contact island under per-log clocks, ``driftlog.clocks``):
+        no releases, waterlogging or idle checks (the synchronisation time does them);
+        ``swept`` (len(pool), 4) grows to the bounding box of their centres.
+        """
+        so = self.step_options
+        while self.t < stop:
+            t_before = self.t
+            dt = min(self.max_step(), stop - self.t)
+            if self.act.size == 0:
+                dt = stop - self.t
+            if dt < so.min_step and stop - self.t > so.min_step:
+                raise StepTooSmallError(
+                    f"sub-step {dt:.3g} s below integrator.min_step = {so.min_step} s at "
+                    f"t = {self.t} s; a log spins or moves too fast for its length "
+                    "(check the flow at the logs) or lower integrator.min_step")
+            if self.contact is not None and self.act.size:
+                self.contact.substep(self, dt)
+            else:
+                self.advance(dt, have_d0=True)
+            if not np.all(np.isfinite(self.state)):
+                bad = self.ids[~np.isfinite(self.state).all(axis=1)]
+                raise IntegrationError(
+                    f"the {self.integrator.name} integration diverged at "
+                    f"t = {self.t:.6g} s "
+                    f"(logs {bad[:5].tolist()}): the step is too long for the drag "
+                    "relaxation time; use integrator.method = 'exponential' or set "
+                    "integrator.drag_fraction > 0")
+            if stop - self.t <= self.time_tol:
+                self.t = stop  # land exactly
+            taken = self.t - t_before
+            if pool is None:
+                self._soak(taken)
+            st = self.stats
+            st["substeps"] += 1
+            st["min_dt"] = min(st["min_dt"], taken)
+            st["max_dt"] = max(st["max_dt"], taken)
+            if swept is not None and self.act.size:
+                k = np.searchsorted(pool, self.act)
+                x, y = self.state[:, X], self.state[:, Y]
+                swept[k, 0] = np.minimum(swept[k, 0], x)
+                swept[k, 1] = np.minimum(swept[k, 1], y)
+                swept[k, 2] = np.maximum(swept[k, 2], x)
+                swept[k, 3] = np.maximum(swept[k, 3], y)
+            if pool is None:
+                self._release()
+            self._update_status(pool)
+            if bar is not None:
+                bar.update(taken)
+
     def run(self):
         """Run to t_end; returns the Logs (their final state)."""
         wall = _time.perf_counter()
@@ -519,43 +588,12 @@ class Tracker:
         if not self._resumed:
             self._record()
         out_i = int(np.searchsorted(self._outputs, self.t + self.time_tol))
-        so = self.step_options
+        per_log = self.clock == "per_log"
         try:
             for stop in self._stops:
-                while self.t < stop:
-                    t_before = self.t
-                    dt = min(self.max_step(), stop - self.t)
-                    if self.act.size == 0:
-                        dt = stop - self.t
-                    if dt < so.min_step and stop - self.t > so.min_step:
-                        raise StepTooSmallError(
-                            f"sub-step {dt:.3g} s below integrator.min_step = {so.min_step} s at "
-                            f"t = {self.t} s; a log spins or moves too fast for its length "
-                            "(check the flow at the logs) or lower integrator.min_step")
-                    if self.contact is not None and self.act.size:
-                        self.contact.substep(self, dt)
-                    else:
-                        self.advance(dt, have_d0=True)
-                    if not np.all(np.isfinite(self.state)):
-                        bad = self.ids[~np.isfinite(self.state).all(axis=1)]
-                        raise IntegrationError(
-                            f"the {self.integrator.name} integration diverged at "
-                            f"t = {self.t:.6g} s "
-                            f"(logs {bad[:5].tolist()}): the step is too long for the drag "
-                            "relaxation time; use integrator.method = 'exponential' or set "
-                            "integrator.drag_fraction > 0")
-                    if stop - self.t <= self.time_tol:
-                        self.t = stop  # land exactly
-                    taken = self.t - t_before
-                    self._soak(taken)
-                    st = self.stats
-                    st["substeps"] += 1
-                    st["min_dt"] = min(st["min_dt"], taken)
-                    st["max_dt"] = max(st["max_dt"], taken)
-                    self._release()
-                    self._update_status()
-                    if bar is not None:
-                        bar.update(taken)
+                if per_log and self.act.size and self.t < stop:
+                    per_log_interval(self, stop, bar)
+                self._global_steps(stop, bar)
                 while (out_i < self._outputs.size
                        and self._outputs[out_i] <= self.t + self.time_tol):
                     self._record()

@@ -32,7 +32,7 @@ LAYERS = [
     ("hydro source", ["driftlog.flowfile", "driftlog.adapters", "driftlog.solver",
                       "driftlog.seas", "driftlog.floodsetup", "driftlog.malpasset"]),
     ("tracker", ["driftlog.logs", "driftlog.physics", "driftlog.integrators", "driftlog.fused",
-                 "driftlog.contact", "driftlog.tracker", "driftlog.stepping"]),
+                 "driftlog.contact", "driftlog.tracker", "driftlog.stepping", "driftlog.clocks"]),
     ("trajectories", ["driftlog.trajectory"]),
     ("analysis", ["driftlog.ensemble.summary", "driftlog.ensemble.aggregate"]),
     ("top", ["driftlog", "driftlog.__main__", "driftlog.api", "driftlog.sources",

@@ -7,6 +7,17 @@ is hashed (cells to a table of about 2 n buckets), so an unbounded domain costs 
 Static obstacles (walls, piers, cut meshes) are binned once into every cell their box covers;
 a pair is reported only from the first cell both boxes share, so never twice.
 
+Where the box centres fill a compact area (at most about 4 cells per box), the grid is dense,
+not hashed: cells numbered column by column, so that the three cells of a neighbouring column
+are one contiguous run of the sorted boxes; one pass, serial, in the same order as the hashed
+grid (log i, then the 3 x 3 neighbourhood column by column, then j).
+
+``PairCache`` keeps the broad phase between sub-steps (a Verlet list of boxes): the pairs of
+boxes inflated by a skin are found once; while every log's current box stays inside its
+inflated box, the current pairs are those of the kept list whose current boxes overlap, put in
+the order a fresh grid gives (so that sequential impulses and Gauss-Seidel sweeps see the same
+contacts in the same order: results identical to a fresh broad phase at every step).
+
 ``brute_pairs`` (all n (n - 1) / 2 box tests) is the reference the tests compare against.
 """
 
@@ -15,10 +26,10 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from driftlog._numba import kernel
+from driftlog._numba import PARALLEL_MIN, kernel
 from driftlog.columns import CAP_AX, CAP_AY, CAP_BX, CAP_BY, CAP_R, THETA
 
-__all__ = ["grid_pairs", "brute_pairs", "StaticGrid", "log_boxes"]
+__all__ = ["grid_pairs", "brute_pairs", "StaticGrid", "log_boxes", "PairCache"]
 
 _P1, _P2 = 73856093, 19349663
 
@@ -72,16 +83,69 @@ def _count_or_fill(x, y, ex, ey, ix, iy, start, order, mask, offsets, pairs, fil
             offsets[i] = c
 
 
-def grid_pairs(x, y, ex, ey):
+@nb.njit(cache=True)
+def _dense_pairs(x, y, ex, ey, cell, ix0, iy0, nx, ny):
+    """One serial pass on a dense grid of nx x ny cells (padded by one cell on every side)."""
+    n = x.size
+    key = np.empty(n, np.int64)
+    start = np.zeros(nx * ny + 1, np.int64)
+    for i in range(n):
+        k = (np.int64(np.floor(x[i] / cell)) - ix0 + 1) * ny + \
+            (np.int64(np.floor(y[i] / cell)) - iy0 + 1)
+        key[i] = k
+        start[k + 1] += 1
+    for k in range(nx * ny):
+        start[k + 1] += start[k]
+    fill = start[:-1].copy()
+    sx, sy, sex, sey = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    sid = np.empty(n, np.int64)
+    for i in range(n):
+        q = fill[key[i]]
+        fill[key[i]] += 1
+        sx[q], sy[q], sex[q], sey[q], sid[q] = x[i], y[i], ex[i], ey[i], i
+    cap = 4 * n + 16
+    out = np.empty((cap, 2), np.int64)
+    m = 0
+    for i in range(n):
+        xi, yi, exi, eyi = x[i], y[i], ex[i], ey[i]
+        for dx in range(-1, 2):
+            # cells (ix + dx, iy - 1 .. iy + 1): consecutive numbers, one run of boxes
+            k = key[i] + dx * ny
+            for q in range(start[k - 1], start[k + 2]):
+                j = sid[q]
+                if j <= i:
+                    continue
+                if abs(xi - sx[q]) > exi + sex[q] or abs(yi - sy[q]) > eyi + sey[q]:
+                    continue
+                if m == cap:
+                    cap *= 2
+                    grown = np.empty((cap, 2), np.int64)
+                    grown[:m] = out[:m]
+                    out = grown
+                out[m, 0] = i
+                out[m, 1] = j
+                m += 1
+    return out[:m].copy()
+
+
+def grid_pairs(x, y, ex, ey, dense=True):
     """Pairs (i, j), i < j, of boxes (centre x, y; half extents ex, ey) that overlap.
 
-    Sorted by i, then by grid order; the same input gives the same order.
+    Sorted by i, then by grid order (the 3 x 3 cells around i's, column by column, then j);
+    the same input gives the same order whether the grid is dense or hashed.  ``dense``:
+    False always hashes (the benchmarks' reference).
     """
     n = x.size
     empty = np.empty((0, 2), np.int64)
     if n < 2:
         return empty
     cell = 2.0 * max(float(ex.max()), float(ey.max()))
+    if dense and cell > 0.0 and (n < PARALLEL_MIN or nb.get_num_threads() == 1):
+        ix0, ix1 = np.floor(float(x.min()) / cell), np.floor(float(x.max()) / cell)
+        iy0, iy1 = np.floor(float(y.min()) / cell), np.floor(float(y.max()) / cell)
+        nx, ny = ix1 - ix0 + 3.0, iy1 - iy0 + 3.0
+        if nx * ny <= 4.0 * n + 64.0:
+            return _dense_pairs(x, y, ex, ey, cell, int(ix0), int(iy0), int(nx), int(ny))
     mask = (1 << int(np.ceil(np.log2(2 * n)))) - 1
     ix, iy, start, order = _bin_centres(x, y, cell, mask)
     counts = np.zeros(n, np.int64)
@@ -221,3 +285,199 @@ class StaticGrid:
         pairs = np.empty((int(counts.sum()), 2), np.int64)
         _query_static(x, y, ex, ey, *args, offsets, pairs, True)
         return pairs
+
+
+# --------------------------------------------------------------------- kept between sub-steps
+@nb.njit(cache=True)
+def _inside(x, y, ex, ey, x0, y0, exb, eyb):
+    """Whether every current box lies inside its kept (inflated) box."""
+    for i in range(x.size):
+        if abs(x[i] - x0[i]) + ex[i] > exb[i] or abs(y[i] - y0[i]) + ey[i] > eyb[i]:
+            return False
+    return True
+
+
+@nb.njit(cache=True)
+def _sort_segment(keys, rows, lo, hi):
+    """Insertion sort of rows[lo:hi] by keys[lo:hi] (segments hold a few pairs)."""
+    for a in range(lo + 1, hi):
+        k, r = keys[a], rows[a]
+        b = a - 1
+        while b >= lo and keys[b] > k:
+            keys[b + 1] = keys[b]
+            rows[b + 1] = rows[b]
+            b -= 1
+        keys[b + 1] = k
+        rows[b + 1] = r
+
+
+@nb.njit(cache=True)
+def _kept_log_pairs(x, y, ex, ey, kept, cell):
+    """Kept pairs whose current boxes overlap, in ``grid_pairs``' order for the current boxes.
+
+    ``kept`` is sorted by its first column; within each log's run the pairs are put in the
+    fresh grid's order: neighbour cell (column by column) of j around i, then j.
+    """
+    m = kept.shape[0]
+    n = x.size
+    out = np.empty((m, 2), np.int64)
+    keys = np.empty(16, np.int64)
+    rows = np.empty(16, np.int64)
+    cx = np.empty(n, np.int64)
+    cy = np.empty(n, np.int64)
+    for i in range(n):
+        cx[i] = np.int64(np.floor(x[i] / cell))
+        cy[i] = np.int64(np.floor(y[i] / cell))
+    c = 0
+    a = 0
+    while a < m:
+        i = kept[a, 0]
+        xi, yi, exi, eyi, ix, iy = x[i], y[i], ex[i], ey[i], cx[i], cy[i]
+        s = 0
+        while a < m and kept[a, 0] == i:
+            j = kept[a, 1]
+            a += 1
+            if abs(xi - x[j]) > exi + ex[j] or abs(yi - y[j]) > eyi + ey[j]:
+                continue
+            dx, dy = cx[j] - ix, cy[j] - iy
+            if abs(dx) > 1 or abs(dy) > 1:
+                continue  # (round-off at a cell's edge) the fresh grid does not see it either
+            if s == keys.size:
+                keys = np.concatenate((keys, np.empty(s, np.int64)))
+                rows = np.concatenate((rows, np.empty(s, np.int64)))
+            keys[s] = ((dx + 1) * 3 + dy + 1) * n + j
+            rows[s] = j
+            s += 1
+        _sort_segment(keys, rows, 0, s)
+        for q in range(s):
+            out[c, 0] = i
+            out[c, 1] = rows[q]
+            c += 1
+    return out[:c].copy()
+
+
+@nb.njit(cache=True)
+def _kept_static_pairs(x, y, ex, ey, kept, lo_x, lo_y, hi_x, hi_y, cell):
+    """Kept (log, capsule) pairs whose boxes overlap now, in ``StaticGrid.query``'s order.
+
+    The query visits the cells of the log's box column by column and reports a capsule from
+    the first cell both boxes cover, capsules of one cell in increasing index.
+    """
+    m = kept.shape[0]
+    out = np.empty((m, 2), np.int64)
+    keys = np.empty(m, np.float64)
+    rows = np.empty(m, np.int64)
+    ncap = lo_x.size
+    c = 0
+    a = 0
+    while a < m:
+        i = kept[a, 0]
+        start = c
+        ax0, ax1 = x[i] - ex[i], x[i] + ex[i]
+        ay0, ay1 = y[i] - ey[i], y[i] + ey[i]
+        ix0, ix1 = np.floor(ax0 / cell), np.floor(ax1 / cell)
+        iy0, iy1 = np.floor(ay0 / cell), np.floor(ay1 / cell)
+        while a < m and kept[a, 0] == i:
+            k = kept[a, 1]
+            a += 1
+            if ax0 > hi_x[k] or ax1 < lo_x[k] or ay0 > hi_y[k] or ay1 < lo_y[k]:
+                continue
+            fx = max(ix0, np.floor(lo_x[k] / cell))
+            fy = max(iy0, np.floor(lo_y[k] / cell))
+            if fx > ix1 or fy > iy1:
+                continue  # (round-off at a cell's edge) as the query
+            # cells visited column by column: (fx - ix0) columns of (iy1 - iy0 + 1) cells
+            keys[c] = (((fx - ix0) * (iy1 - iy0 + 1.0) + (fy - iy0)) * ncap) + k
+            rows[c] = k
+            c += 1
+        _sort_segment(keys, rows, start, c)
+        for q in range(start, c):
+            out[q, 0] = i
+            out[q, 1] = rows[q]
+    return out[:c].copy()
+
+
+class PairCache:
+    """The broad phase kept between sub-steps: boxes inflated by a skin, pairs found once.
+
+    ``pairs`` returns exactly what ``grid_pairs`` (and ``StaticGrid.query``) return for the
+    current boxes, in the same order; it searches the grid again only when a log's current
+    box leaves its kept box (or the set of logs changes).  Cost per call while kept: one test
+    per log and one per kept pair.
+
+    Parameters
+    ----------
+    skin_factor : float
+        The kept boxes are the boxes of the first call inflated by ``skin_factor`` times the
+        per-log ``skin`` passed (how far a log moves in a sub-step).
+    adapt : bool
+        Adjust ``skin_factor`` at each search: halved when the kept list has served 32 calls
+        (the grid is then searched again, with thinner boxes), doubled when it served fewer
+        than 4; within 1/256 .. 4.  Fewer kept pairs to filter where sub-steps are much
+        shorter than the step the skin was given for (event-driven contact in a crowd).
+    """
+
+    def __init__(self, skin_factor=1.0, adapt=True):
+        self.skin_factor = float(skin_factor)
+        self.adapt = bool(adapt)
+        self.builds = 0
+        self.reuses = 0
+        self._served = 0
+        self._kept = None
+
+    def clear(self):
+        """Forget the kept pairs (the next call searches the grid)."""
+        self._kept = None
+
+    def pairs(self, x, y, ex, ey, skin, ids=None, static=None):
+        """Overlapping (log, log) pairs and, with ``static`` (a ``StaticGrid``), (log, capsule).
+
+        Parameters
+        ----------
+        x, y, ex, ey : (n,) arrays
+            Box centres and half extents now.
+        skin : (n,) array
+            How far each log may move before the next call (inflates the kept boxes).
+        ids : (n,) array, optional
+            Identity of the logs (a change of the set searches again).
+        static : StaticGrid, optional
+
+        Returns
+        -------
+        (ll (k, 2), lo (m, 2)) : int64 arrays, as ``grid_pairs`` and ``static.query``.
+        """
+        n = x.size
+        k = self._kept
+        fresh = (k is None or k["n"] != n or k["static"] is not static
+                 or (self.adapt and self._served >= 32 and self.skin_factor > 1.0 / 256.0)
+                 or (ids is not None and not np.array_equal(k["ids"], ids))
+                 or not _inside(x, y, ex, ey, k["x"], k["y"], k["ex"], k["ey"]))
+        if fresh:
+            if self.adapt and self._kept is not None:
+                if self._served >= 32:
+                    self.skin_factor = max(self.skin_factor * 0.5, 1.0 / 256.0)
+                elif self._served < 4:
+                    self.skin_factor = min(self.skin_factor * 2.0, 4.0)
+            self._served = 0
+            s = self.skin_factor * np.asarray(skin, float)
+            exb, eyb = ex + s, ey + s
+            k = self._kept = dict(n=n, static=static, x=x.copy(), y=y.copy(), ex=exb, ey=eyb,
+                                  ids=None if ids is None else np.array(ids),
+                                  ll=grid_pairs(x, y, exb, eyb),
+                                  lo=None if static is None else static.query(x, y, exb, eyb))
+            self.builds += 1
+        else:
+            self.reuses += 1
+            self._served += 1
+        if n < 2:
+            ll = np.empty((0, 2), np.int64)
+        else:
+            cell = 2.0 * max(float(ex.max()), float(ey.max()))
+            ll = _kept_log_pairs(x, y, ex, ey, k["ll"], cell)
+        if static is None:
+            return ll, None
+        if n == 0 or static.capsules.shape[0] == 0:
+            return ll, np.empty((0, 2), np.int64)
+        lo = _kept_static_pairs(x, y, ex, ey, k["lo"], static.lo_x, static.lo_y, static.hi_x,
+                                static.hi_y, static.cell)
+        return ll, lo

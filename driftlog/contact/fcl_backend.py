@@ -132,9 +132,9 @@ class FCLBackend:
             else:
                 self._objects.append(_quad(*c[:4], 0.0))
 
-    def candidates(self, S, length, radius, margin):
-        """The native broad phase."""
-        return self.native.candidates(S, length, radius, margin)
+    def candidates(self, S, length, radius, margin, skin=None, ids=None):
+        """The native broad phase (kept between calls with ``skin``: ``NativeBackend``)."""
+        return self.native.candidates(S, length, radius, margin, skin, ids)
 
     def _measure(self, o1, o2, out, fallback, seg1, seg2):
         res = fcl.DistanceResult()

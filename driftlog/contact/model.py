@@ -28,11 +28,12 @@ from __future__ import annotations
 import numpy as np
 
 from driftlog.columns import CX, CY, GAP, NRES, OMEGA, POSITION, UB, VB, VELOCITY
-from driftlog.contact.impulses import resolve_impulses, separate_resting
+from driftlog.contact.impulses import resolve_islands, separate_resting
+from driftlog.contact.islands import islands
 from driftlog.contact.moreau import moreau_solve
 from driftlog.contact.native import NativeBackend, end_contacts
 from driftlog.contact.obstacles import Obstacles
-from driftlog.contact.toi import conservative_step, motion_margin
+from driftlog.contact.toi import conservative_step, motion_margin, skin
 from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.schema import Key, Section
 
@@ -137,6 +138,9 @@ class ContactModel:
         self._window = None
         self._active = np.empty(0, np.int64)
         self._bracket = None
+        self.keep_broad_phase = True  # broad phase kept between sub-steps (same results)
+        self.island_stop = False  # Moreau: each island converges on its own (moreau_solve)
+        self._skin = None
 
     @property
     def obstacle_names(self):
@@ -157,10 +161,22 @@ class ContactModel:
                    iterations=contact["iterations"], rest_speed=contact["rest_speed"])
 
     # ----------------------------------------------------------------- detection
+    def _candidates(self, bodies, margin, S):
+        skin = self._skin
+        if self.keep_broad_phase and skin is not None and skin.size == S.shape[0]:
+            return self.backend.candidates(S, bodies.length, bodies.radius, margin, skin,
+                                           bodies.ids)
+        return self.backend.candidates(S, bodies.length, bodies.radius, margin)
+
     def detect(self, bodies, margin, S=None):
-        """Candidate contacts of ``bodies`` (tracker) within per-log ``margin``, measured."""
+        """Candidate contacts of ``bodies`` (tracker) within per-log ``margin``, measured.
+
+        The broad phase is kept between calls (``broadphase.PairCache``, skin: the motion of
+        the last sub-step asked) unless ``keep_broad_phase`` is False: the same contacts in
+        the same order either way.
+        """
         S = bodies.state if S is None else S
-        ll, lo = self.backend.candidates(S, bodies.length, bodies.radius, margin)
+        ll, lo = self._candidates(bodies, margin, S)
         r_ll, r_lo = self.backend.gaps(S, bodies.length, bodies.radius, ll, lo)
         self.stats["detections"] += 1
         owner = self.obstacles.owner
@@ -172,6 +188,28 @@ class ContactModel:
                                         owner[lo[:, 1]] if lo.shape[0] else
                                         np.empty(0, np.int64)]),
                         np.vstack([r_ll, r_lo]), b1 * (n + owner.size) + other)
+
+    def set_skin(self, bodies, dt):
+        """How far each log may move before the next detection: its motion over dt.
+
+        (At least the mean motion of the logs: a slow log hit by a fast one speeds up.)
+
+        The kept broad phase inflates its boxes by this (times ``PairCache.skin_factor``);
+        ``substep`` calls it.  It changes the cost only, never the contacts found.
+        """
+        self._skin = skin(bodies.state, bodies.length, bodies.radius, dt)
+
+    def islands(self, bodies, dt):
+        """Contact islands of ``bodies`` over a step dt: an island label per log.
+
+        Logs whose boxes, inflated by their motion over dt at their current velocities,
+        overlap (directly or through other logs) share an island; contacts with walls and
+        obstacles join nothing (``islands.islands``).
+        """
+        S = bodies.state
+        margin = motion_margin(S, bodies.length, bodies.radius, dt, self._tol(bodies))
+        ll, _ = self._candidates(bodies, margin, S)
+        return islands(ll, S.shape[0])
 
     def detect_manifold(self, bodies, margin, S=None):
         """``detect`` plus the axis-end contacts of each pair (for the time-stepping solve)."""
@@ -258,6 +296,7 @@ class ContactModel:
         if bodies.state.shape[0] == 0:
             bodies.advance(dt)
             return dt
+        self.set_skin(bodies, dt)
         if self.method == "moreau":
             return self._moreau(bodies, dt)
         return self._event(bodies, dt)
@@ -296,9 +335,9 @@ class ContactModel:
             inv_m, inv_i = self._inverse_masses(bodies)
             imp = np.zeros(len(C))
             vscale = float(np.abs(S[:, UB:VB + 1]).max()) + 1e-3
-            events = resolve_impulses(S, inv_m, inv_i, C.body1, C.body2, C.res,
-                                      self.restitution, 1e-10 * vscale, self.max_events, imp,
-                                      self.rest_speed)
+            events = resolve_islands(S, inv_m, inv_i, C.body1, C.body2, C.res,
+                                     self.restitution, 1e-10 * vscale, self.max_events, imp,
+                                     self.rest_speed)
             if events < 0:
                 self._jam(bodies, C, f"{self.max_events} impulses in one sub-step and contacts "
                           "still approach (contact.max_events)")
@@ -412,7 +451,8 @@ class ContactModel:
         P = np.zeros(len(C))
         vscale = float(np.abs(S[:, UB:VB + 1]).max()) + 1e-3
         it, _ = moreau_solve(S0, S, inv_m, inv_i, C.body1, C.body2, C.res, dt,
-                             self.restitution, tol, tol, 1e-9 * vscale, self.iterations, P)
+                             self.restitution, tol, tol, 1e-9 * vscale, self.iterations, P,
+                             0.2, self.island_stop)
         st["pgs_iterations"] += it
         st["pgs_max_iterations"] = max(st["pgs_max_iterations"], it)
         st["max_contacts"] = max(st["max_contacts"], len(C))

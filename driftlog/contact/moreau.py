@@ -45,39 +45,62 @@ from driftlog.columns import (
     X,
     Y,
 )
+from driftlog.contact.islands import island_labels, island_runs
 
 __all__ = ["moreau_solve"]
 
 
 @nb.njit(cache=True)
-def _pgs(body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, P, vtol, max_iterations):
-    """Projected Gauss-Seidel: P >= 0 _|_ u_n(V) - target >= 0; V changed in place."""
+def _pgs(order, start, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, P, vtol,
+         max_iterations, island_stop):
+    """Projected Gauss-Seidel: P >= 0 _|_ u_n(V) - target >= 0; V changed in place.
+
+    Island by island (contacts order[start[q]:start[q + 1]] of island q, in their given
+    order), in lockstep: an island whose sweep changes nothing is left (further sweeps would
+    not change it either), so the result is the sweep over all contacts bit for bit, at the
+    cost of the islands still moving.  ``island_stop``: an island is also left once its own
+    largest change is below vtol (each island converged to vtol on its own, not in lockstep).
+    """
+    count = start.size - 1
+    active = np.empty(count, np.bool_)
+    for q in range(count):
+        active[q] = start[q + 1] > start[q]
     it = 0
     residual = 0.0
     while it < max_iterations:
         it += 1
         residual = 0.0
-        for c in range(body1.size):
-            if w[c] <= 0.0:
+        for q in range(count):
+            if not active[q]:
                 continue
-            i, j = body1[c], body2[c]
-            nx, ny = res[c, NX], res[c, NY]
-            u = V[i, GU] * nx + V[i, GV] * ny + V[i, GOMEGA] * rn1[c]
-            if j >= 0:
-                u -= V[j, GU] * nx + V[j, GV] * ny + V[j, GOMEGA] * rn2[c]
-            p_new = max(P[c] + (target[c] - u) / w[c], 0.0)
-            d = p_new - P[c]
-            if d == 0.0:
-                continue
-            P[c] = p_new
-            V[i, GU] += d * nx * inv_m[i]
-            V[i, GV] += d * ny * inv_m[i]
-            V[i, GOMEGA] += d * rn1[c] * inv_i[i]
-            if j >= 0:
-                V[j, GU] -= d * nx * inv_m[j]
-                V[j, GV] -= d * ny * inv_m[j]
-                V[j, GOMEGA] -= d * rn2[c] * inv_i[j]
-            residual = max(residual, abs(d) * w[c])
+            rq = 0.0
+            changed = False
+            for a in range(start[q], start[q + 1]):
+                c = order[a]
+                if w[c] <= 0.0:
+                    continue
+                i, j = body1[c], body2[c]
+                nx, ny = res[c, NX], res[c, NY]
+                u = V[i, GU] * nx + V[i, GV] * ny + V[i, GOMEGA] * rn1[c]
+                if j >= 0:
+                    u -= V[j, GU] * nx + V[j, GV] * ny + V[j, GOMEGA] * rn2[c]
+                p_new = max(P[c] + (target[c] - u) / w[c], 0.0)
+                d = p_new - P[c]
+                if d == 0.0:
+                    continue
+                changed = True
+                P[c] = p_new
+                V[i, GU] += d * nx * inv_m[i]
+                V[i, GV] += d * ny * inv_m[i]
+                V[i, GOMEGA] += d * rn1[c] * inv_i[i]
+                if j >= 0:
+                    V[j, GU] -= d * nx * inv_m[j]
+                    V[j, GV] -= d * ny * inv_m[j]
+                    V[j, GOMEGA] -= d * rn2[c] * inv_i[j]
+                rq = max(rq, abs(d) * w[c])
+            residual = max(residual, rq)
+            if not changed or (island_stop and rq <= vtol):
+                active[q] = False
         if residual <= vtol:
             break
     return it, residual
@@ -85,7 +108,7 @@ def _pgs(body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, P, vtol, max_i
 
 @nb.njit(cache=True)
 def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vtol,
-                 max_iterations, P, recovery=0.2):
+                 max_iterations, P, recovery=0.2, island_stop=False):
     """Solve the contact impulses of one step and apply them to S (free state, in place).
 
     Parameters
@@ -103,6 +126,10 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
     P : (k,) impulses (output).
     recovery : share of an overlap deeper than slop removed per step, by moving the positions
         only (split impulse: pushing overlaps apart through the velocities would add energy).
+    island_stop : solve each contact island (``islands.island_labels``) to vtol on its own
+        (False: the islands are swept in lockstep until all have converged, which is the
+        sweep over all contacts bit for bit; islands that stopped changing are skipped either
+        way).
 
     Returns
     -------
@@ -142,9 +169,11 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
             # active (touching, or closing within the step): Newton's impact law
             target[c] = max(target[c], -eps * u0)
         P[c] = 0.0
+    labels, count = island_labels(n, body1, body2)
+    order, start = island_runs(labels, count, body1)
     V = S[:, VELOCITY].copy()
-    it, residual = _pgs(body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, P, vtol,
-                        max_iterations)
+    it, residual = _pgs(order, start, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V,
+                        P, vtol, max_iterations, island_stop)
     # position pass: pseudo-velocities that remove a share of the remaining overlap
     Vp = np.zeros((n, 3))
     Pp = np.zeros(k)
@@ -160,8 +189,8 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
         if target[c] > 0.0:
             deep += 1
     if deep:
-        _pgs(body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, Vp, Pp, vtol,
-             max_iterations)
+        _pgs(order, start, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, Vp, Pp, vtol,
+             max_iterations, island_stop)
     for b in range(n):  # q+ = q_free + dt (V+ - V_free) + dt Vp
         for m in range(GOMEGA + 1):  # position X + m has the rate UB + m (GU + m in V)
             S[b, X + m] += dt * (V[b, m] - S[b, UB + m] + Vp[b, m])

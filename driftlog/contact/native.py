@@ -12,7 +12,7 @@ import numpy as np
 
 from driftlog._numba import kernel
 from driftlog.columns import NX, NY, THETA, X, Y
-from driftlog.contact.broadphase import StaticGrid, grid_pairs, log_boxes
+from driftlog.contact.broadphase import PairCache, StaticGrid, grid_pairs, log_boxes
 from driftlog.contact.geometry import NRES, capsule_gap, capsule_row, log_endpoints
 
 __all__ = ["NativeBackend", "end_contacts"]
@@ -100,6 +100,7 @@ class NativeBackend:
         self.obstacles = obstacles
         self._grid = None
         self._grid_cell = 0.0
+        self.cache = PairCache()
 
     def _static(self, cell):
         if self._grid is None or cell > 2.0 * self._grid_cell or cell < 0.25 * self._grid_cell:
@@ -107,17 +108,26 @@ class NativeBackend:
             self._grid_cell = cell
         return self._grid
 
-    def candidates(self, S, length, radius, margin):
-        """(log pairs (k, 2), log-capsule pairs (m, 2)) whose boxes overlap."""
+    def candidates(self, S, length, radius, margin, skin=None, ids=None):
+        """(log pairs (k, 2), log-capsule pairs (m, 2)) whose boxes overlap.
+
+        With ``skin`` (per log: how far it may move before the next call) the broad phase is
+        kept between calls (``broadphase.PairCache``): the same pairs in the same order as a
+        fresh search, the grid searched again only when a log leaves its kept box.
+        """
         n = S.shape[0]
         ex, ey = np.empty(n), np.empty(n)
         log_boxes(S, length, radius, margin, ex, ey)
         x = np.ascontiguousarray(S[:, X])
         y = np.ascontiguousarray(S[:, Y])
+        has_static = self.obstacles.capsules.shape[0] > 0 and n > 0
+        grid = self._static(2.0 * max(float(ex.max()), float(ey.max()))) if has_static else None
+        if skin is not None:
+            ll, lo = self.cache.pairs(x, y, ex, ey, skin, ids, grid)
+            return ll, (lo if has_static else np.empty((0, 2), np.int64))
         ll = grid_pairs(x, y, ex, ey)
-        if self.obstacles.capsules.shape[0] == 0 or n == 0:
+        if not has_static:
             return ll, np.empty((0, 2), np.int64)
-        grid = self._static(2.0 * max(float(ex.max()), float(ey.max())))
         return ll, grid.query(x, y, ex, ey)
 
     def gaps(self, S, length, radius, ll, lo):

@@ -25,7 +25,7 @@ import numpy as np
 
 from driftlog.columns import CX, CY, GAP, NX, NY, OMEGA, UB, VB, X, Y
 
-__all__ = ["conservative_step", "motion_margin"]
+__all__ = ["conservative_step", "motion_margin", "skin"]
 
 
 @nb.njit(cache=True)
@@ -68,3 +68,23 @@ def motion_margin(S, length, radius, dt, tol):
     """How far each log's surface can move in dt at its current velocities, plus tol."""
     speed = np.hypot(S[:, UB], S[:, VB]) + np.abs(S[:, OMEGA]) * (0.5 * length + radius)
     return speed * dt + tol
+
+
+@nb.njit(cache=True)
+def skin(S, length, radius, dt):
+    """How far each log may move in dt, at least the mean over the logs.
+
+    The kept broad phase's skin (a slow log hit by a fast one speeds up): a cost setting
+    only, never a bound the contacts rely on.
+    """
+    n = S.shape[0]
+    out = np.empty(n)
+    total = 0.0
+    for i in range(n):
+        out[i] = (abs(S[i, UB]) + abs(S[i, VB])
+                  + abs(S[i, OMEGA]) * (0.5 * length[i] + radius[i])) * dt
+        total += out[i]
+    mean = total / max(n, 1)
+    for i in range(n):
+        out[i] = max(out[i], mean)
+    return out

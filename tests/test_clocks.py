@@ -1,0 +1,185 @@
+"""Per-log clocks (driftlog.clocks, [integrator] clock = "per_log").
+
+Each log under the per-log clock takes exactly the sub-steps the global clock gives it when it
+is alone: a crowd run per log reproduces every single-log global run bit for bit; exact
+solutions converge at the integrator's order with per-log steps.
+"""
+import numpy as np
+import pytest
+
+from driftlog.analytic import UniformFlow, on_mesh
+from driftlog.errors import ScenarioError
+from driftlog.flow import MeshFlowField
+from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, Logs
+from driftlog.mesh import Mesh
+from driftlog.physics import PhysicsOptions
+from driftlog.tracker import StepOptions, Tracker
+
+MESH = Mesh.regular_grid(30, 10, 1.0)
+TIMES = np.arange(0.0, 21.0, 4.0)
+
+
+def draining_channel():
+    """test_fused's scene: sheared, meandering flow to the east over a bank that dries."""
+    xc, yc = MESH.face_x, MESH.face_y
+    h, hu, hv = [], [], []
+    for t in TIMES:
+        depth = np.where((xc > 12) & (xc < 20) & (yc > 6), max(0.6 - 0.05 * t, 0.0), 0.6)
+        u = 0.8 + 0.3 * np.sin(yc / 2.0) + 0.01 * t
+        v = 0.25 * np.cos(xc / 3.0)
+        h.append(depth)
+        hu.append(depth * u)
+        hv.append(depth * v)
+    return MeshFlowField.from_arrays(MESH, np.zeros(MESH.n_faces), TIMES, np.array(h),
+                                     np.array(hu), np.array(hv))
+
+
+FLOW = draining_channel()
+N = 120
+
+
+def crowd(rows=slice(None)):
+    rng = np.random.default_rng(7)
+    x, y = rng.uniform(0.5, 29.5, N), rng.uniform(0.5, 9.5, N)
+    th, L, rho = rng.uniform(0, np.pi, N), rng.uniform(0.5, 1.5, N), rng.uniform(500.0, 900.0, N)
+    return Logs(x[rows], y[rows], th[rows], L[rows], 0.1, rho[rows])
+
+
+def run(logs, clock, level="full", method="rk4", flow=FLOW, **step):
+    tr = Tracker(flow, logs, PhysicsOptions(level=level), method,
+                 StepOptions(max_step=step.pop("max_step", 0.7), clock=clock, **step),
+                 t_end=20.0, output_interval=2.5)
+    tr.run()
+    return tr, logs
+
+
+@pytest.mark.parametrize("method,level", [("rk4", "full"), ("rk4", "tracer"),
+                                          ("euler", "drag")])
+def test_each_log_of_a_crowd_moves_as_alone_under_the_global_clock(method, level):
+    # the draining channel of test_fused: logs leave through the outlet, strand on the drying
+    # bank, cross snapshot times (the node pair switches inside a log's own steps)
+    tr, b = run(crowd(), "per_log", level, method)
+    assert np.sum(b.status == LEFT) > 5 and np.sum(b.status == FLOATING) > 5
+    if level != "tracer":
+        assert np.sum((b.status == STRANDED) | (b.status == RESTING)) > 0
+    # logs meet only at outputs and snapshots (8 outputs and 5 snapshots: 12 distinct times)
+    assert tr.stats["substeps"] == 12
+    assert tr.stats["log_substeps"] > 20 * tr.stats["substeps"]
+    picked = list(np.flatnonzero(b.status == LEFT)[:3]) + list(
+        np.flatnonzero(b.status == FLOATING)[:3]) + list(
+        np.flatnonzero((b.status == STRANDED) | (b.status == RESTING))[:2])
+    for i in picked:
+        _, one = run(crowd(slice(i, i + 1)), "global", level, method)
+        np.testing.assert_array_equal(one.state[0], b.state[i])
+        assert one.status[0] == b.status[i]
+        assert one.face[0] == b.face[i]
+
+
+def test_one_log_same_trajectory_under_both_clocks():
+    g, a = run(crowd(slice(3, 4)), "global")
+    p, b = run(crowd(slice(3, 4)), "per_log")
+    np.testing.assert_array_equal(a.state, b.state)
+    assert p.stats["log_substeps"] == g.stats["substeps"]
+    assert p.stats["min_dt"] == g.stats["min_dt"] and p.stats["max_dt"] == g.stats["max_dt"]
+
+
+UNIFORM_MESH = Mesh.regular_grid(40, 6, 1.0)
+
+
+@pytest.mark.parametrize("method,order", [("rk4", 4), ("euler", 1)])
+def test_exact_solution_converges_at_order_with_per_log_steps(method, order):
+    # docs/model.md 15.C: quadratic drag from rest in a uniform flow, exact; three log lengths,
+    # so three own step sequences (length and drag relaxation bounds) in one per-log run
+    U0, cd, rho, rho_b, r = 1.5, 1.1, 1000.0, 600.0, 0.1
+    L = np.array([0.5, 1.0, 2.0])
+    flow = on_mesh(UniformFlow(U0, 0.0, depth=2.0), UNIFORM_MESH)
+    T = 15.0
+    errors = []
+    fractions = (0.4, 0.2, 0.1) if order == 4 else (0.02, 0.01, 0.005)
+    for lf in fractions:
+        logs = Logs(np.full(3, 2.0), np.array([1.5, 3.0, 4.5]), 0.0, L, r, rho_b, u=0.0)
+        tr = Tracker(flow, logs, PhysicsOptions(drag_law="constant", drag_coefficient=cd),
+                     method, StepOptions(length_fraction=lf, drag_fraction=lf,
+                                         clock="per_log"),
+                     t_end=T, output_interval=T, hydro_step=T, initial_velocity="given")
+        tr.run()
+        assert tr.stats["substeps"] == 1  # no synchronisation before the end
+        assert np.all(logs.status == FLOATING)
+        beta = cd * rho * np.pi * r * r / (2 * (rho_b + rho / 2) * logs.volume)
+        x = 2.0 + U0 * T - np.log(1 + beta * U0 * T) / beta
+        errors.append(np.abs(logs.state[:, 0] - x))
+    errors = np.array(errors)
+    assert errors[-1].max() < (2e-6 if order == 4 else 3e-3)
+    p = np.log2(errors[:-1] / errors[1:])
+    assert np.all(np.abs(p - order) < 0.35), p
+
+
+def test_per_log_clock_needs_the_fused_mesh_kernels():
+    with pytest.raises(ScenarioError, match="integrator.clock"):
+        Tracker(UniformFlow(1.0, 0.0), Logs([0.0], [0.0]), t_end=1.0,
+                step=StepOptions(clock="per_log"))
+    with pytest.raises(ScenarioError, match="exponential"):
+        Tracker(FLOW, Logs([5.0], [5.0]), method="exponential", t_end=1.0,
+                step=StepOptions(clock="per_log"))
+    with pytest.raises(ScenarioError, match="must be one of"):
+        Tracker(FLOW, Logs([5.0], [5.0]), t_end=1.0, step=StepOptions(clock="local"))
+
+
+STILL = Mesh.regular_grid(40, 10, 1.0)
+
+
+def cradle(clock, bystanders=True):
+    """Newton's cradle: five logs end to end, a sixth hits the row at 1 m/s (eps = 1, no
+    forces: still water, no drag); bystanders drift and spin far from it."""
+    from driftlog.contact import ContactModel
+
+    x = [4.0] + [8.0 + 1.21 * k for k in range(5)]
+    y, th, u, om = [5.0] * 6, [0.0] * 6, [1.0] + [0.0] * 5, [0.0] * 6
+    if bystanders:
+        x += [3.0, 12.0, 20.0, 30.0]
+        y += [1.5, 8.5, 1.5, 8.5]
+        th += [0.3, 1.0, 2.0, 2.5]
+        u += [0.4, 0.1, 0.8, -0.3]
+        om += [0.05, -0.02, 0.5, 0.0]
+    n = len(x)
+    logs = Logs(np.array(x), np.array(y), np.array(th), 1.0, 0.1, 700.0, u=np.array(u),
+                v=0.0, omega=np.array(om))
+    flow = on_mesh(UniformFlow(0.0, 0.0, depth=1.0), STILL)
+    tr = Tracker(flow, logs, PhysicsOptions(level="drag", drag_law="linear", linear_drag=0.0,
+                                            rotation=True),
+                 "rk4", StepOptions(clock=clock), contact=ContactModel(restitution=1.0,
+                                                                      rest_speed=0.0),
+                 t_end=16.0, output_interval=2.0, initial_velocity="given")
+    assert n == len(logs)
+    tr.run()
+    return tr, logs
+
+
+def test_newtons_cradle_keeps_momentum_and_energy_on_per_log_clocks():
+    from driftlog.contact.impulses import kinetic_energy, momenta
+
+    results = {}
+    for clock in ("global", "per_log"):
+        tr, logs = cradle(clock)
+        S = logs.state
+        m, inertia = logs.mass, logs.inertia
+        results[clock] = (tr, S.copy())
+        assert np.all(logs.status == FLOATING)
+        # the momentum went down the row: the last log moves on at 1 m/s, the others stopped
+        np.testing.assert_allclose(S[5, 3], 1.0, atol=1e-9)
+        np.testing.assert_allclose(S[:5, 3], 0.0, atol=1e-9)
+        e = kinetic_energy(S, m, inertia)
+        e0 = 0.5 * m[0] * 1.0 + 0.5 * np.sum(m[6:] * np.array([0.4, 0.1, 0.8, 0.3]) ** 2) + \
+            0.5 * np.sum(inertia[6:] * np.array([0.05, -0.02, 0.5, 0.0]) ** 2)
+        assert e == pytest.approx(e0, rel=1e-12)
+        p = np.array(momenta(S, m, inertia))
+        assert p[0] == pytest.approx(m[0] * 1.0 + np.sum(m[6:] * [0.4, 0.1, 0.8, -0.3]),
+                                     rel=1e-12)
+        assert abs(p[1]) < 1e-12
+    g, p = results["global"], results["per_log"]
+    # the same collisions: the same end states to round-off; the bystanders on their own
+    # clocks, the row of the cradle as a contact set
+    np.testing.assert_allclose(p[1], g[1], atol=1e-9)
+    assert p[0].stats["contact_set"] == 6
+    assert p[0].stats["log_substeps"] > 0
+    assert p[0].contact.stats["events"] == g[0].contact.stats["events"] >= 5

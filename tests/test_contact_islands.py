@@ -1,0 +1,215 @@
+"""Contact islands and the broad phase kept between sub-steps (issue 15 item 3).
+
+Island labels against scipy's connected components; the kept broad phase against a fresh one
+(hypothesis: random boxes moved, turned and re-margined, same pairs in the same order, with
+and without obstacles); impulses and Moreau-Jean island by island conserve momentum per island
+and equal the sweep over all contacts; a whole contact run gives the same state kept or not.
+"""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.sparse.csgraph import connected_components
+
+from driftlog.columns import OMEGA, UB, VB, X, Y
+from driftlog.contact import BallisticLogs, ContactModel, Obstacles, run_contacts
+from driftlog.contact.broadphase import (
+    PairCache,
+    StaticGrid,
+    brute_pairs,
+    grid_pairs,
+    log_boxes,
+)
+from driftlog.contact.impulses import resolve_impulses, resolve_islands
+from driftlog.contact.islands import island_labels, islands, swept_islands
+from driftlog.contact.moreau import moreau_solve
+from driftlog.errors import ArgumentError
+
+
+def _same_partition(a, b):
+    """Two labellings describe the same components (label values may differ)."""
+    pairs = np.unique(np.column_stack([a, b]), axis=0)
+    return len(pairs) == len(np.unique(a)) == len(np.unique(b))
+
+
+@pytest.mark.parametrize("n,k", [(1, 0), (10, 0), (50, 30), (2000, 1500), (2000, 4000)])
+def test_islands_equal_scipy_components(rng, n, k):
+    pairs = rng.integers(0, n, (k, 2))
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    labels = islands(pairs, n)
+    g = sp.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    count, ref = connected_components(g, directed=False)
+    assert labels.max() + 1 == count
+    assert _same_partition(labels, ref)
+    # numbered by the smallest log of each island
+    first = np.array([np.flatnonzero(labels == q)[0] for q in range(count)])
+    assert np.all(np.diff(first) > 0)
+
+
+def test_islands_ignore_obstacles_and_refuse_bad_pairs():
+    # logs 0 and 2 both touch obstacle -1: not one island through the wall
+    lab, count = island_labels(4, np.array([0, 2, 1]), np.array([-1, -1, 3]))
+    assert count == 3 and lab[1] == lab[3] and len({lab[0], lab[2], lab[1]}) == 3
+    with pytest.raises(ArgumentError, match="not below n = 3"):
+        islands([[0, 5]], 3)
+    with pytest.raises(ArgumentError, match=r"\(k, 2\)"):
+        islands([0, 1, 2], 3)
+
+
+def test_swept_islands_equal_brute_force(rng):
+    """Swept centre boxes plus reach: the pairs of a brute-force box test, and their islands."""
+    n = 600
+    lo = rng.uniform(0, 40, (n, 2))
+    swept = np.column_stack([lo, lo + rng.exponential(0.5, (n, 2))])
+    reach = rng.uniform(0.3, 1.0, n)
+    labels, pairs = swept_islands(swept, reach)
+    x, y = swept[:, [0, 2]].mean(1), swept[:, [1, 3]].mean(1)
+    ex = 0.5 * (swept[:, 2] - swept[:, 0]) + reach
+    ey = 0.5 * (swept[:, 3] - swept[:, 1]) + reach
+    ref = brute_pairs(x, y, ex, ey)
+    assert set(map(tuple, pairs)) == set(map(tuple, ref)) and len(ref) > 100
+    g = sp.coo_matrix((np.ones(len(ref)), (ref[:, 0], ref[:, 1])), shape=(n, n))
+    count, comp = connected_components(g, directed=False)
+    assert labels.max() + 1 == count and _same_partition(labels, comp)
+    with pytest.raises(ArgumentError, match="xmax >= xmin"):
+        swept_islands(swept[:, [2, 1, 0, 3]], reach)
+
+
+def _logs(rng, n, side, spread_speed=1.0):
+    S = np.zeros((n, 6))
+    S[:, X:Y + 1] = rng.uniform(0, side, (n, 2))
+    S[:, 2] = rng.uniform(0, np.pi, n)
+    S[:, UB:VB + 1] = rng.normal(0, spread_speed, (n, 2))
+    S[:, OMEGA] = rng.normal(0, 1, n)
+    return S
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), n=st.integers(2, 400), side=st.floats(2.0, 60.0),
+       skin_factor=st.floats(0.0, 4.0), obstacles=st.booleans())
+def test_kept_broad_phase_finds_every_fresh_pair(seed, n, side, skin_factor, obstacles):
+    """Logs moved, turned and given new margins step after step: the kept broad phase returns
+    exactly the fresh grid's pairs, in the same order (log-log and log-obstacle)."""
+    rng = np.random.default_rng(seed)
+    S = _logs(rng, n, side)
+    length = rng.uniform(0.3, 2.0, n)
+    radius = rng.uniform(0.02, 0.2, n)
+    caps = np.column_stack([rng.uniform(0, side, (30, 2)), rng.uniform(0, side, (30, 2)),
+                            rng.uniform(0, 0.3, 30)])
+    caps[:10, 2:4] = caps[:10, 0:2]  # piers
+    static = StaticGrid(caps, 2.0) if obstacles else None
+    cache = PairCache(skin_factor)
+    ex, ey = np.empty(n), np.empty(n)
+    for _ in range(12):
+        dt = rng.uniform(0.0, 0.3)
+        margin = rng.uniform(0.0, 0.3, n) * rng.integers(0, 2)  # tol-like or motion-like
+        skin = np.hypot(S[:, UB], S[:, VB]) * dt + np.abs(S[:, OMEGA]) * length * dt
+        log_boxes(S, length, radius, margin, ex, ey)
+        x, y = S[:, X].copy(), S[:, Y].copy()
+        ll, lo = cache.pairs(x, y, ex, ey, skin, None, static)
+        np.testing.assert_array_equal(ll, grid_pairs(x, y, ex, ey))
+        if obstacles:
+            np.testing.assert_array_equal(lo, static.query(x, y, ex, ey))
+        S[:, X:Y + 1] += dt * S[:, UB:VB + 1] * rng.uniform(0, 1.5, (n, 1))
+        S[:, 2] += dt * S[:, OMEGA]
+    assert cache.builds + cache.reuses == 12
+
+
+def _crowd(rng, g=14, spacing=1.1, L=1.0, r=0.08):
+    xs = np.arange(g) * spacing
+    gx, gy = np.meshgrid(xs, xs)
+    n = g * g
+    S = np.zeros((n, 6))
+    S[:, X], S[:, Y] = gx.ravel(), gy.ravel()
+    S[:, 2] = rng.uniform(0, np.pi, n)
+    S[:, UB:VB + 1] = rng.normal(0, 1, (n, 2))
+    S[:, OMEGA] = rng.normal(0, 1, n)
+    return BallisticLogs(S, L, r, rng.uniform(500, 900, n))
+
+
+def _per_island_momentum(S, mass, inertia, labels):
+    q = labels.max() + 1
+    px = np.bincount(labels, mass * S[:, UB], q)
+    py = np.bincount(labels, mass * S[:, VB], q)
+    lz = np.bincount(labels, mass * (S[:, X] * S[:, VB] - S[:, Y] * S[:, UB])
+                     + inertia * S[:, OMEGA], q)
+    return np.column_stack([px, py, lz])
+
+
+def test_impulses_by_island_conserve_momentum_per_island(rng):
+    """Touching pairs of a crowd (eps 0.4, logs of different densities): each island keeps
+    its own linear and angular momentum, and the impulses equal the sweep over all contacts
+    bit for bit."""
+    b = _crowd(rng, g=20, spacing=1.0)
+    m = ContactModel(restitution=0.4)
+    C = m.detect(b, np.full(len(b.state), 0.05))
+    C = C.select(C.gap <= 0.05)
+    labels = islands(np.column_stack([C.body1, C.body2]), len(b.state))
+    assert labels.max() + 1 < len(b.state) - 20  # islands of several logs
+    inv_m, inv_i = 1 / b.mass, 1 / b.inertia
+    p0 = _per_island_momentum(b.state, b.mass, b.inertia, labels)
+    S1, S2 = b.state.copy(), b.state.copy()
+    imp1, imp2 = np.zeros(len(C)), np.zeros(len(C))
+    e1 = resolve_impulses(S1, inv_m, inv_i, C.body1, C.body2, C.res, 0.4, 1e-12, 10 ** 6, imp1)
+    e2 = resolve_islands(S2, inv_m, inv_i, C.body1, C.body2, C.res, 0.4, 1e-12, 10 ** 6, imp2)
+    assert e1 == e2 > 40
+    np.testing.assert_array_equal(S1, S2)
+    np.testing.assert_array_equal(imp1, imp2)
+    p1 = _per_island_momentum(S2, b.mass, b.inertia, labels)
+    scale = np.abs(p0).max()
+    assert np.abs(p1 - p0).max() < 1e-13 * scale
+
+
+def test_moreau_by_island_conserves_momentum_per_island(rng):
+    """Moreau-Jean on a converging crowd: per-island momentum kept (no walls), and solving
+    each island to the tolerance on its own stays within that tolerance of the lockstep
+    solve."""
+    b = _crowd(rng, g=20, spacing=1.0)
+    b.state[:, UB:VB + 1] -= 0.5 * (b.state[:, X:Y + 1] - b.state[:, X:Y + 1].mean(0))
+    m = ContactModel(method="moreau", restitution=0.3)
+    dt = 0.02
+    S0 = b.state.copy()
+    C = m.detect_manifold(b, np.full(len(S0), 0.2), S=S0)
+    labels = islands(np.column_stack([C.body1, C.body2]), len(S0))
+    inv_m, inv_i = 1 / b.mass, 1 / b.inertia
+    out = []
+    for island_stop in (False, True):
+        S = S0.copy()
+        S[:, X:Y + 1] += dt * S0[:, UB:VB + 1]
+        S[:, 2] += dt * S0[:, OMEGA]
+        P = np.zeros(len(C))
+        moreau_solve(S0, S, inv_m, inv_i, C.body1, C.body2, C.res, dt, 0.3, 5e-6, 5e-6, 1e-9,
+                     500, P, 0.2, island_stop)
+        assert (P > 0).sum() > 30
+        p0 = _per_island_momentum(S0, b.mass, b.inertia, labels)
+        p1 = _per_island_momentum(np.column_stack([S0[:, :3], S[:, 3:]]), b.mass, b.inertia,
+                                  labels)
+        assert np.abs(p1[:, :2] - p0[:, :2]).max() < 1e-12 * np.abs(p0).max()
+        out.append(S)
+    assert np.abs(out[0][:, UB:] - out[1][:, UB:]).max() < 1e-6
+
+
+@pytest.mark.parametrize("method", ["event", "moreau"])
+def test_kept_broad_phase_gives_the_same_run(rng, method):
+    """A crowd in a box with a pier, 1.5 s of contacts: the same state bit for bit and the same
+    hits with the broad phase kept between sub-steps as searched afresh at every call."""
+    S0 = _crowd(rng, g=8, spacing=1.3).state
+    S0[:, X:Y + 1] += 1.0
+    runs = []
+    for keep in (False, True):
+        b = BallisticLogs(S0, 1.0, 0.08)
+        obs = Obstacles()
+        obs.add_polygon([[0, 0], [11.5, 0], [11.5, 11.5], [0, 11.5]], name="box")
+        obs.add_circle([5.5, 5.5], 0.4, "pier")
+        m = ContactModel(obs, method=method, restitution=0.7)
+        m.keep_broad_phase = keep
+        run_contacts(m, b, 1.5)
+        runs.append((b.state.copy(), m.drain_hits(), m.backend.cache))
+    np.testing.assert_array_equal(runs[0][0], runs[1][0])
+    for k in runs[0][1]:
+        np.testing.assert_array_equal(runs[0][1][k], runs[1][1][k])
+    assert len(runs[1][1]["time"]) > 30
+    cache = runs[1][2]
+    assert cache.reuses > 2 * cache.builds  # kept for several calls at a time
