@@ -2,8 +2,10 @@
 
 The malpasset case (cases/malpasset/scenario.toml: the 1959 flood on driftlog's solver, read
 from its stored flow file) with its 40 logs replaced by N logs on a grid (``seeding =
-"grid"``) over the valley floor between its four release lines (1 to 5.7 km below the dam; the
-polygon through their ends, clipped to the mesh, 1.17 km2): logs 0.8 m long of radius 0.08 m
+"grid"``) over the valley floor: the polygon through the ends of the case's four release
+lines, clipped to the mesh and 5 m inside it (its largest piece: x 7.4 to 9.7 km, 3 to 5.7 km
+below the dam, 1.17 km2, where the wave arrives after 300 to 700 s): logs 0.8 m long of
+radius 0.08 m
 (pine, 700 kg/m3) at random angles, on a grid spacing of sqrt(area / N) (1.08 m at N = 1e6:
 no two logs touch at the start).  Full physics,
 contacts on (logs, the mesh's walls; Moreau-Jean by default), RK4 on per-log clocks (``--clock
@@ -51,7 +53,7 @@ STATUS = ["waiting", "floating", "resting", "stranded", "left_domain"]
 
 def valley_polygon(mesh):
     """VALLEY clipped to the mesh (the union of its faces near VALLEY), 5 m inside its edge,
-    as a list of [x, y] (shapely)."""
+    its largest piece, as a list of [x, y] (shapely)."""
     import shapely
 
     valley = shapely.Polygon(VALLEY)
@@ -198,12 +200,13 @@ def sweep(a):
     (RESULTS / f"{name}.json").write_text(json.dumps({"info": info, "runs": rows}, indent=1))
     lines = [f"### Many logs on the Malpasset flood (first {a.end:g} s)", "",
              f"Measured on {info['machine']}; NUMBA_NUM_THREADS={info['threads']}.  Logs 0.8 m "
-             "long, radius 0.08 m, on a grid over the valley between the case's release lines, "
+             "long, radius 0.08 m, on a grid over the valley 3 to 5.7 km below the dam, "
              "full physics, "
              f"RK4 ({a.clock} clock), contacts ({a.method}), records every "
              f"{a.output_interval:g} s.  "
              f"Re-create: `python benchmarks/million_logs.py --flow F --sweep "
-             f"{' '.join(f'{n:g}' for n in a.sweep)} --end {a.end:g}`.", "",
+             f"{' '.join(str(int(n)) for n in a.sweep)} --end {a.end:g} --output-interval "
+             f"{a.output_interval:g}`.", "",
              "| logs | wall (s) | CPU (s) | RSS after imports (MB) | peak RSS (MB) | output (MB) "
              "| observations | sub-steps | hits | final status |",
              "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]

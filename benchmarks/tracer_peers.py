@@ -329,10 +329,13 @@ class Tools:
         if "Parcels" in available:
             self.fs = {True: parcels_fieldset(schism, True), False: parcels_fieldset(schism, False)}
 
-    def run(self, tool, x, y, dt, duration):
-        """(x, y, (wall, CPU)) of ``tool`` at ``duration``."""
+    def run(self, tool, x, y, dt, duration, timed=True):
+        """(x, y, (wall, CPU)) of ``tool`` at ``duration``; ``timed=False``: positions only
+        (OceanTracker then runs once, not three times)."""
         if tool == "driftlog":
             xe, ye, _, wc = run_driftlog(self.flow, x, y, dt, duration, threads=1)
+        elif tool == "OceanTracker" and not timed:
+            xe, ye, *wc = _oceantracker(self.schism, x, y, dt, duration, self.tmp, "positions")
         elif tool == "OceanTracker":
             xe, ye, _, wc = run_oceantracker(self.schism, x, y, dt, duration, self.tmp)
         else:
@@ -370,7 +373,7 @@ def accuracy(tools, n, dts, duration, rng):
     rows = []
     for tool in tools_of(tools.available):
         for dt in dts:
-            xe, ye, _ = tools.run(tool, x, y, dt, duration)
+            xe, ye, _ = tools.run(tool, x, y, dt, duration, timed=False)
             err = np.hypot(xe - xx, ye - yy)
             ok = np.isfinite(err)
             rows.append(dict(tool=tool, dt=dt, max_error_m=float(err[ok].max()),
@@ -441,9 +444,11 @@ def main(quick=False):
             "time, classical RK4 at a fixed step.  Re-create: `python benchmarks/"
             f"tracer_peers.py{' --quick' if quick else ''}`.")
         tools = Tools(schism, tmp, available)
-        xs, ys = seed(64, rng)  # warm-up: numba compilation and caches of every tool
+        # warm-up: numba compilation and caches of every tool (driftlog's kernels go parallel
+        # above 2048 logs: a warm-up below that would leave their compilation in the runs)
+        xs, ys = seed(4096, rng)
         for tool in tools_of(available):
-            tools.run(tool, xs, ys, SNAPSHOT, 4 * SNAPSHOT)
+            tools.run(tool, xs, ys, SNAPSHOT, 4 * SNAPSHOT, timed=False)
         sizes = [10_000, 100_000] if quick else [10_000, 100_000, 1_000_000]
         speed_duration = 300.0
         speed_rows = speed(tools, sizes, SNAPSHOT, speed_duration, rng,
