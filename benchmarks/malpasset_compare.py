@@ -14,7 +14,8 @@ import numpy as np
 
 from driftlog.mesh import read_mesh
 
-__all__ = ["compare", "point_results", "statistics", "chainage", "versus_table", "DISC"]
+__all__ = ["compare", "point_results", "extremes_points", "statistics", "headline",
+           "observed_reach", "chainage", "versus_table", "DISC"]
 
 # m: the transformers' positions are given to the nearest 100 m (5500, 4400...): their
 # arrival is also read as the first arrival within this distance
@@ -51,10 +52,43 @@ def point_results(flow, observations, dam):
         bed = np.array(ds.variables["bed_level"][:])
         end = float(ds.variables["time"][-1])
         arrival_depth = float(ds.getncattr("arrival_depth"))
+    return extremes_points(mesh, bed, max_level, max_depth, arrival, observations, dam,
+                           arrival_depth, end)
+
+
+def extremes_points(mesh, bed, max_level, max_depth, arrival, observations, dam,
+                    arrival_depth, end):
+    """Per observation point, from per-face extremes of any solver on ``mesh``.
+
+    Parameters
+    ----------
+    mesh : driftlog.mesh.Mesh
+        The mesh the extremes are given on (one value per face).
+    bed, max_level, max_depth, arrival : arrays (n_faces,)
+        Bed (m), maximum water level (m), maximum depth (m) and arrival time (s, NaN: never).
+    observations : list of dict
+        ``driftlog.floodsetup.read_observations``.
+    dam : sequence of two (x, y)
+        The dam's ends (the chainage's origin).
+    arrival_depth : float
+        Depth (m) marking the arrival; a point is wet when its face got deeper than this.
+    end : float
+        The run's end time (s).
+
+    Returns
+    -------
+    rows : list of dict
+        Per point: face, bed, computed and observed level and arrival, errors (computed minus
+        observed; NaN at dry points), ``wet``.
+    extra : dict
+        mesh, max_depth, end, arrival_depth (for the figures).
+    """
     xy = np.array([(o["x"], o["y"]) for o in observations])
     faces = mesh.locate(xy[:, 0], xy[:, 1])
     km = chainage(xy, observations, dam)
     flooded = np.flatnonzero(max_depth > arrival_depth)
+    if flooded.size == 0:
+        flooded = np.arange(mesh.n_faces)  # nothing flooded: "nearest" reports any face
     rows = []
     for o, f, c in zip(observations, faces, km, strict=True):
         wet = f >= 0 and max_depth[f] > arrival_depth
@@ -108,6 +142,54 @@ def statistics(rows):
     s["not reached"] = []
     out[f"arrival, transformers, first within {DISC:g} m (s)"] = s
     return out
+
+
+def headline(rows):
+    """The side-by-side numbers of a run: level RMSE, worst point, arrival RMS.
+
+    Computed from ``statistics(rows)`` (the same numbers as the full table): the RMSE of the
+    maximum level over the points with an observed level that the run wets (police points and
+    gauges), the point with the largest absolute level error (id and signed error), and the
+    RMS of the arrival error over the points with an observed arrival time that the run reaches
+    (gauges and transformers).
+
+    Parameters
+    ----------
+    rows : list of dict
+        ``extremes_points`` / ``point_results`` rows (possibly a subset).
+
+    Returns
+    -------
+    dict
+        level_rmse_m, level_n, level_mean_m, worst_point, worst_error_m, dry (ids of points
+        with an observed level left dry), arrival_rms_s, arrival_n, arrival_mean_s,
+        not_reached (ids).
+    """
+    st = statistics(rows)
+    lev, arr = st["max level, all (m)"], st["arrival, all (s)"]
+    errs = [(abs(r["level_error_m"]), r["id"], r["level_error_m"]) for r in rows
+            if r["kind"] in ("field", "scale_model") and np.isfinite(r["level_error_m"])]
+    worst = max(errs) if errs else (np.nan, "-", np.nan)
+    return {"level_rmse_m": lev["rmse"], "level_n": lev["n"], "level_mean_m": lev["mean"],
+            "worst_point": worst[1], "worst_error_m": worst[2], "dry": list(lev["dry"]),
+            "arrival_rms_s": arr["rmse"], "arrival_n": arr["n"], "arrival_mean_s": arr["mean"],
+            "not_reached": list(arr["not reached"])}
+
+
+def observed_reach(rows, t):
+    """Points at most as far down the valley as the observed front at time ``t`` (s).
+
+    The front's chainage at ``t`` is interpolated in the observed arrival times (gauges and
+    transformers) against chainage; every point up to it is kept, whatever a run computed,
+    so that reduced runs of different solvers are compared on the same points.
+    """
+    timed = sorted((r["observed_arrival_s"], r["chainage_m"]) for r in rows
+                   if np.isfinite(r["observed_arrival_s"]))
+    if not timed:
+        return list(rows)
+    ts, km = np.array(timed).T
+    reach = float(np.interp(t, ts, np.maximum.accumulate(km), left=km[0], right=np.inf))
+    return [r for r in rows if r["chainage_m"] <= reach]
 
 
 def _fmt(v, nd=1):

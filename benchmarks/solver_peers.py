@@ -361,6 +361,54 @@ def plot(parts, path):
     plt.close(fig)
 
 
+def plot_cpu(result, path):
+    """Work-precision on CPU time, the triangles (Ritter and Stoker): driftlog orders 1 and 2
+    against ANUGA DE0 and DE1 (and DE0 with beta 0), one panel per dam break.
+
+    Made from the results' JSON (``result``: what ``main`` writes), so that
+    ``--plot-only`` redraws it from a stored run; the same layout as
+    ``malpasset_peers.py``'s chart (issue 14: error against CPU time).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    panels = [(k, t) for k, t in (("triangles", "Ritter's dam break, dry bed (SWASHES 1 3 1 2)"),
+                                  ("triangles_stoker",
+                                   "Stoker's dam break, wet bed (SWASHES 1 3 1 1)"))
+              if result.get(k)]
+    style = {("driftlog", "1"): ("C0", "o", "none"), ("driftlog", "2"): ("C0", "s", "C0"),
+             ("ANUGA DE0", "2"): ("C3", "^", "none"), ("ANUGA DE1", "2"): ("C3", "v", "C3"),
+             ("ANUGA DE0, beta 0", "1"): ("0.6", "^", "none")}
+    fig, axes = plt.subplots(1, len(panels), figsize=(6 * len(panels), 4.8), squeeze=False)
+    for ax, (key, title) in zip(axes[0], panels, strict=True):
+        rows = result[key]
+        for solver, order in dict.fromkeys((r["solver"], r["order"]) for r in rows):
+            sel = sorted((r for r in rows if (r["solver"], r["order"]) == (solver, order)),
+                         key=lambda r: r["cells"])
+            colour, mark, face = style.get((solver, order[0]), ("k", "x", "none"))
+            ax.loglog([r["cpu_s"] for r in sel], [r["l1_error_m"] for r in sel],
+                      color=colour, marker=mark, mfc=face, ls="-" if solver == "driftlog"
+                      else "--", label=f"{solver}, order {order}")
+            last = sel[-1]
+            ax.annotate(f"{last['cells']}", (last["cpu_s"], last["l1_error_m"]), fontsize=7,
+                        xytext=(4, -8), textcoords="offset points", color=colour)
+        ax.set_xlabel(f"CPU time, one thread (s), {result.get('end_time_s', T_END):g} s "
+                      "simulated")
+        ax.set_ylabel("L1 error of h against SWASHES (m)")
+        ax.set_title(f"{title}\nunstructured triangles, the same for every solver",
+                     fontsize=10)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(f"Work-precision on CPU time ({result.get('machine', '')}; "
+                 f"{', '.join(f'{k} {v}' for k, v in result.get('versions', {}).items())})",
+                 fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def plot_profiles(parts, path):
     """Depth at 6 s against x, every cell of one resolution, beside the exact profile."""
     import matplotlib
@@ -417,9 +465,18 @@ def main(argv=None):
     p.add_argument("--quick", action="store_true", help="3 coarse resolutions (< 2 min)")
     p.add_argument("--skip-anuga", action="store_true")
     p.add_argument("--skip-openfoam", action="store_true")
+    p.add_argument("--plot-only", action="store_true", help="redraw the CPU-time chart "
+                   "(shallow_water_peers[_quick]_cpu.png) from the stored JSON")
     args = p.parse_args(argv)
     mode = "quick" if args.quick else "full"
     base = "shallow_water_peers" + ("_quick" if args.quick else "")  # quick keeps the full run
+    if args.plot_only:
+        stored = RESULTS / f"{base}.json"
+        if not stored.is_file():
+            raise SystemExit(f"{stored}: no stored run to plot (run without --plot-only)")
+        plot_cpu(json.loads(stored.read_text()), RESULTS / f"{base}_cpu.png")
+        print(f"wrote {RESULTS / f'{base}_cpu.png'}")
+        return
     with_anuga, with_foam = not args.skip_anuga, not args.skip_openfoam
     notes = {}
     if with_anuga:
@@ -506,6 +563,7 @@ def main(argv=None):
                                for r in part["rows"]]
     result["total_wall_s"] = time.perf_counter() - t0
     (RESULTS / f"{base}.json").write_text(json.dumps(result, indent=1))
+    plot_cpu(result, RESULTS / f"{base}_cpu.png")
     print(f"total {result['total_wall_s']:.0f} s; results in {RESULTS}")
 
 

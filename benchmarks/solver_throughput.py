@@ -3,11 +3,22 @@
 cell-updates/s = faces x time steps / seconds (a second-order step, two flux passes, counts
 once), for meshes of about 1e4, 1e5 and 1e6 triangles, 1 and 2 numba threads, first and
 second order (HLLC); 1 thread runs the serial kernels, 2 threads the prange ones.  The state
-is a dam break over the whole square (every face wet, fluxes non-trivial).  Wall and process
-(CPU) time are both reported: on a shared machine the wall time also counts waiting for a core.
+is a dam break over the whole square (every face wet, fluxes non-trivial, so the active set
+is the whole mesh).  Wall and process (CPU) time are both reported: on a shared machine the
+wall time also counts waiting for a core, and the 1-minute load average is recorded after each
+measurement.
 
-    python benchmarks/solver_throughput.py            # 1e4, 1e5, 1e6 faces
-    python benchmarks/solver_throughput.py --quick    # 1e4, 1e5 faces
+The solver's default internal numbering (reverse Cuthill-McKee, ``driftlog.solver.layout``)
+is measured against the mesher's own (``none``) and a Hilbert curve on 1 thread
+(``--orderings``); all give the same results bit for bit.
+
+Then Malpasset's first ``--malpasset`` seconds (default 300 s) at first order, with and
+without the active set (``benchmarks/malpasset.py``'s set-up): wall and CPU time, the mean
+fraction of faces in the flux passes, and a check that both runs end in the same state.
+
+    python benchmarks/solver_throughput.py            # 1e4, 1e5, 1e6 faces + Malpasset 300 s
+    python benchmarks/solver_throughput.py --quick    # 1e4, 1e5 faces, Malpasset 60 s
+    python benchmarks/solver_throughput.py --malpasset 0 --orderings rcm   # throughput only
 """
 
 import argparse
@@ -21,6 +32,7 @@ import numba
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _common import RESULTS, machine, write_table  # noqa: E402
 
@@ -37,9 +49,13 @@ def square_mesh(n_faces):
     return polygon_mesh(rectangle(0, 0, 1000, 1000), cell)
 
 
-def measure(mesh, order, threads, steps):
+def measure(mesh, order, threads, steps, ordering="rcm"):
+    """Time ``steps`` steps of the dam break; returns a row (dict)."""
     numba.set_num_threads(threads)
-    s = ShallowWaterSolver(mesh, order=order, manning=0.03, parallel=threads > 1)
+    t0 = time.perf_counter()
+    s = ShallowWaterSolver(mesh, order=order, manning=0.03, parallel=threads > 1,
+                           renumber=ordering)
+    setup = time.perf_counter() - t0
     s.set_state(np.where(mesh.face_x < 500.0, 2.0, 1.0) + 0.1 * np.sin(mesh.face_y / 50.0))
     s.step()  # compile / load the kernels
     t0, c0 = time.perf_counter(), time.process_time()
@@ -47,42 +63,104 @@ def measure(mesh, order, threads, steps):
         s.step()
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     n = mesh.n_faces * steps
-    return dict(faces=mesh.n_faces, order=order, threads=threads, steps=steps, wall_s=wall,
-                cpu_s=cpu, updates_per_s=n / wall, updates_per_cpu_s=n / cpu,
-                per_core=n / wall / threads)
+    return dict(faces=mesh.n_faces, order=order, threads=threads, ordering=ordering,
+                steps=steps, setup_s=setup, wall_s=wall, cpu_s=cpu, updates_per_s=n / wall,
+                updates_per_cpu_s=n / cpu, per_core=n / wall / threads,
+                load_after=os.getloadavg()[0])
+
+
+def malpasset(end):
+    """Malpasset's first ``end`` s at first order, with and without the active set."""
+    from malpasset import data_dir
+
+    from driftlog.floodsetup import malpasset_solver
+
+    rows, states = [], []
+    for active in (True, False):
+        s = malpasset_solver(data_dir() / "malpasset_mesh.nc", order=1, active_set=active)
+        h0 = s.h.copy()
+        s.step(1e-3)  # compile / load the kernels outside the timed run
+        s.set_state(h0)
+        s.face_updates = 0
+        t0, c0 = time.perf_counter(), time.process_time()
+        s.advance_to(end)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        nf = s.mesh.n_faces
+        rows.append(dict(case=f"Malpasset 0-{end:g} s, order 1", active_set=active,
+                         faces=nf, steps=s.steps, wall_s=wall, cpu_s=cpu,
+                         active_fraction=s.face_updates / (s.steps * nf),
+                         updates_per_cpu_s=nf * s.steps / cpu,
+                         volume_error_m3=s.volume_error(), load_after=os.getloadavg()[0]))
+        states.append((s.h, s.hu, s.hv, s.extremes.arrays()))
+        print(f"Malpasset {end:g} s, active set {active}: {s.steps} steps, {wall:.1f} s wall, "
+              f"{cpu:.1f} s CPU, mean active fraction {rows[-1]['active_fraction']:.3f}",
+              flush=True)
+    (a, b) = states
+    same = all(np.array_equal(x, y) for x, y in zip(a[:3], b[:3], strict=True)) and all(
+        np.array_equal(a[3][k], b[3][k], equal_nan=True) for k in a[3])
+    for r in rows:
+        r["same_as_full_pass"] = bool(same)
+    return rows
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="1e4 and 1e5 faces only")
+    ap.add_argument("--orderings", default="rcm,none,hilbert",
+                    help="internal numberings to compare on 1 thread at order 1 (the first "
+                         "one is used for everything else); default rcm,none,hilbert")
+    ap.add_argument("--malpasset", type=float, default=None,
+                    help="Malpasset's first seconds, with and without the active set "
+                         "(default 300, --quick 60; 0: skip)")
     args = ap.parse_args(argv)
-    sizes = [(1e4, 200), (1e5, 30)] + ([] if args.quick else [(1e6, 4)])
+    orderings = args.orderings.split(",")
+    sizes = [(1e4, 300), (1e5, 40)] + ([] if args.quick else [(1e6, 8)])
     rows = []
     start = machine()
     for target, steps in sizes:
         t0 = time.perf_counter()
         mesh = square_mesh(int(target))
         print(f"mesh of {mesh.n_faces} faces in {time.perf_counter() - t0:.1f} s", flush=True)
-        for order in (1, 2):
-            for threads in (1, 2):
-                if threads > numba.config.NUMBA_NUM_THREADS:
-                    continue
-                r = measure(mesh, order, threads, steps if order == 1 else max(steps // 2, 2))
-                r["load_after"] = os.getloadavg()[0]
-                rows.append(r)
-                print(f"{r['faces']:>8} faces order {order} threads {threads}: "
-                      f"{r['updates_per_s']:.3g} cell-updates/s wall, "
-                      f"{r['updates_per_cpu_s']:.3g} per CPU second (load {r['load_after']:.1f})",
-                      flush=True)
+        runs = [(1, 1, o) for o in orderings] + [(1, 2, orderings[0]), (2, 1, orderings[0]),
+                                                 (2, 2, orderings[0])]
+        for order, threads, ordering in runs:
+            if threads > numba.config.NUMBA_NUM_THREADS:
+                continue
+            r = measure(mesh, order, threads, steps if order == 1 else max(steps // 2, 2),
+                        ordering)
+            rows.append(r)
+            print(f"{r['faces']:>8} faces order {order} threads {threads} {ordering:>7}: "
+                  f"{r['updates_per_s']:.3g} cell-updates/s wall, "
+                  f"{r['updates_per_cpu_s']:.3g} per CPU second (load {r['load_after']:.1f})",
+                  flush=True)
     name = "solver_throughput" + ("_quick" if args.quick else "")
-    write_table(name, rows, ["faces", "order", "threads", "steps", "wall_s", "cpu_s",
-                             "updates_per_s", "updates_per_cpu_s", "per_core", "load_after"],
+    write_table(name, rows, ["faces", "order", "threads", "ordering", "steps", "setup_s",
+                             "wall_s", "cpu_s", "updates_per_s", "updates_per_cpu_s",
+                             "per_core", "load_after"],
                 "Shallow-water solver throughput (cell-updates/s, triangles, HLLC)",
                 notes=f"Started on {start}. ANUGA DE0 (first order) does about "
                       f"{ANUGA_DE0:.2g} per core on this kind of machine; the goal is 1e7 per "
-                      "core at first order. load_after: the 1-minute load average after each "
-                      "measurement (2 cores; above 2, other processes shared the cores).")
-    (RESULTS / f"{name}.json").write_text(json.dumps(dict(machine=start, rows=rows), indent=1))
+                      "core at first order. ordering: the solver's internal numbering (rcm: "
+                      "reverse Cuthill-McKee, the default from 20,000 faces; none: the "
+                      "mesher's). setup_s: building the solver (renumbering included). "
+                      "load_after: the 1-minute load average after each measurement (2 "
+                      "cores; above 2, other processes shared the cores).")
+    out = dict(machine=start, rows=rows)
+    end = args.malpasset if args.malpasset is not None else (60.0 if args.quick else 300.0)
+    if end > 0:
+        numba.set_num_threads(1)
+        mrows = malpasset(end)
+        write_table(name + "_malpasset", mrows,
+                    ["case", "active_set", "faces", "steps", "wall_s", "cpu_s",
+                     "active_fraction", "updates_per_cpu_s", "volume_error_m3",
+                     "same_as_full_pass", "load_after"],
+                    "Malpasset, first order, 1 thread: with and without the active set",
+                    notes="active_fraction: faces in the flux passes over all faces, averaged "
+                          "over the steps; updates_per_cpu_s counts every face of every step "
+                          "(the work the full pass would do); same_as_full_pass: h, hu, hv "
+                          "and the extremes identical bit for bit.")
+        out["malpasset"] = mrows
+    (RESULTS / f"{name}.json").write_text(json.dumps(out, indent=1))
 
 
 if __name__ == "__main__":

@@ -266,9 +266,9 @@ def ritter_run(n, cfl_factor):
     v0 = s.volume()
     hist = dict(t=[0.0], volume_error=[0.0], max_speed=[0.0], min_h=[0.0])
     while s.t < 6.0 - 1e-12:
-        rmax = s._rates(s.h, s.hu, s.hv, s.t)
+        rmax = s._rates(s._h, s._hu, s._hv, s.t)  # the internal numbering
         dt = min(s.cfl / rmax, 6.0 - s.t)
-        h_min = float((s.h + dt * s._res[0]).min())  # before the clip of euler_stage
+        h_min = float((s._h + dt * s._res[0]).min())  # before the clip of euler_stage
         s.step(6.0 - s.t)
         hist["t"].append(s.t)
         hist["min_h"].append(h_min)

@@ -50,9 +50,9 @@ def _ritter_min_update(factor, n=100):
     v0 = s.volume()
     lowest = np.inf
     while s.t < 6.0:
-        rmax = s._rates(s.h, s.hu, s.hv, s.t)
+        rmax = s._rates(s._h, s._hu, s._hv, s.t)  # the internal numbering
         dt = min(s.cfl / rmax, 6.0 - s.t)
-        lowest = min(lowest, float((s.h + dt * s._res[0]).min()))
+        lowest = min(lowest, float((s._h + dt * s._res[0]).min()))
         s.step(6.0 - s.t)
     return lowest, s.volume_error() / v0
 

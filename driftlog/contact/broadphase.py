@@ -411,7 +411,7 @@ class PairCache:
         The kept boxes are the boxes of the first call inflated by ``skin_factor`` times the
         per-log ``skin`` passed (how far a log moves in a sub-step).
     adapt : bool
-        Adjust ``skin_factor`` at each search: halved when the kept list has served 32 calls
+        Adjust ``skin_factor`` at each search: halved when the kept list has served 16 calls
         (the grid is then searched again, with thinner boxes), doubled when it served fewer
         than 4; within 1/256 .. 4.  Fewer kept pairs to filter where sub-steps are much
         shorter than the step the skin was given for (event-driven contact in a crowd).
@@ -429,7 +429,7 @@ class PairCache:
         """Forget the kept pairs (the next call searches the grid)."""
         self._kept = None
 
-    def pairs(self, x, y, ex, ey, skin, ids=None, static=None):
+    def pairs(self, x, y, ex, ey, skin, ids=None, static=None, grow=None):
         """Overlapping (log, log) pairs and, with ``static`` (a ``StaticGrid``), (log, capsule).
 
         Parameters
@@ -441,6 +441,9 @@ class PairCache:
         ids : (n,) array, optional
             Identity of the logs (a change of the set searches again).
         static : StaticGrid, optional
+        grow : (n,) array, optional
+            Extra half extent the kept boxes hold beyond the current boxes and the skin (the
+            margin of a wider query to come: a sub-step's motion after a contact check).
 
         Returns
         -------
@@ -449,17 +452,19 @@ class PairCache:
         n = x.size
         k = self._kept
         fresh = (k is None or k["n"] != n or k["static"] is not static
-                 or (self.adapt and self._served >= 32 and self.skin_factor > 1.0 / 256.0)
+                 or (self.adapt and self._served >= 16 and self.skin_factor > 1.0 / 256.0)
                  or (ids is not None and not np.array_equal(k["ids"], ids))
                  or not _inside(x, y, ex, ey, k["x"], k["y"], k["ex"], k["ey"]))
         if fresh:
             if self.adapt and self._kept is not None:
-                if self._served >= 32:
+                if self._served >= 16:
                     self.skin_factor = max(self.skin_factor * 0.5, 1.0 / 256.0)
                 elif self._served < 4:
                     self.skin_factor = min(self.skin_factor * 2.0, 4.0)
             self._served = 0
             s = self.skin_factor * np.asarray(skin, float)
+            if grow is not None:
+                s = s + grow
             exb, eyb = ex + s, ey + s
             k = self._kept = dict(n=n, static=static, x=x.copy(), y=y.copy(), ex=exb, ey=eyb,
                                   ids=None if ids is None else np.array(ids),

@@ -141,6 +141,7 @@ class ContactModel:
         self.keep_broad_phase = True  # broad phase kept between sub-steps (same results)
         self.island_stop = False  # Moreau: each island converges on its own (moreau_solve)
         self._skin = None
+        self._last_step = None
 
     @property
     def obstacle_names(self):
@@ -163,7 +164,7 @@ class ContactModel:
     # ----------------------------------------------------------------- detection
     def _candidates(self, bodies, margin, S):
         skin = self._skin
-        if self.keep_broad_phase and skin is not None and skin.size == S.shape[0]:
+        if self.keep_broad_phase and skin is not None and skin[0].size == S.shape[0]:
             return self.backend.candidates(S, bodies.length, bodies.radius, margin, skin,
                                            bodies.ids)
         return self.backend.candidates(S, bodies.length, bodies.radius, margin)
@@ -189,15 +190,17 @@ class ContactModel:
                                         np.empty(0, np.int64)]),
                         np.vstack([r_ll, r_lo]), b1 * (n + owner.size) + other)
 
-    def set_skin(self, bodies, dt):
-        """How far each log may move before the next detection: its motion over dt.
+    def set_skin(self, bodies, dt, horizon=None):
+        """How far each log may move before the next detection (the kept broad phase's skin).
 
-        (At least the mean motion of the logs: a slow log hit by a fast one speeds up.)
-
-        The kept broad phase inflates its boxes by this (times ``PairCache.skin_factor``);
-        ``substep`` calls it.  It changes the cost only, never the contacts found.
+        Its motion over ``horizon`` (default dt), at least the logs' mean motion over it (a
+        log hit by another changes speed); the kept boxes also reach as far as the log moves
+        in dt (the conservative-advancement query of the sub-step).  ``substep`` calls it.
+        It changes the cost only, never the contacts found.
         """
-        self._skin = skin(bodies.state, bodies.length, bodies.radius, dt)
+        S, length, radius = bodies.state, bodies.length, bodies.radius
+        h = dt if horizon is None else horizon
+        self._skin = (skin(S, length, radius, h), skin(S, length, radius, dt))
 
     def islands(self, bodies, dt):
         """Contact islands of ``bodies`` over a step dt: an island label per log.
@@ -296,10 +299,13 @@ class ContactModel:
         if bodies.state.shape[0] == 0:
             bodies.advance(dt)
             return dt
-        self.set_skin(bodies, dt)
-        if self.method == "moreau":
-            return self._moreau(bodies, dt)
-        return self._event(bodies, dt)
+        # the kept broad phase's skin: the motion over this sub-step, which is likely to end
+        # within a few of the last one's lengths (event-driven steps end at the next contact)
+        last = self._last_step
+        self.set_skin(bodies, dt, None if last is None else min(dt, 8.0 * last))
+        h = self._moreau(bodies, dt) if self.method == "moreau" else self._event(bodies, dt)
+        self._last_step = h
+        return h
 
     def _inverse_masses(self, bodies):
         return 1.0 / bodies.mass, 1.0 / bodies.inertia

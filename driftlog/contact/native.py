@@ -123,7 +123,11 @@ class NativeBackend:
         has_static = self.obstacles.capsules.shape[0] > 0 and n > 0
         grid = self._static(2.0 * max(float(ex.max()), float(ey.max()))) if has_static else None
         if skin is not None:
-            ll, lo = self.cache.pairs(x, y, ex, ey, skin, ids, grid)
+            # skin: how far logs drift before the next call, or (drift, reach): and how far
+            # the boxes of a later, wider query reach (held from the start)
+            drift, grow = (skin, None) if not isinstance(skin, tuple) else (
+                skin[0], np.maximum(skin[1] - margin, 0.0))
+            ll, lo = self.cache.pairs(x, y, ex, ey, drift, ids, grid, grow)
             return ll, (lo if has_static else np.empty((0, 2), np.int64))
         ll = grid_pairs(x, y, ex, ey)
         if not has_static:

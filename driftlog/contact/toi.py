@@ -71,20 +71,20 @@ def motion_margin(S, length, radius, dt, tol):
 
 
 @nb.njit(cache=True)
-def skin(S, length, radius, dt):
-    """How far each log may move in dt, at least the mean over the logs.
+def skin(S, length, radius, horizon):
+    """How far each log may move: its motion over ``horizon``, at least the logs' mean.
 
-    The kept broad phase's skin (a slow log hit by a fast one speeds up): a cost setting
-    only, never a bound the contacts rely on.
+    The mean is the floor: a log hit by another changes speed.  The kept broad phase's
+    skin: a cost setting only, never a bound the contacts rely on.
     """
     n = S.shape[0]
     out = np.empty(n)
     total = 0.0
     for i in range(n):
-        out[i] = (abs(S[i, UB]) + abs(S[i, VB])
-                  + abs(S[i, OMEGA]) * (0.5 * length[i] + radius[i])) * dt
-        total += out[i]
-    mean = total / max(n, 1)
+        v = abs(S[i, UB]) + abs(S[i, VB]) + abs(S[i, OMEGA]) * (0.5 * length[i] + radius[i])
+        out[i] = v * horizon
+        total += v
+    floor = total / max(n, 1) * horizon
     for i in range(n):
-        out[i] = max(out[i], mean)
+        out[i] = max(out[i], floor)
     return out

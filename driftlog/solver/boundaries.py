@@ -184,6 +184,19 @@ class BoundarySet:
                          for t in self.conditions}
         self.open_tags = [t for t, c in self.conditions.items() if c.kind != "wall"]
 
+    def renumber(self, new_face, edge_perm, new_edge):
+        """Go over to a solver's internal numbering (``driftlog.solver.layout``).
+
+        ``new_face[f]``: the new number of face f; ``edge_perm[j]``: the old edge that
+        becomes edge j; ``new_edge[e]``: the new number of edge e.  The slots keep their
+        order (the volumes through each tag are summed in the same order), ``edges``,
+        ``slot`` and ``face`` are then in the new numbering, and ``update`` takes the state
+        in it.
+        """
+        self.edges = np.asarray(new_edge)[self.edges]
+        self.slot = np.ascontiguousarray(self.slot[np.asarray(edge_perm)])
+        self.face = np.asarray(new_face)[self.face]
+
     def update(self, t, h, bed, dry_depth):
         """Fill ``value`` for time t from the inside depths ``h`` (discharges by conveyance)."""
         for tag, c in self.conditions.items():

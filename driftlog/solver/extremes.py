@@ -50,10 +50,19 @@ def update_extremes(h, hu, hv, z, t, hdry, arrival_depth, max_level, max_depth, 
 
 
 class Extremes:
-    """The running extremes of a run (arrays of n_faces)."""
+    """The running extremes of a run (arrays of n_faces).
 
-    def __init__(self, n_faces, parallel=False):
+    ``order``: the solver's internal numbering (``order[i]`` is the mesh's face of internal
+    face i; None: the mesh's own).  The arrays are kept in it, ``update`` takes the state in
+    it, ``arrays`` and ``load`` speak the mesh's numbering.
+    """
+
+    def __init__(self, n_faces, parallel=False, order=None):
         self._kernel = update_extremes.parallel if parallel else update_extremes.serial
+        self._order = order
+        if order is not None:
+            self._inv = np.empty_like(order)
+            self._inv[order] = np.arange(order.size)
         self.max_level = np.full(n_faces, -np.inf)
         self.max_depth = np.zeros(n_faces)
         self.max_speed = np.zeros(n_faces)
@@ -65,12 +74,15 @@ class Extremes:
                         self.max_speed, self.arrival)
 
     def arrays(self):
-        """Flow-file variable name -> array."""
-        return dict(zip(EXTREME_FIELDS, (self.max_level, self.max_depth, self.max_speed,
-                                         self.arrival), strict=True))
+        """Flow-file variable name -> array (in the mesh's numbering)."""
+        arrs = (self.max_level, self.max_depth, self.max_speed, self.arrival)
+        if self._order is not None:
+            arrs = tuple(a[self._inv] for a in arrs)
+        return dict(zip(EXTREME_FIELDS, arrs, strict=True))
 
     def load(self, arrays):
-        """Continue from stored extremes (a resumed run)."""
+        """Continue from stored extremes (a resumed run; the mesh's numbering)."""
+        pick = (lambda a: a) if self._order is None else (lambda a: np.asarray(a)[self._order])
         self.max_level[:], self.max_depth[:], self.max_speed[:], self.arrival[:] = (
-            arrays[k] for k in EXTREME_FIELDS)
+            pick(arrays[k]) for k in EXTREME_FIELDS)
 

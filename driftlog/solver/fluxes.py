@@ -19,12 +19,20 @@ mean of its edge values, each of which must stay non-negative).
 from __future__ import annotations
 
 import numba as nb
+import numpy as np
 
 from driftlog._numba import kernel
 from driftlog.solver.boundaries import boundary_flux
 from driftlog.solver.riemann import riemann_flux
 
-__all__ = ["edge_fluxes", "face_residuals"]
+__all__ = ["edge_fluxes", "face_residuals", "face_sides"]
+
+
+def face_sides(face_edges, edge_faces):
+    """(n_faces, nmax) uint8: 1 where face f is side 0 of its edge ``face_edges[f, k]``."""
+    e = np.maximum(face_edges, 0)
+    f = np.arange(face_edges.shape[0])[:, None]
+    return np.ascontiguousarray((face_edges >= 0) & (edge_faces[e, 0] == f), dtype=np.uint8)
 
 
 @nb.njit(cache=True, inline="always")
@@ -48,15 +56,18 @@ def _side_state(f, dx, dy, h, hu, hv, z, hdry, order, grad):
 
 
 @kernel
-def edge_fluxes(edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad, order, riemann,
-                g, hdry, slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed):
-    """Fluxes of every edge times its length; ``speed`` = length times the largest wave speed.
+def edge_fluxes(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad, order,
+                riemann, g, hdry, slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed):
+    """Fluxes of the edges ``edges`` times their length; ``speed``: length x largest wave speed.
 
+    ``edges`` lists the edges to compute (the active set's, ``driftlog.solver.layout``); the
+    others keep their values.
     ``fx0, fy0`` is the momentum flux leaving face ``edge_faces[e, 0]``, ``fx1, fy1`` the one
     entering face ``edge_faces[e, 1]`` (they differ by the bed source terms).
     """
     half_g = 0.5 * g
-    for e in nb.prange(edge_faces.shape[0]):
+    for i in nb.prange(edges.shape[0]):
+        e = edges[i]
         a = edge_faces[e, 0]
         b = edge_faces[e, 1]
         n1 = nx[e]
@@ -98,17 +109,23 @@ def edge_fluxes(edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad, orde
 
 
 @kernel
-def face_residuals(face_edges, face_n, edge_faces, area, fmass, fx0, fy0, fx1, fy1, speed,
-                   order, dh, dhu, dhv, rate):
-    """d/dt of h, hu, hv on each face and its time-step bound ``rate`` (dt * rate <= 1)."""
-    for f in nb.prange(face_edges.shape[0]):
+def face_residuals(faces, face_edges, face_n, face_side, area, fmass, fx0, fy0, fx1, fy1,
+                   speed, order, dh, dhu, dhv, rate):
+    """d/dt of h, hu, hv on the faces ``faces``, and their time-step bound ``rate``.
+
+    dt * rate <= 1; ``faces``: the active set's faces (``driftlog.solver.layout``);
+    ``face_side[f, k]`` is 1 when face f is side 0 of its k-th edge (the normal points out of
+    it), 0 when it is side 1 (``face_sides``: a per-face table, not a lookup in the edges').
+    """
+    for i in nb.prange(faces.shape[0]):
+        f = faces[i]
         rh = 0.0
         rx = 0.0
         ry = 0.0
         rs = 0.0
         for k in range(face_n[f]):
             e = face_edges[f, k]
-            if edge_faces[e, 0] == f:
+            if face_side[f, k]:
                 rh -= fmass[e]
                 rx -= fx0[e]
                 ry -= fy0[e]

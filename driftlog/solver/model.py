@@ -5,6 +5,11 @@ HLL) with the hydrostatic reconstruction, explicit Euler with the CFL step at fi
 MUSCL (limited least-squares gradients) with Heun's method at second order; semi-implicit
 Manning friction.  The state is three flat arrays on faces (h, hu, hv); every per-cell and
 per-edge loop is a numba kernel, and all work arrays are allocated once.
+
+Inside, large meshes are renumbered for locality and the flux kernels run over the active set
+of faces (wet faces and their neighbours) only (``driftlog.solver.layout``); both give the
+same results bit for bit, and everything the user sees (``h``, ``hu``, ``hv``, extremes, flow
+files, boundaries) is in the mesh's own numbering.
 """
 
 from __future__ import annotations
@@ -12,10 +17,11 @@ from __future__ import annotations
 import numpy as np
 
 from driftlog.errors import ScenarioError
-from driftlog.solver.boundaries import BoundarySet
+from driftlog.solver.boundaries import DEPTH, DISCHARGE, LEVEL, BoundarySet
 from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes
-from driftlog.solver.fluxes import edge_fluxes, face_residuals
+from driftlog.solver.fluxes import edge_fluxes, face_residuals, face_sides
 from driftlog.solver.friction import euler_stage, heun_average
+from driftlog.solver.layout import ORDERINGS, active_set, edge_order, face_order, mark_active
 from driftlog.solver.reconstruction import NGRAD, limited_gradients, lsq_geometry
 from driftlog.solver.riemann import RIEMANN
 
@@ -27,6 +33,9 @@ DEFAULT_CFL = {1: 0.9, 2: 0.8}
 # faces from which the kernels run on numba's threads: below, waking the thread pool at each
 # of the ~8 kernel calls of a step costs more than the work (and far more on a loaded machine)
 PARALLEL_FACES = 20000
+# faces from which the mesh is renumbered for locality (reverse Cuthill-McKee): below, the
+# state and the edge arrays fit in the caches and the mesher's numbering costs nothing
+RENUMBER_FACES = 20000
 
 
 def _per_face(value, n, key):
@@ -74,11 +83,19 @@ class ShallowWaterSolver:
         h u), so that a film at a wet/dry front carries no spurious speed (and does not set
         the time step).  Default 0: off.  It slows genuinely thin flows too: 1e-3 m suits
         metre-deep floods, not a 5 mm dam break (BENCHMARKS.md, solver section).
+    renumber : {"rcm", "hilbert", "none"}, optional
+        Internal numbering of faces and edges (``driftlog.solver.layout``): reverse
+        Cuthill-McKee, a Hilbert curve, or the mesh's own.  Default: "rcm" from
+        RENUMBER_FACES faces on.  Results are the same bit for bit whichever is chosen.
+    active_set : bool
+        Run the flux kernels over the wet faces and their neighbours only (default True; the
+        same results bit for bit, dry regions cost almost nothing).
     """
 
     def __init__(self, mesh, bed=None, order=1, riemann="hllc", cfl=None, manning=None,
                  strickler=None, dry_depth=1e-6, boundaries=None, arrival_depth=ARRIVAL_DEPTH,
-                 gravity=GRAVITY, parallel=None, thin_depth=0.0):
+                 gravity=GRAVITY, parallel=None, thin_depth=0.0, renumber=None,
+                 active_set=True):
         if order not in (1, 2):
             raise ScenarioError("solver.order", order, "must be 1 or 2")
         if riemann not in RIEMANN:
@@ -117,41 +134,92 @@ class ShallowWaterSolver:
         self.order, self.riemann, self.cfl = int(order), riemann, cfl
         self.dry_depth, self.gravity, self.arrival_depth = float(dry_depth), float(gravity), \
             float(arrival_depth)
-        self._gn2 = np.ascontiguousarray(self.gravity * n * n)
         par = nf >= PARALLEL_FACES if parallel is None else bool(parallel)
         self.parallel = par
         pick = (lambda k: k.parallel) if par else (lambda k: k.serial)
-        self._k_grad, self._k_edges, self._k_faces, self._k_euler, self._k_heun = map(
-            pick, (limited_gradients, edge_fluxes, face_residuals, euler_stage, heun_average))
+        self._k_grad, self._k_edges, self._k_faces, self._k_euler, self._k_heun, \
+            self._k_mark = map(pick, (limited_gradients, edge_fluxes, face_residuals,
+                                      euler_stage, heun_average, mark_active))
+        if renumber is None:
+            renumber = "rcm" if nf >= RENUMBER_FACES else "none"
+        if renumber not in ORDERINGS:
+            raise ScenarioError("solver.renumber", renumber, "must be one of "
+                                + ", ".join(repr(o) for o in ORDERINGS))
+        self.renumber = renumber
+        self.active_set = bool(active_set)
+        # internal numbering: face i of the kernels is the mesh's face _perm[i], edge j its
+        # edge eperm[j] (each face keeps the order of its edges, each edge its orientation).
+        # EVERY per-face or per-edge array a kernel reads must be in it: build it from the
+        # internal arrays below (_z, _nbr, _fe, _ef, _area...) or map a mesh-numbered one with
+        # faces_() / edges_(); face indices stored in an array map through new_face().
+        # tests/test_solver_layout.py (renumbered == plain, bit for bit) catches a miss.
+        ne = mesh.n_edges
+        perm = face_order(mesh, renumber)
+        self._identity = renumber == "none"
+        inv = np.empty_like(perm)
+        inv[perm] = np.arange(nf)
+        self._perm, self._inv = perm, inv
+
+        def new_face(old):
+            return np.where(old >= 0, inv[np.maximum(old, 0)], -1)
+
+        ef = new_face(mesh.edge_faces)
+        eperm = np.arange(ne) if self._identity else edge_order(ef)
+        einv = np.empty_like(eperm)
+        einv[eperm] = np.arange(ne)
+
+        def faces_(a):
+            return np.ascontiguousarray(a[perm])
+
+        def edges_(a):
+            return np.ascontiguousarray(a[eperm])
+
+        gn2 = self.gravity * n * n
+        self._gn2 = faces_(gn2) if gn2.size == nf else np.ascontiguousarray(gn2)
+        self._z = faces_(self.bed)
         self.boundaries = BoundarySet(mesh, boundaries, key="solver.boundaries")
+        self.boundaries.renumber(inv, eperm, einv)
         # geometry, once
-        self._ef = np.ascontiguousarray(mesh.edge_faces)
-        self._nx = np.ascontiguousarray(mesh.edge_normal[:, 0])
-        self._ny = np.ascontiguousarray(mesh.edge_normal[:, 1])
-        self._len = np.ascontiguousarray(mesh.edge_length)
-        self._area = np.ascontiguousarray(mesh.face_area)
-        self._fe = np.ascontiguousarray(mesh.face_edges)
-        self._fn = np.ascontiguousarray(mesh.face_n)
-        a, b = self._ef[:, 0], np.where(self._ef[:, 1] >= 0, self._ef[:, 1], self._ef[:, 0])
-        self._off0 = np.ascontiguousarray(np.column_stack([mesh.edge_x - mesh.face_x[a],
-                                                           mesh.edge_y - mesh.face_y[a]]))
-        self._off1 = np.ascontiguousarray(np.column_stack([mesh.edge_x - mesh.face_x[b],
-                                                           mesh.edge_y - mesh.face_y[b]]))
+        self._ef = edges_(ef)
+        self._nx = edges_(mesh.edge_normal[:, 0])
+        self._ny = edges_(mesh.edge_normal[:, 1])
+        self._len = edges_(mesh.edge_length)
+        self._area = faces_(mesh.face_area)
+        fe = mesh.face_edges[perm]
+        self._fe = np.ascontiguousarray(np.where(fe >= 0, einv[np.maximum(fe, 0)], -1))
+        self._fn = faces_(mesh.face_n)
+        self._side = face_sides(self._fe, self._ef)
+        self._nbr = np.ascontiguousarray(new_face(mesh.face_neighbours[perm]))
+        a = mesh.edge_faces[:, 0]
+        b = np.where(mesh.edge_faces[:, 1] >= 0, mesh.edge_faces[:, 1], a)
+        self._off0 = edges_(np.column_stack([mesh.edge_x - mesh.face_x[a],
+                                             mesh.edge_y - mesh.face_y[a]]))
+        self._off1 = edges_(np.column_stack([mesh.edge_x - mesh.face_x[b],
+                                             mesh.edge_y - mesh.face_y[b]]))
         if self.order == 2:
-            self._lsq = lsq_geometry(mesh)
-            self._nbr = np.ascontiguousarray(mesh.face_neighbours)
+            self._lsq = tuple(faces_(g) for g in lsq_geometry(mesh))
             self._grad = np.zeros((nf, NGRAD))
         else:
             self._grad = np.zeros((1, NGRAD))
-        ne = mesh.n_edges
         self._flux = [np.zeros(ne) for _ in range(6)]
         self._res = [np.zeros(nf) for _ in range(4)]
         self._save = [np.zeros(nf) for _ in range(3)]
         self._bflux_sum = np.zeros(self.boundaries.edges.size)
-        # state
-        self.h = np.zeros(nf)
-        self.hu = np.zeros(nf)
-        self.hv = np.zeros(nf)
+        # active set: the faces that open boundaries can fill are always in it
+        bs = self.boundaries
+        self._always = np.zeros(nf, dtype=np.bool_)
+        self._always[bs.face[np.isin(bs.kind, (LEVEL, DEPTH, DISCHARGE))]] = True
+        self._mark = np.zeros(nf, dtype=np.uint8)
+        self._all_faces = np.arange(nf, dtype=np.int64)
+        self._all_edges = np.arange(ne, dtype=np.int64)
+        self._faces_buf = np.zeros(nf, dtype=np.int64)
+        self._edges_buf = np.zeros(ne, dtype=np.int64)
+        self.active_faces = nf  # faces of the last flux pass
+        self.face_updates = 0   # faces of all flux passes so far (statistics)
+        # state, in the internal numbering (h, hu, hv give the mesh's)
+        self._h = np.zeros(nf)
+        self._hu = np.zeros(nf)
+        self._hv = np.zeros(nf)
         self.t = 0.0
         self.steps = 0
         self.rejected_steps = 0  # second order: steps redone at the corrector's bound
@@ -159,9 +227,55 @@ class ShallowWaterSolver:
         self.inflow_volume = np.zeros(n_tags)   # m3 entered through each tag so far
         self.outflow_volume = np.zeros(n_tags)  # m3 left through each tag so far
         self.initial_volume = 0.0
-        self.extremes = Extremes(nf, parallel=self.parallel)
+        self.extremes = Extremes(nf, parallel=self.parallel, order=self._order)
 
     # ----------------------------------------------------------------- state
+    @property
+    def _order(self):
+        return None if self._identity else self._perm
+
+    def _public(self, a):
+        if self._identity:
+            return a
+        out = a[self._inv]
+        out.flags.writeable = False  # a copy: writing into it would change nothing
+        return out
+
+    def _assign(self, a, value):
+        value = np.broadcast_to(np.asarray(value, dtype=float), a.shape)
+        a[:] = value if self._identity else value[self._perm]
+
+    @property
+    def h(self):
+        """Depth on the faces (m), in the mesh's numbering.
+
+        Read-only on a renumbered mesh (a copy): assign a whole array (``solver.h = ...``)
+        or use ``set_state``.
+        """
+        return self._public(self._h)
+
+    @h.setter
+    def h(self, value):
+        self._assign(self._h, value)
+
+    @property
+    def hu(self):
+        """Unit discharge along x on the faces (m2/s), in the mesh's numbering."""
+        return self._public(self._hu)
+
+    @hu.setter
+    def hu(self, value):
+        self._assign(self._hu, value)
+
+    @property
+    def hv(self):
+        """Unit discharge along y on the faces (m2/s), in the mesh's numbering."""
+        return self._public(self._hv)
+
+    @hv.setter
+    def hv(self, value):
+        self._assign(self._hv, value)
+
     @property
     def level(self):
         """Free-surface level h + z (m)."""
@@ -169,7 +283,9 @@ class ShallowWaterSolver:
 
     def volume(self) -> float:
         """Water volume in the domain (m3)."""
-        return float(np.dot(self.h, self._area))
+        # in the mesh's numbering: the sum's order, hence its round-off, does not depend on
+        # the internal one
+        return float(np.dot(self.h, self.mesh.face_area))
 
     def volume_error(self) -> float:
         """Volume now minus (initial + inflow - outflow), m3: zero to round-off."""
@@ -182,19 +298,19 @@ class ShallowWaterSolver:
         h = np.broadcast_to(np.asarray(h, dtype=float), (nf,))
         if not np.all(np.isfinite(h)) or np.any(h < 0):
             raise ScenarioError("solver.initial", "depth", "depths must be finite and >= 0")
-        self.h[:] = h
-        self.hu[:] = np.broadcast_to(np.asarray(hu, dtype=float), (nf,))
-        self.hv[:] = np.broadcast_to(np.asarray(hv, dtype=float), (nf,))
-        dry = self.h <= self.dry_depth
-        self.hu[dry] = 0.0
-        self.hv[dry] = 0.0
+        self.h = h
+        self.hu = hu
+        self.hv = hv
+        dry = self._h <= self.dry_depth
+        self._hu[dry] = 0.0
+        self._hv[dry] = 0.0
         self.t = float(t)
         self.steps = 0
         self.inflow_volume[:] = 0.0
         self.outflow_volume[:] = 0.0
         self.initial_volume = self.volume()
-        self.extremes = Extremes(nf, parallel=self.parallel)
-        self.extremes.update(self.h, self.hu, self.hv, self.bed, self.t, self.dry_depth,
+        self.extremes = Extremes(nf, parallel=self.parallel, order=self._order)
+        self.extremes.update(self._h, self._hu, self._hv, self._z, self.t, self.dry_depth,
                              self.arrival_depth)
 
     def set_level(self, level, polygon=None, velocity=(0.0, 0.0)):
@@ -206,26 +322,37 @@ class ShallowWaterSolver:
 
     # ----------------------------------------------------------------- time step
     def _rates(self, h, hu, hv, t):
-        """Fluxes and residuals of state (h, hu, hv) at time t; returns the max rate."""
+        """Fluxes and residuals of state (h, hu, hv) at time t; returns the max rate.
+
+        The state is in the internal numbering (``_h``, ``_hu``, ``_hv``).
+        """
         m = self
         bs = m.boundaries
-        bs.update(t, h, m.bed, m.dry_depth)
+        bs.update(t, h, m._z, m.dry_depth)
+        dh, dhu, dhv, rate = m._res
+        if m.active_set:
+            faces, edges = active_set(m._k_mark, h, m._always, m._fn, m._nbr, m._ef, m._mark,
+                                      m._all_faces, m._all_edges, m._faces_buf, m._edges_buf,
+                                      dh, dhu, dhv, rate, m._grad)
+        else:
+            faces, edges = m._all_faces, m._all_edges
+        m.active_faces = faces.shape[0]
+        m.face_updates += faces.shape[0]
         if m.order == 2:
             offset, minv, eoff = m._lsq
-            m._k_grad(h, hu, hv, m.bed, m.dry_depth, m._fn, m._nbr, offset, minv, eoff,
-                              m._grad)
+            m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._nbr, offset, minv, eoff,
+                      m._grad)
         fm, fx0, fy0, fx1, fy1, sp = m._flux
-        m._k_edges(m._ef, m._nx, m._ny, m._len, m._off0, m._off1, h, hu, hv, m.bed, m._grad,
-                    m.order, RIEMANN[m.riemann], m.gravity, m.dry_depth, bs.slot, bs.kind,
-                    bs.value, fm, fx0, fy0, fx1, fy1, sp)
-        dh, dhu, dhv, rate = m._res
-        m._k_faces(m._fe, m._fn, m._ef, m._area, fm, fx0, fy0, fx1, fy1, sp, m.order,
-                       dh, dhu, dhv, rate)
+        m._k_edges(edges, m._ef, m._nx, m._ny, m._len, m._off0, m._off1, h, hu, hv, m._z,
+                   m._grad, m.order, RIEMANN[m.riemann], m.gravity, m.dry_depth, bs.slot,
+                   bs.kind, bs.value, fm, fx0, fy0, fx1, fy1, sp)
+        m._k_faces(faces, m._fe, m._fn, m._side, m._area, fm, fx0, fy0, fx1, fy1, sp, m.order,
+                   dh, dhu, dhv, rate)
         return float(rate.max())
 
     def step(self, dt_max=np.inf) -> float:
         """Advance one time step, at most ``dt_max`` s; returns the step taken."""
-        rmax = self._rates(self.h, self.hu, self.hv, self.t)
+        rmax = self._rates(self._h, self._hu, self._hv, self.t)
         dt = self.cfl / rmax if rmax > 0 else np.inf
         dt = min(dt, dt_max)
         if not np.isfinite(dt):
@@ -236,18 +363,18 @@ class ShallowWaterSolver:
         dh, dhu, dhv, _ = self._res
         if self.order == 1:
             self._bflux_sum[:] = fm[bedges]
-            self._k_euler(self.h, self.hu, self.hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
-                          self._thin, self.h, self.hu, self.hv)
+            self._k_euler(self._h, self._hu, self._hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
+                          self._thin, self._h, self._hu, self._hv)
         else:
             h0, hu0, hv0 = self._save
-            h0[:] = self.h
-            hu0[:] = self.hu
-            hv0[:] = self.hv
+            h0[:] = self._h
+            hu0[:] = self._hu
+            hv0[:] = self._hv
             while True:
                 self._bflux_sum[:] = 0.5 * fm[bedges]
                 self._k_euler(h0, hu0, hv0, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
-                          self._thin, self.h, self.hu, self.hv)
-                rmax1 = self._rates(self.h, self.hu, self.hv, self.t + dt)
+                          self._thin, self._h, self._hu, self._hv)
+                rmax1 = self._rates(self._h, self._hu, self._hv, self.t + dt)
                 if dt * rmax1 <= 1.0:
                     break
                 # the corrector's own positivity bound is tighter than the predictor's (the
@@ -256,9 +383,9 @@ class ShallowWaterSolver:
                 dt = self.cfl / rmax1
                 self._rates(h0, hu0, hv0, self.t)
             self._bflux_sum += 0.5 * fm[bedges]
-            self._k_euler(self.h, self.hu, self.hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
-                          self._thin, self.h, self.hu, self.hv)
-            self._k_heun(h0, hu0, hv0, self._thin, self.h, self.hu, self.hv)
+            self._k_euler(self._h, self._hu, self._hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
+                          self._thin, self._h, self._hu, self._hv)
+            self._k_heun(h0, hu0, hv0, self._thin, self._h, self._hu, self._hv)
         vol = self._bflux_sum * dt  # m3 out (>0) or in (<0) per boundary edge
         bs = self.boundaries
         n = len(self.mesh.tag_names)
@@ -266,7 +393,7 @@ class ShallowWaterSolver:
         self.inflow_volume += np.bincount(bs.tag, weights=np.maximum(-vol, 0.0), minlength=n)
         self.t += dt
         self.steps += 1
-        self.extremes.update(self.h, self.hu, self.hv, self.bed, self.t, self.dry_depth,
+        self.extremes.update(self._h, self._hu, self._hv, self._z, self.t, self.dry_depth,
                              self.arrival_depth)
         return dt
 

@@ -59,9 +59,14 @@ def lsq_geometry(mesh):
 
 
 @kernel
-def limited_gradients(h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset, grad):
-    """Fill ``grad`` (n_faces, 8) with the limited gradients of eta, h, hu, hv."""
-    for f in nb.prange(h.shape[0]):
+def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset,
+                      grad):
+    """Fill ``grad`` (n_faces, 8) with the limited gradients of eta, h, hu, hv on ``faces``.
+
+    ``faces``: the active set's faces (``driftlog.solver.layout``); other rows keep theirs.
+    """
+    for i in nb.prange(faces.shape[0]):
+        f = faces[i]
         for k in range(NGRAD):
             grad[f, k] = 0.0
         if h[f] <= hdry or (minv[f, 0] == 0.0 and minv[f, 2] == 0.0):
@@ -101,13 +106,18 @@ def limited_gradients(h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge
                 qmax = max(qmax, qj)
             gx = minv[f, 0] * rx + minv[f, 1] * ry
             gy = minv[f, 1] * rx + minv[f, 2] * ry
+            # a boundary edge has no face beyond it: its value may go one range further
+            # (a one-sided gradient extrapolates there; clipping it made boundary faces first
+            # order, which cost MacDonald's channel its second order)
+            rng = qmax - qmin
             phi = 1.0
             for k in range(face_n[f]):  # Barth-Jespersen: edge values within [qmin, qmax]
                 dq = gx * edge_offset[f, k, 0] + gy * edge_offset[f, k, 1]
+                ext = rng if neighbours[f, k] < 0 else 0.0
                 if dq > 0.0:
-                    phi = min(phi, (qmax - qc) / dq)
+                    phi = min(phi, (qmax + ext - qc) / dq)
                 elif dq < 0.0:
-                    phi = min(phi, (qmin - qc) / dq)
+                    phi = min(phi, (qmin - ext - qc) / dq)
             phi = max(phi, 0.0)
             grad[f, 2 * q] = phi * gx
             grad[f, 2 * q + 1] = phi * gy

@@ -158,9 +158,9 @@ def load_restart(solver, path):
         if t != float(ds.getncattr("restart_time")):
             raise FlowFileError(f"{path}: last snapshot at {t} s but restart data at "
                                 f"{ds.getncattr('restart_time')} s (interrupted while writing)")
-        solver.h[:] = ds.variables["water_depth"][n - 1, :]
-        solver.hu[:] = ds.variables[RESTART_FIELDS[0]][:]
-        solver.hv[:] = ds.variables[RESTART_FIELDS[1]][:]
+        solver.h = ds.variables["water_depth"][n - 1, :]
+        solver.hu = ds.variables[RESTART_FIELDS[0]][:]
+        solver.hv = ds.variables[RESTART_FIELDS[1]][:]
         solver.t = t
         solver.steps = int(ds.getncattr("restart_steps"))
         solver.initial_volume = float(ds.getncattr("initial_volume"))
