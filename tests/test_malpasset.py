@@ -177,6 +177,7 @@ G7_AREA = [[5640.0, 4150.0], [5800.0, 4150.0], [5850.0, 4650.0], [5700.0, 4700.0
 LOGS_END = 120.0  # s: the wave reaches the area at about 100 s
 
 
+@pytest.mark.slow  # minutes on the shared cores (contacts among the lifted logs): --runslow
 def test_ten_thousand_logs_all_accounted_for(flood):
     """1e4 logs, full physics, contacts on, per-log clocks, streamed to a trajectory file over
     the first 120 s, as the wave reaches them (benchmarks/million_logs.py is the same run at
