@@ -430,6 +430,8 @@ def main(argv=None):
     p.add_argument("--reuse", action="store_true", help="skip runs already finished in --work")
     p.add_argument("--report-only", action="store_true", help="table the finished runs only")
     p.add_argument("--notes", default="", help="a line for the table's notes")
+    p.add_argument("--tag", default="", help="appended to the results' names (e.g. a "
+                   "solver branch), so that they do not replace the plain run's")
     p.add_argument("--anuga-bed", default="centroids", choices=("centroids", "vertices"),
                    help="ANUGA's bed: driftlog's face bed, constant per triangle (default), or "
                    "the node elevations at the vertices")
@@ -455,7 +457,8 @@ def main(argv=None):
             (work / f"{n}.json").write_text(json.dumps(facts, indent=1))
             print(f"{n}: {facts['steps']} steps, {facts['cpu_s']:.1f} CPU s, "
                   f"{facts['wall_s']:.1f} wall s", flush=True)
-    stem = "malpasset_peers" + ("" if end >= FULL_END else f"_{end:g}s")
+    stem = "malpasset_peers" + ("" if end >= FULL_END else f"_{end:g}s") + (
+        f"_{a.tag}" if a.tag else "")
     report(work, end, a.runs if not a.report_only else list(RUNS), stem, a.notes)
     return 0
 

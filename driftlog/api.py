@@ -201,22 +201,36 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     if writer is None:
         check_output(out, "trajectory file", suffixes=(".nc", ".nc4"))
         estimate_run(scen, out)
+    coupling = None
+    if scen["coupling"]["enabled"]:  # the logs act on the flow: solver and tracker together
+        from driftlog.coupling import start_coupling
+
+        if flow is not None:
+            raise ScenarioError("coupling.enabled", True, "a coupled run computes its own flow: "
+                                "no flow can be given")
+        coupling = start_coupling(scen, out)
+        flow = coupling.flow
     if flow is None:
         flow = flow_from_scenario(scen, progress=progress)
     logs = logs_from_scenario(scen)
     check_start(scen, flow, logs, warn=writer is None)  # outside the mesh, in an obstacle
-    if writer is None and not resume:  # every snapshot the run reads: finite, sized, >= 0
+    if writer is None and not resume and coupling is None:  # every snapshot the run reads
         check_flow_values(flow, scen["time"]["start"], scen["time"]["end"])
     tm = scen["time"]
     origin = run_clock_origin(flow, tm["start"], tm["end"])
     t_start = tm["start"] - origin
     t_end = None if tm["end"] is None else tm["end"] - origin
+    if coupling is not None and t_end is None:
+        t_end = scen["solver"]["end"]
     if origin:  # the run far from the time axis' zero: computed on a clock starting at origin
         flow = flow.shifted(origin)
         logs.release_time = logs.release_time - origin
     contact = _contact_model(scen, flow)
     level, rotation, reason = choose_physics(flow, logs, scen["physics"], contact is not None,
                                              t_end=t_end)
+    if coupling is not None and level == "tracer":
+        level = "full"
+        reason += "; coupled: full (a tracer exerts no force on the flow)"
     physics = PhysicsOptions.from_scenario(scen["physics"], level=level, rotation=rotation)
     attrs = dict(scen.attrs())
     reference = (getattr(flow, "attrs", None) or {}).get("time_reference")
@@ -238,15 +252,22 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
                                           flush_interval=scen["output"]["flush_interval"],
                                           obstacle_names=names, **kw)
     initial = np.array([g["velocity"] for g in scen["logs"]])[logs.group]  # no loop per log
-    tracker = Tracker(flow, logs, physics, method=scen["integrator"]["method"],
-                      step=StepOptions.from_scenario(scen["integrator"]), contact=contact,
-                      t_start=t_start, t_end=t_end, output_interval=tm["output_interval"],
-                      hydro_step=tm["hydro_step"], writer=writer, progress=progress,
-                      initial_velocity=initial)
+    opts = dict(method=scen["integrator"]["method"],
+                step=StepOptions.from_scenario(scen["integrator"]), contact=contact,
+                t_start=t_start, t_end=t_end, output_interval=tm["output_interval"],
+                hydro_step=tm["hydro_step"], writer=writer, progress=progress,
+                initial_velocity=initial)
+    if coupling is not None:
+        from driftlog.coupling import CoupledTracker
+
+        tracker = CoupledTracker(coupling, logs, physics, **opts)
+    else:
+        tracker = Tracker(flow, logs, physics, **opts)
     if progress:
         from driftlog._numba import announce_compile
 
-        announce_compile(["tracking"] + (["contacts"] if contact is not None else []))
+        announce_compile((["solver"] if coupling is not None else []) + ["tracking"]
+                         + (["contacts"] if contact is not None else []))
     if resume:
         from driftlog.trajectory import last_states
 
@@ -256,6 +277,8 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     try:
         tracker.run()
     except BaseException as exc:
+        if coupling is not None:
+            coupling.writer.close()
         writer.flush()
         kept = writer.close(finalize=False)  # keep the partial file: nothing computed is lost
         if isinstance(kept, Path) and kept.exists():
@@ -264,6 +287,11 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
                          f"{tracker.t + origin:.6g} s of {tm['end']:g} s; driftlog track "
                          f"SCENARIO -o {out} --resume continues it")
         raise
+    if coupling is not None:
+        stats = coupling.summary()
+        coupling.writer.close(**{f"coupling_{k}": v for k, v in stats.items()})
+        writer.set_attrs(coupled_flow=str(coupling.writer.path),
+                         **{f"coupling_{k}": v for k, v in stats.items()})
     writer.set_attrs(**{f"stats_{k}": v for k, v in tracker.stats.items()})
     if contact is not None:  # events, rejected steps, deepest overlap, Gauss-Seidel sweeps
         writer.set_attrs(contact_stats=json.dumps({k: float(v) for k, v in

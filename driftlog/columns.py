@@ -35,9 +35,14 @@ NG = 4
 
 # --------------------------------------------------------------------- per-log parameters
 # (n, NPARAM): length, radius, density, volume, mass, inertia, volume-equivalent diameter,
-# sphericity, Ganser's K2, flotation depth
-P_L, P_R, P_RHOB, P_VOL, P_MASS, P_INERTIA, P_DV, P_PSI, P_K2, P_HSTAR = range(10)
-NPARAM = 10
+# sphericity, Ganser's K2, flotation depth; then constants of the force kernels that depend
+# only on the log's geometry (driftlog.physics.log_parameters): the end-on area pi r^2, the
+# broadside area 2 r L, 1 / (3 d_v) and (2/3) / sqrt(psi) (Ganser's K1 = 1 / (d_n / (3 d_v)
+# + (2/3) / sqrt(psi))), d_v K2, Ganser's area pi d_v^2 / 4, 1 / K1 of the broadside area
+# (the resistance torque's), and r L^4 / 32 (the torque's lever integral, times rho)
+(P_L, P_R, P_RHOB, P_VOL, P_MASS, P_INERTIA, P_DV, P_PSI, P_K2, P_HSTAR, P_AEND, P_ASIDE,
+ P_INV3DV, P_KSPH, P_DVK2, P_AGANSER, P_QSIDE, P_KTORQUE) = range(18)
+NPARAM = 18
 
 # --------------------------------------------------------------------- drag linearisation
 # (n, NLIN): drag rates along and across the relative velocity, its direction, rotational rate

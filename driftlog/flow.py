@@ -74,7 +74,7 @@ from driftlog.locate import Locator, locate_one
 
 __all__ = [
     "FlowField", "FlowSample", "MeshFlowField", "MeshKernel", "InMemorySnapshots", "SAMPLE_COLUMNS",
-    "sample_point",
+    "sample_point", "sample_point_columns",
     "H", "U", "V", "DUDT", "DVDT", "DUDX", "DUDY", "DVDX", "DVDY", "DETADX", "DETADY", "ETA",
     "NVAR", "OUTSIDE", "DRY", "WET",
 ]
@@ -282,6 +282,21 @@ def sample_point(x, y, hint, a, inv_dt, nodevals, dry_depth, recovered, loc):
     (``driftlog.fused``) so that both compute the same numbers.  ``loc``: the mesh's
     ``Locator``.
     """
+    return sample_point_columns(x, y, hint, a, inv_dt, nodevals, dry_depth, recovered, loc,
+                                True, True, True, True, True)
+
+
+@nb.njit(cache=True, inline="always")
+def sample_point_columns(x, y, hint, a, inv_dt, nodevals, dry_depth, recovered, loc, depth,
+                         rotation, full, slope, level):
+    """``sample_point`` computing only the columns asked for; the others are 0.
+
+    U and V always; H (and the wet/dry flag: without ``depth`` a located point is flagged
+    wet) with ``depth``; DUDY and DVDX with ``rotation``; DUDT, DVDT, DUDX and DVDY with
+    ``full``; DETADX and DETADY with ``slope``; ETA with ``level``.  The columns computed are
+    the same numbers as ``sample_point``'s (the fused stages sample only what the forces read:
+    ``physics.stage_columns``).
+    """
     f = locate_one(x, y, hint, loc)
     if f < 0:
         return f, OUTSIDE, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -302,21 +317,38 @@ def sample_point(x, y, hint, a, inv_dt, nodevals, dry_depth, recovered, loc):
     la, lb, lc, gax, gay, gbx, gby, gcx, gcy = _triangle_weights(
         x, y, node_x[n0], node_y[n0], node_x[n1], node_y[n1], node_x[n2], node_y[n2])
     w = (la, lb, lc, gax, gay, gbx, gby, gcx, gcy)
-    hval, _, _, _ = _p1(nodevals, Q_H, n0, n1, n2, a, b, inv_dt, w)
-    uval, ux, uy, ut = _p1(nodevals, Q_U, n0, n1, n2, a, b, inv_dt, w)
-    vval, vx, vy, vt = _p1(nodevals, Q_V, n0, n1, n2, a, b, inv_dt, w)
-    eval_, ex, ey, _ = _p1(nodevals, Q_ETA, n0, n1, n2, a, b, inv_dt, w)
-    h = max(hval, 0.0)
+    h = eval_ = ut = vt = ux = uy = vx = vy = ex = ey = ex_ = ey_ = 0.0
+    if depth:
+        hval = _p1(nodevals, Q_H, n0, n1, n2, a, b, inv_dt, w)[0]
+        h = max(hval, 0.0)
+    uval, ux_, uy_, ut_ = _p1(nodevals, Q_U, n0, n1, n2, a, b, inv_dt, w)
+    vval, vx_, vy_, vt_ = _p1(nodevals, Q_V, n0, n1, n2, a, b, inv_dt, w)
+    if full:
+        ut, vt = ut_, vt_
+    if level or (slope and not recovered):
+        eval_, ex_, ey_, _ = _p1(nodevals, Q_ETA, n0, n1, n2, a, b, inv_dt, w)
+        if not level:
+            eval_ = 0.0
     if recovered:
-        ux = _p1(nodevals, Q_UX, n0, n1, n2, a, b, inv_dt, w)[0]
-        uy = _p1(nodevals, Q_UY, n0, n1, n2, a, b, inv_dt, w)[0]
-        vx = _p1(nodevals, Q_VX, n0, n1, n2, a, b, inv_dt, w)[0]
-        vy = _p1(nodevals, Q_VY, n0, n1, n2, a, b, inv_dt, w)[0]
-        ex = _p1(nodevals, Q_EX, n0, n1, n2, a, b, inv_dt, w)[0]
-        ey = _p1(nodevals, Q_EY, n0, n1, n2, a, b, inv_dt, w)[0]
+        if full:
+            ux = _p1(nodevals, Q_UX, n0, n1, n2, a, b, inv_dt, w)[0]
+            vy = _p1(nodevals, Q_VY, n0, n1, n2, a, b, inv_dt, w)[0]
+        if rotation:
+            uy = _p1(nodevals, Q_UY, n0, n1, n2, a, b, inv_dt, w)[0]
+            vx = _p1(nodevals, Q_VX, n0, n1, n2, a, b, inv_dt, w)[0]
+        if slope:
+            ex = _p1(nodevals, Q_EX, n0, n1, n2, a, b, inv_dt, w)[0]
+            ey = _p1(nodevals, Q_EY, n0, n1, n2, a, b, inv_dt, w)[0]
+    else:
+        if full:
+            ux, vy = ux_, vy_
+        if rotation:
+            uy, vx = uy_, vx_
+        if slope:
+            ex, ey = ex_, ey_
+    flag = (WET if h > dry_depth else DRY) if depth else WET
     # in the column order H, U, V, DUDT, DVDT, DUDX, DUDY, DVDX, DVDY, DETADX, DETADY, ETA
-    return f, (WET if h > dry_depth else DRY), (h, uval, vval, ut, vt, ux, uy, vx, vy, ex, ey,
-                                                eval_)
+    return f, flag, (h, uval, vval, ut, vt, ux, uy, vx, vy, ex, ey, eval_)
 
 
 @kernel

@@ -24,9 +24,9 @@ import numba as nb
 
 from driftlog._numba import kernel
 from driftlog.columns import NLIN, NVAR, X, Y
-from driftlog.flow import sample_point
+from driftlog.flow import sample_point, sample_point_columns
 from driftlog.integrators import euler_row, put_row, rk4_final_row, rk4_stage_row, row
-from driftlog.physics import log_rhs
+from driftlog.physics import O_LEVEL, O_MOTION, O_ROT, TRACER, log_rhs, stage_columns
 
 __all__ = ["euler_mesh_step", "rk4_mesh_step", "FUSED_METHODS"]
 
@@ -38,7 +38,14 @@ def _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a, inv_
             dry_depth, recovered, loc):
     """Store the new state s, sample the flow there, and the next step's first stage."""
     put_row(out, i, s)
-    f, fg, fl = sample_point(s[X], s[Y], hint, a, inv_dt, vals, dry_depth, recovered, loc)
+    if opt[O_LEVEL] == TRACER:
+        # what tracer mode reads of the flow at the logs: the depth (status), the velocity and
+        # its rotation (the synced state), and the slope when the bed friction test needs it
+        f, fg, fl = sample_point_columns(s[X], s[Y], hint, a, inv_dt, vals, dry_depth,
+                                         recovered, loc, True, opt[O_ROT] > 0.0, False,
+                                         opt[O_MOTION] != 0.0, False)
+    else:
+        f, fg, fl = sample_point(s[X], s[Y], hint, a, inv_dt, vals, dry_depth, recovered, loc)
     face[i] = f
     flag[i] = fg
     for k in range(NVAR):
@@ -53,8 +60,16 @@ def _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a, inv_
 @nb.njit(cache=True, inline="always")
 def _rk4_stage(s0, k, dt, d, hint, a, inv_dt, vals, dry_depth, recovered, loc, p, opt):
     """The derivative at RK4 stage k: its state from s0 and d, the flow there, the forces."""
-    s = rk4_stage_row(s0, k, dt, d)
-    _, _, fl = sample_point(s[X], s[Y], hint, a, inv_dt, vals, dry_depth, recovered, loc)
+    return _stage_rhs(rk4_stage_row(s0, k, dt, d), hint, a, inv_dt, vals, dry_depth, recovered,
+                      loc, p, opt)
+
+
+@nb.njit(cache=True, inline="always")
+def _stage_rhs(s, hint, a, inv_dt, vals, dry_depth, recovered, loc, p, opt):
+    """The derivative at stage state s: the flow there (the columns the forces read), forces."""
+    depth, rot, full, slope = stage_columns(opt)
+    _, _, fl = sample_point_columns(s[X], s[Y], hint, a, inv_dt, vals, dry_depth, recovered,
+                                    loc, depth, rot, full, slope, False)
     dk, _ = log_rhs(s, fl, p, opt, False)
     return dk
 
@@ -98,3 +113,4 @@ def rk4_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
         s = rk4_final_row(s0, dt, d0, d1, d2, d3)
         _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a_e, inv_e,
                 vals_e, dry_depth, recovered, loc)
+

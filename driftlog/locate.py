@@ -64,7 +64,7 @@ def point_in_face(px, py, f, face_nodes, face_n, node_x, node_y):
     n = face_n[f]
     for k in range(n):
         a = face_nodes[f, k]
-        b = face_nodes[f, (k + 1) % n]
+        b = face_nodes[f, k + 1] if k + 1 < n else face_nodes[f, 0]  # no integer modulo
         c, s = _edge_side(px, py, node_x[a], node_y[a], node_x[b], node_y[b])
         if not c >= -1e-12 * s:  # also rejects NaN
             return False
@@ -82,7 +82,7 @@ def _walk(px, py, f, loc):
         kworst = -1
         for k in range(n):
             a = face_nodes[f, k]
-            b = face_nodes[f, (k + 1) % n]
+            b = face_nodes[f, k + 1] if k + 1 < n else face_nodes[f, 0]  # no integer modulo
             c, s = _edge_side(px, py, node_x[a], node_y[a], node_x[b], node_y[b])
             if c < -1e-12 * s:
                 # normalised distance outside this edge; leave by the edge the point is

@@ -30,13 +30,21 @@ from driftlog.columns import (
     NPARAM,
     NSTATE,
     OMEGA,
+    P_AEND,
+    P_AGANSER,
+    P_ASIDE,
     P_DV,
+    P_DVK2,
     P_HSTAR,
     P_INERTIA,
+    P_INV3DV,
     P_K2,
+    P_KSPH,
+    P_KTORQUE,
     P_L,
     P_MASS,
     P_PSI,
+    P_QSIDE,
     P_R,
     P_RHOB,
     P_VOL,
@@ -55,7 +63,7 @@ from driftlog.schema import Key, Section
 
 __all__ = ["PhysicsOptions", "log_parameters", "rhs_kernel", "log_rhs", "ganser_cd",
            "drag_speed_product", "effective_area", "rest_drive", "bed_weight", "soak_kernel",
-           "sample_row",
+           "sample_row", "stage_columns",
            "TRACER", "DRAG", "FULL", "NPARAM", "NLIN"]
 
 TRACER, DRAG, FULL = 0, 1, 2
@@ -143,7 +151,14 @@ class PhysicsOptions:
 
 
 def log_parameters(length, radius, density, float_depth) -> np.ndarray:
-    """Per-log constants (n, NPARAM): geometry, mass, inertia and Ganser's shape factors."""
+    """Per-log constants (n, NPARAM): geometry, mass, inertia and Ganser's shape factors.
+
+    Besides the log's own quantities (``driftlog.columns`` P_L ... P_HSTAR), the constants
+    that the force kernels would otherwise recompute at every evaluation from the geometry
+    alone: the end-on and broadside areas, the sphericity term and 1 / (3 d_v) of Ganser's
+    K1, d_v K2, Ganser's reference area, 1 / K1 at the broadside area (the resistance
+    torque's, docs/model.md section 9) and the torque's lever integral r L^4 / 32.
+    """
     L = np.asarray(length, float)
     r = np.asarray(radius, float)
     rho_b = np.asarray(density, float)
@@ -161,6 +176,15 @@ def log_parameters(length, radius, density, float_depth) -> np.ndarray:
     # base-10 logarithm (Ganser 1993 eq. 18; public codes often use ln by mistake)
     P[:, P_K2] = 10.0 ** (1.8148 * (-np.log10(np.minimum(psi, 1.0))) ** 0.5743)
     P[:, P_HSTAR] = float_depth
+    P[:, P_AEND] = np.pi * r * r
+    P[:, P_ASIDE] = 2.0 * r * L
+    P[:, P_INV3DV] = 1.0 / (3.0 * dv)
+    P[:, P_KSPH] = (2.0 / 3.0) / np.sqrt(psi)
+    P[:, P_DVK2] = dv * P[:, P_K2]
+    P[:, P_AGANSER] = 0.25 * np.pi * dv * dv
+    # 1 / K1 = d_n / (3 d_v) + (2/3) / sqrt(psi), d_n = sqrt(4 S / pi) at the broadside area
+    P[:, P_QSIDE] = np.sqrt(P[:, P_ASIDE] * (4.0 / np.pi)) * P[:, P_INV3DV] + P[:, P_KSPH]
+    P[:, P_KTORQUE] = r * L ** 4 / 32.0  # 2 r L^4 / 64: T_R = rho P_KTORQUE C_D s |dw| dw
     return P
 
 
@@ -194,46 +218,76 @@ def drag_speed_product(s, dv, psi, k2, s_eff, rho, mu):
 
 
 @nb.njit(cache=True, inline="always")
+def _ganser_cds(s, q, p, opt):
+    """Ganser's C_D s at speed s and its slope s d(C_D s)/ds, for 1 / K1 = q.
+
+    The arithmetic of ``drag_speed_product`` rearranged around the per-log constants
+    (``log_parameters``): two divisions and one fractional power.  With Re K1 K2 = r_k,
+    C_D s = 24 (mu / rho) q / d_v (1 + 0.1118 r_k^0.6567) + 0.4305 K2 s r_k / (r_k + 3305),
+    and its slope reuses the power: s d(C_D s)/ds = 24 (mu / rho) q / d_v 0.1118 0.6567
+    r_k^0.6567 + 0.4305 K2 s r_k / (r_k + 3305) (1 + 3305 / (r_k + 3305)).
+    """
+    nu = opt[O_MU] / opt[O_RHO]
+    rk = s * p[P_DVK2] / (nu * q)  # Re K1 K2
+    pw = rk ** 0.6567
+    stokes = 72.0 * nu * q * p[P_INV3DV]  # 24 mu / (rho d_v K1)
+    t = 1.0 / (rk + 3305.0)
+    newton = 0.4305 * p[P_K2] * s * rk * t
+    return stokes + stokes * 0.1118 * pw + newton, \
+        stokes * (0.1118 * 0.6567) * pw + newton * (1.0 + 3305.0 * t)
+
+
+@nb.njit(cache=True, inline="always")
 def _drag_coef(s, cos_a, sin_a, h, p, opt):
-    """The factor k such that the drag force is k w (w relative velocity, s = |w|)."""
+    """Drag factor k (the drag force is k w: w relative velocity, s = |w|) and dg/ds.
+
+    g(s) = k(s) s is the drag's magnitude at fixed direction; its derivative g'(s) (exact:
+    Ganser's law differentiated, no finite difference) is the drag linearisation's rate
+    along w (times the effective mass).
+    """
     law = opt[O_LAW]
-    r, L = p[P_R], p[P_L]
     if law == LINEAR:
-        return opt[O_KLIN]
+        return opt[O_KLIN], opt[O_KLIN]
     area_kind = opt[O_AREA]
-    s_eff = effective_area(r, L, cos_a, sin_a)
+    ae = p[P_AEND] * cos_a
+    asd = p[P_ASIDE] * sin_a
+    s_eff = np.sqrt(ae * ae + asd * asd)  # effective_area
     if area_kind == AREA_PAPER:
         area = s_eff
     elif area_kind == AREA_GANSER:
-        area = 0.25 * np.pi * p[P_DV] * p[P_DV]
+        area = p[P_AGANSER]
     else:
+        r = p[P_R]
         hs = min(max(h, 0.0), 2.0 * r)
         d = np.arccos(1.0 - hs / r)
-        area = L * hs * sin_a + r * r * (d - np.sin(d) * np.cos(d)) * cos_a
+        area = p[P_L] * hs * sin_a + r * r * (d - np.sin(d) * np.cos(d)) * cos_a
+    half = 0.5 * opt[O_RHO] * area
     if law == CONSTANT:
-        cds = opt[O_CD] * s
-    else:
-        cds = drag_speed_product(s, p[P_DV], p[P_PSI], p[P_K2], s_eff, opt[O_RHO], opt[O_MU])
-    return 0.5 * opt[O_RHO] * area * cds
+        k = half * (opt[O_CD] * s)
+        return k, 2.0 * k
+    q = np.sqrt(s_eff * (4.0 / np.pi)) * p[P_INV3DV] + p[P_KSPH]  # 1 / K1
+    cds, slope = _ganser_cds(s, q, p, opt)
+    return half * cds, half * (cds + slope)
 
 
 @nb.njit(cache=True, inline="always")
 def _torque(dw, s, p, opt):
     """Resistance torque T_R for relative rotation dw = omega_w - omega_b (sign corrected)."""
     law = opt[O_LAW]
-    r, L = p[P_R], p[P_L]
     if law == LINEAR:
+        L = p[P_L]
         return opt[O_KLIN] * L * L / 12.0 * dw  # k/L per unit length, lever s, integrated
-    kr = 2.0 * r * opt[O_RHO] * L ** 4 / 64.0
+    kr = p[P_KTORQUE] * opt[O_RHO]  # 2 r rho L^4 / 64
     if law == CONSTANT:
         return kr * opt[O_CD] * abs(dw) * dw
     # [choice] Ganser's C_D at the relative speed of translation and of the rod's mean
-    # rotational speed L |dw| / 4, so that C_D stays finite when the log does not translate
-    vr = np.sqrt(s * s + (0.25 * L * dw) ** 2)
+    # rotational speed L |dw| / 4, so that C_D stays finite when the log does not translate;
+    # at the broadside area (a rotating rod moves across its axis): 1 / K1 = P_QSIDE
+    ld = 0.25 * p[P_L] * dw
+    vr = np.sqrt(s * s + ld * ld)
     if vr == 0.0:
         return 0.0
-    s_eff = effective_area(r, L, 0.0, 1.0)  # broadside: a rotating rod moves across its axis
-    cds = drag_speed_product(vr, p[P_DV], p[P_PSI], p[P_K2], s_eff, opt[O_RHO], opt[O_MU])
+    cds, _ = _ganser_cds(vr, p[P_QSIDE], p, opt)
     return kr * cds * (abs(dw) / vr) * dw
 
 
@@ -276,7 +330,7 @@ def rest_drive(th, fl, p, opt):
         sin_a = abs(ex * wy - ey * wx) / s
     else:
         cos_a, sin_a = 1.0, 0.0
-    kd = _drag_coef(s, cos_a, sin_a, h, p, opt)
+    kd, _ = _drag_coef(s, cos_a, sin_a, h, p, opt)
     fx, fy = kd * wx, kd * wy
     if opt[O_LEVEL] == FULL:
         rho = opt[O_RHO]
@@ -337,26 +391,26 @@ def log_rhs(s_, fl, p, opt, want_lin):
     wx, wy = uw - ub, vw - vb
     s = np.sqrt(wx * wx + wy * wy)
     if s > 0.0:
-        ew = ex * wx + ey * wy
-        cos_a = abs(ew) / s
-        sin_a = abs(ex * wy - ey * wx) / s
+        inv_s = 1.0 / s
+        nwx, nwy = wx * inv_s, wy * inv_s
+        ew = ex * nwx + ey * nwy
+        cos_a = abs(ew)
+        sin_a = abs(ex * nwy - ey * nwx)
         sgn = 1.0 if ew >= 0.0 else -1.0
-        nwx, nwy = wx / s, wy / s
     else:
         cos_a, sin_a, sgn = 1.0, 0.0, 1.0
         nwx, nwy = 1.0, 0.0
     vol = p[P_VOL]
     vf = vol if opt[O_SUBMERGED] == 0.0 else submerged_volume(h, p[P_R], p[P_L])
     m_eff = p[P_RHOB] * vol + 0.5 * rho * vf  # added mass, C_m = 1/2 (docs/model.md (33))
-    kd = _drag_coef(s, cos_a, sin_a, h, p, opt)
+    kd, gprime = _drag_coef(s, cos_a, sin_a, h, p, opt)
     fx, fy = kd * wx, kd * wy  # drag (docs/model.md (35))
     if want_lin:
-        # drag linearisation: F = g(s) w/s, dF/dw = g'(s) w w^T/s^2 + g(s)/s (I - w w^T/s^2)
-        ds = 1e-6 * s + 1e-9
-        kd2 = _drag_coef(s + ds, cos_a, sin_a, h, p, opt)
-        gprime = ((s + ds) * kd2 - s * kd) / ds
-        lp = gprime / m_eff
-        lq = kd / m_eff
+        # drag linearisation: F = g(s) w/s, dF/dw = g'(s) w w^T/s^2 + g(s)/s (I - w w^T/s^2),
+        # g'(s) from Ganser's law differentiated (``_drag_coef``)
+        inv_m = 1.0 / m_eff
+        lp = gprime * inv_m
+        lq = kd * inv_m
         lwx = nwx
         lwy = nwy
     if level == FULL:
@@ -374,7 +428,8 @@ def log_rhs(s_, fl, p, opt, want_lin):
     if opt[O_MOTION] == MOTION_FRICTION and h < p[P_HSTAR]:
         # a log moving on the bed (docs/model.md 6.1): downslope weight and Coulomb friction
         fx, fy = _bed_friction(fx, fy, ub, vb, fl, p, opt)
-    axb, ayb = fx / m_eff, fy / m_eff
+    inv_m = 1.0 / m_eff
+    axb, ayb = fx * inv_m, fy * inv_m
     if not rot:
         return (ub, vb, 0.0, axb, ayb, 0.0), (lp, lq, lwx, lwy, lr)
     # force at the centre of pressure (docs/model.md section 9): the total hydrodynamic force
@@ -397,7 +452,8 @@ def log_rhs(s_, fl, p, opt, want_lin):
         # up to where T_R balances it: take the slope at that balance |dw*| when it is larger
         # (a few fixed-point steps on the local quadratic model T_R(x) ~ T_R(g) (x / g)^2).
         g = max(abs(dw), 1e-6)
-        tg = abs(_torque(g, s, p, opt))
+        # T_R is odd in dw: |T_R(|dw|)| is the |tr| just computed
+        tg = abs(tr) if g == abs(dw) else abs(_torque(g, s, p, opt))
         for _ in range(2):
             if tg <= 0.0:
                 break
@@ -410,6 +466,25 @@ def log_rhs(s_, fl, p, opt, want_lin):
         # for a constant C_D; Ganser's C_D falls with speed, so this bounds the slope above)
         lr = (1.0 if opt[O_LAW] == LINEAR else 2.0) * tg / g / p[P_INERTIA]
     return (ub, vb, om, axb, ayb, dom), (lp, lq, lwx, lwy, lr)
+
+
+@nb.njit(cache=True, inline="always")
+def stage_columns(opt):
+    """Which flow columns ``log_rhs`` reads under options ``opt`` (the stage sampling's set).
+
+    Returns (depth, rotation, full, slope): the depth H (submerged volume, wetted area, bed
+    friction), the gradient terms DUDY and DVDX of the flow's rotation, the full model's
+    DUDT, DVDT, DUDX, DVDY, and the free-surface slope DETADX, DETADY; U and V are always
+    read, ETA never.  Tracer mode reads U, V and the rotation only.
+    """
+    level = opt[O_LEVEL]
+    rot = opt[O_ROT] > 0.0
+    if level == TRACER:
+        return False, rot, False, False
+    friction = opt[O_MOTION] == MOTION_FRICTION
+    depth = opt[O_SUBMERGED] != 0.0 or opt[O_AREA] == AREA_WETTED or friction
+    full = level == FULL
+    return depth, rot or full, full, (full and opt[O_SLOPE] > 0.0) or friction
 
 
 @nb.njit(cache=True, inline="always")

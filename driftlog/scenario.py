@@ -35,6 +35,7 @@ from pathlib import Path
 
 from driftlog.contact.model import CONTACT_SECTION
 from driftlog.contact.obstacles import OBSTACLES_SECTION
+from driftlog.coupling import COUPLING_SECTION
 from driftlog.ensemble.vary import ENSEMBLE_SECTION
 from driftlog.errors import ScenarioError
 from driftlog.integrators import INTEGRATOR_SECTION
@@ -61,7 +62,8 @@ __all__ = ["Key", "Section", "SECTIONS", "Scenario", "load_scenario", "register_
 # this order (``driftlog scenario keys``)
 SECTIONS: dict[str, Section] = {s.name: s for s in (
     FLOW_SECTION, TIME_SECTION, LOGS_SECTION, PHYSICS_SECTION, INTEGRATOR_SECTION,
-    CONTACT_SECTION, OBSTACLES_SECTION, OUTPUT_SECTION, ENSEMBLE_SECTION, SOLVER_SECTION)}
+    CONTACT_SECTION, OBSTACLES_SECTION, OUTPUT_SECTION, ENSEMBLE_SECTION, SOLVER_SECTION,
+    COUPLING_SECTION)}
 TOP_KEYS = [
     Key("title", "str", "", "a short name for the scenario"),
     Key("description", "str", "", "what the scenario shows"),

@@ -128,13 +128,19 @@ def test_per_log_clock_needs_the_fused_mesh_kernels():
 STILL = Mesh.regular_grid(40, 10, 1.0)
 
 
-def cradle(clock, bystanders=True):
+def cradle(clock, bystanders=True, mirrored=False):
     """Newton's cradle: five logs end to end, a sixth hits the row at 1 m/s (eps = 1, no
     forces: still water, no drag); bystanders drift and spin far from it."""
     from driftlog.contact import ContactModel
 
     x = [4.0] + [8.0 + 1.21 * k for k in range(5)]
     y, th, u, om = [5.0] * 6, [0.0] * 6, [1.0] + [0.0] * 5, [0.0] * 6
+    if mirrored:  # a second row at y = 2, hit from the right
+        x += [24.0 + 1.21 * k for k in range(5)] + [33.0]
+        y += [2.0] * 6
+        th += [0.0] * 6
+        u += [0.0] * 5 + [-1.0]
+        om += [0.0] * 6
     if bystanders:
         x += [3.0, 12.0, 20.0, 30.0]
         y += [1.5, 8.5, 1.5, 8.5]
@@ -183,3 +189,16 @@ def test_newtons_cradle_keeps_momentum_and_energy_on_per_log_clocks():
     assert p[0].stats["contact_set"] == 6
     assert p[0].stats["log_substeps"] > 0
     assert p[0].contact.stats["events"] == g[0].contact.stats["events"] >= 5
+
+
+def test_two_cradles_are_two_islands_on_their_own_clocks():
+    g, a = cradle("global", bystanders=False, mirrored=True)
+    p, b = cradle("per_log", bystanders=False, mirrored=True)
+    np.testing.assert_allclose(b.state, a.state, atol=1e-9)
+    # each row went through: its far end moves on at 1 m/s
+    assert b.state[5, 3] == pytest.approx(1.0, abs=1e-9)
+    assert b.state[6, 3] == pytest.approx(-1.0, abs=1e-9)
+    # the rows never come near each other: two islands in each of the 16 intervals (the
+    # steady flow's hydro steps of 1 s)
+    assert p.stats["islands"] == 2 * 16
+    assert p.stats.get("clock_retries", 0) == 0

@@ -32,12 +32,13 @@ LAYERS = [
     ("hydro source", ["driftlog.flowfile", "driftlog.adapters", "driftlog.solver",
                       "driftlog.seas", "driftlog.floodsetup", "driftlog.malpasset"]),
     ("tracker", ["driftlog.logs", "driftlog.physics", "driftlog.integrators", "driftlog.fused",
-                 "driftlog.contact", "driftlog.tracker", "driftlog.stepping", "driftlog.clocks"]),
+                 "driftlog.contact", "driftlog.tracker", "driftlog.stepping", "driftlog.clocks",
+                 "driftlog.clock_kernel"]),
     ("trajectories", ["driftlog.trajectory"]),
     ("analysis", ["driftlog.ensemble.summary", "driftlog.ensemble.aggregate"]),
     ("top", ["driftlog", "driftlog.__main__", "driftlog.api", "driftlog.sources",
              "driftlog.cli", "driftlog.solving", "driftlog.report", "driftlog.scenario",
-             "driftlog.ensemble", "driftlog.compare", "driftlog.plots"]),
+             "driftlog.ensemble", "driftlog.compare", "driftlog.plots", "driftlog.coupling"]),
 ]
 
 

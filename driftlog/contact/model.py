@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from driftlog.columns import CX, CY, GAP, NRES, OMEGA, POSITION, UB, VB, VELOCITY
+from driftlog.columns import CX, CY, GAP, NRES, NX, NY, OMEGA, POSITION, UB, VB, VELOCITY
 from driftlog.contact.impulses import resolve_islands, separate_resting
 from driftlog.contact.islands import islands
 from driftlog.contact.moreau import moreau_solve
@@ -134,6 +134,8 @@ class ContactModel:
                           pgs_iterations=0, separations=0, pgs_max_iterations=0, max_contacts=0,
                           min_gap=np.inf)
         self._hits = []
+        # momentum passed to each fixed obstacle by the contact impulses (kg m/s, x and y)
+        self.obstacle_impulse = np.zeros((len(self.obstacles.names), 2))
         self._cache = None
         self._window = None
         self._active = np.empty(0, np.int64)
@@ -289,6 +291,21 @@ class ContactModel:
         self._hits = []
         return out
 
+    def _pass_to_obstacles(self, C, impulse):
+        """Add to ``obstacle_impulse`` what the contacts ``C`` with impulses passed on.
+
+        A contact impulse j n on a log (n from the other body to the log) is -j n on a fixed
+        obstacle.
+        """
+        fixed = np.flatnonzero((C.body2 < 0) & (impulse != 0.0))
+        if fixed.size == 0 or self.obstacle_impulse.shape[0] == 0:
+            return
+        j = impulse[fixed]
+        o = C.obstacle[fixed]
+        n = self.obstacle_impulse.shape[0]
+        self.obstacle_impulse[:, 0] -= np.bincount(o, j * C.res[fixed, NX], n)
+        self.obstacle_impulse[:, 1] -= np.bincount(o, j * C.res[fixed, NY], n)
+
     # ----------------------------------------------------------------- stepping
     def substep(self, bodies, dt):
         """Advance ``bodies`` by at most dt with contacts; returns the step.
@@ -348,6 +365,7 @@ class ContactModel:
                 self._jam(bodies, C, f"{self.max_events} impulses in one sub-step and contacts "
                           "still approach (contact.max_events)")
             st["events"] += events
+            self._pass_to_obstacles(C, imp)
             st["max_contacts"] = max(st["max_contacts"], len(C))
             # a hit is a contact that starts (a log resting on a pier, bounced back by the
             # flow at every step, is one hit)
@@ -460,6 +478,7 @@ class ContactModel:
                              self.restitution, tol, tol, 1e-9 * vscale, self.iterations, P,
                              0.2, self.island_stop)
         st["pgs_iterations"] += it
+        self._pass_to_obstacles(C, P)
         st["pgs_max_iterations"] = max(st["pgs_max_iterations"], it)
         st["max_contacts"] = max(st["max_contacts"], len(C))
         bodies.invalidate_flow()

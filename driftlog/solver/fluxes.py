@@ -12,8 +12,9 @@ is added on each side (Audusse et al. 2004, sect. 4), which keeps the scheme wel
 ``face_residuals`` then sums, for each face, the fluxes of its edges (``prange`` over faces,
 reading edge arrays only) into d(h, hu, hv)/dt and the face's time-step bound: at first order
 ``sum(len_e s_e) / area`` (dt times it <= 1 keeps h >= 0: the outflow through each edge is at
-most s_e h* dt len_e), at second order ``n_edges max(len_e s_e) / area`` (the face value is the
-mean of its edge values, each of which must stay non-negative).
+most s_e h* dt len_e), at second order ``sum(len_e s_e max(1, h_e / h)) / area`` with h_e
+the face's reconstructed depth at the edge (the outflow is at most s_e h_e dt len_e): the
+first order's bound where the depth is flat, as at every wet/dry front.
 """
 
 from __future__ import annotations
@@ -55,10 +56,22 @@ def _side_state(f, dx, dy, h, hu, hv, z, hdry, order, grad):
             (hv[f] + grad[f, 6] * dx + grad[f, 7] * dy) / he, eta - he)
 
 
+@nb.njit(cache=True, inline="always")
+def _share(h_side, h_face):
+    """max(1, h_side / h_face): an edge's outflow is at most speed * h_side (1 when dry)."""
+    if h_face <= 0.0 or h_side <= h_face:
+        return 1.0
+    return h_side / h_face
+
+
 @kernel
 def edge_fluxes(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad, order,
-                riemann, g, hdry, slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed):
+                riemann, g, hdry, slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed,
+                speed1):
     """Fluxes of the edges ``edges`` times their length; ``speed``: length x largest wave speed.
+
+    At second order ``speed`` and ``speed1`` hold that product for each side, times
+    max(1, h_side / h_face) (the side's share of the face's positivity bound).
 
     ``edges`` lists the edges to compute (the active set's, ``driftlog.solver.layout``); the
     others keep their values.
@@ -86,7 +99,7 @@ def edge_fluxes(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, gra
             fy0[e] = ln * (fnA * n2 + ft * n1)
             fx1[e] = 0.0
             fy1[e] = 0.0
-            speed[e] = ln * sp
+            speed[e] = ln * sp if order == 1 else ln * sp * _share(hA, h[a])
             continue
         hB, uB, vB, zB = _side_state(b, off1[e, 0], off1[e, 1], h, hu, hv, z, hdry, order, grad)
         unB = uB * n1 + vB * n2
@@ -105,12 +118,16 @@ def edge_fluxes(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, gra
         fy0[e] = ln * (fnA * n2 + ft * n1)
         fx1[e] = ln * (fnB * n1 - ft * n2)
         fy1[e] = ln * (fnB * n2 + ft * n1)
-        speed[e] = ln * sp
+        if order == 1:
+            speed[e] = ln * sp
+        else:
+            speed[e] = ln * sp * _share(hA, h[a])
+            speed1[e] = ln * sp * _share(hB, h[b])
 
 
 @kernel
 def face_residuals(faces, face_edges, face_n, face_side, area, fmass, fx0, fy0, fx1, fy1,
-                   speed, order, dh, dhu, dhv, rate):
+                   speed, speed1, order, dh, dhu, dhv, rate):
     """d/dt of h, hu, hv on the faces ``faces``, and their time-step bound ``rate``.
 
     dt * rate <= 1; ``faces``: the active set's faces (``driftlog.solver.layout``);
@@ -129,17 +146,15 @@ def face_residuals(faces, face_edges, face_n, face_side, area, fmass, fx0, fy0, 
                 rh -= fmass[e]
                 rx -= fx0[e]
                 ry -= fy0[e]
+                rs += speed[e]
             else:
                 rh += fmass[e]
                 rx += fx1[e]
                 ry += fy1[e]
-            if order == 1:
-                rs += speed[e]
-            else:
-                rs = max(rs, speed[e])
+                rs += speed[e] if order == 1 else speed1[e]
         inv = 1.0 / area[f]
         dh[f] = rh * inv
         dhu[f] = rx * inv
         dhv[f] = ry * inv
-        rate[f] = rs * inv if order == 1 else face_n[f] * rs * inv
+        rate[f] = rs * inv
 

@@ -17,7 +17,7 @@ import numba as nb
 
 from driftlog._numba import kernel
 
-__all__ = ["euler_stage", "heun_average", "manning_factor"]
+__all__ = ["euler_stage", "heun_average", "manning_factor", "thin_layer"]
 
 
 @nb.njit(cache=True, inline="always")
@@ -78,3 +78,22 @@ def heun_average(h0, hu0, hv0, thin, h, hu, hv):
             k = 1.4142135623730951 * h2 / (h2 * h2 + thin4) ** 0.5
             hu[f] *= k
             hv[f] *= k
+
+
+@kernel
+def thin_layer(h, hu, hv, eps):
+    """Desingularised velocity in water thinner than ``eps`` (per face).
+
+    u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, eps^4)) (Kurganov & Petrova 2007, eq. 2.17),
+    discharges reset to h u: a factor sqrt(2) h^2 / sqrt(h^4 + eps^4) < 1 below eps.
+    """
+    for f in nb.prange(h.shape[0]):
+        hf = h[f]
+        e = eps[f]
+        if hf >= e or hf <= 0.0:
+            continue
+        h2 = hf * hf
+        e2 = e * e
+        k = 1.4142135623730951 * h2 / (h2 * h2 + e2 * e2) ** 0.5
+        hu[f] *= k
+        hv[f] *= k

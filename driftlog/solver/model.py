@@ -20,7 +20,7 @@ from driftlog.errors import ScenarioError
 from driftlog.solver.boundaries import DEPTH, DISCHARGE, LEVEL, BoundarySet
 from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes
 from driftlog.solver.fluxes import edge_fluxes, face_residuals, face_sides
-from driftlog.solver.friction import euler_stage, heun_average
+from driftlog.solver.friction import euler_stage, heun_average, thin_layer
 from driftlog.solver.layout import ORDERINGS, active_set, edge_order, face_order, mark_active
 from driftlog.solver.reconstruction import NGRAD, limited_gradients, lsq_geometry
 from driftlog.solver.riemann import RIEMANN
@@ -29,6 +29,10 @@ __all__ = ["ShallowWaterSolver", "GRAVITY", "DEFAULT_CFL"]
 
 GRAVITY = 9.81
 DEFAULT_CFL = {1: 0.9, 2: 0.8}
+# second order: velocities desingularised below this fraction of the bed's largest step from a
+# face to a neighbour (Thacker's bowl: 0.01 -> 3.0 m/s at most in the film, 0.03 -> 1.6 m/s,
+# the flow moving at 0.7 m/s; a flat bed: never)
+THIN_FRACTION = 0.03
 
 # faces from which the kernels run on numba's threads: below, waking the thread pool at each
 # of the ~8 kernel calls of a step costs more than the work (and far more on a loaded machine)
@@ -83,6 +87,12 @@ class ShallowWaterSolver:
         h u), so that a film at a wet/dry front carries no spurious speed (and does not set
         the time step).  Default 0: off.  It slows genuinely thin flows too: 1e-3 m suits
         metre-deep floods, not a 5 mm dam break (BENCHMARKS.md, solver section).
+    thin_fraction : float, optional
+        Second order: the same desingularisation below eps_i = thin_fraction * max_j |z_j - z_i|
+        (j the face's neighbours), a depth that follows the bed's step across the face: a
+        film thinner than a small part of that step is not resolved, and its velocity is
+        not to be trusted.  Default 0.03 at order 2 (0 on a flat bed: nothing changes
+        there); must be 0 at order 1.
     renumber : {"rcm", "hilbert", "none"}, optional
         Internal numbering of faces and edges (``driftlog.solver.layout``): reverse
         Cuthill-McKee, a Hilbert curve, or the mesh's own.  Default: "rcm" from
@@ -95,7 +105,7 @@ class ShallowWaterSolver:
     def __init__(self, mesh, bed=None, order=1, riemann="hllc", cfl=None, manning=None,
                  strickler=None, dry_depth=1e-6, boundaries=None, arrival_depth=ARRIVAL_DEPTH,
                  gravity=GRAVITY, parallel=None, thin_depth=0.0, renumber=None,
-                 active_set=True):
+                 active_set=True, thin_fraction=None):
         if order not in (1, 2):
             raise ScenarioError("solver.order", order, "must be 1 or 2")
         if riemann not in RIEMANN:
@@ -109,6 +119,15 @@ class ShallowWaterSolver:
             raise ScenarioError("solver.thin_depth", thin_depth, "must be a depth >= 0 m (0: "
                                 "velocities from plain hu / h)")
         self._thin = float(thin_depth)
+        thin_fraction = (THIN_FRACTION if order == 2 else 0.0) if thin_fraction is None \
+            else float(thin_fraction)
+        if not (np.isfinite(thin_fraction) and thin_fraction >= 0):
+            raise ScenarioError("solver.thin_fraction", thin_fraction, "must be a fraction >= 0 "
+                                "of the bed's step to a neighbour (0: off)")
+        if order == 1 and thin_fraction > 0:
+            raise ScenarioError("solver.thin_fraction", thin_fraction, "applies at order 2 "
+                                "only (give 0 or leave it out at order 1)")
+        self.thin_fraction = thin_fraction
         if not dry_depth > 0:
             raise ScenarioError("solver.dry_depth", dry_depth, "must be > 0 m")
         self.mesh = mesh
@@ -138,8 +157,9 @@ class ShallowWaterSolver:
         self.parallel = par
         pick = (lambda k: k.parallel) if par else (lambda k: k.serial)
         self._k_grad, self._k_edges, self._k_faces, self._k_euler, self._k_heun, \
-            self._k_mark = map(pick, (limited_gradients, edge_fluxes, face_residuals,
-                                      euler_stage, heun_average, mark_active))
+            self._k_mark, self._k_thin = map(pick, (limited_gradients, edge_fluxes,
+                                                    face_residuals, euler_stage, heun_average,
+                                                    mark_active, thin_layer))
         if renumber is None:
             renumber = "rcm" if nf >= RENUMBER_FACES else "none"
         if renumber not in ORDERINGS:
@@ -199,9 +219,14 @@ class ShallowWaterSolver:
         if self.order == 2:
             self._lsq = tuple(faces_(g) for g in lsq_geometry(mesh))
             self._grad = np.zeros((nf, NGRAD))
+            nbr = self._nbr
+            zj = self._z[np.where(nbr >= 0, nbr, np.arange(nf)[:, None])]
+            self._thin_eps = self.thin_fraction * np.abs(zj - self._z[:, None]).max(1)
         else:
             self._grad = np.zeros((1, NGRAD))
-        self._flux = [np.zeros(ne) for _ in range(6)]
+        self._flux = [np.zeros(ne) for _ in range(7 if self.order == 2 else 6)]
+        if self.order == 1:
+            self._flux.append(self._flux[5])  # speed1: unused at first order
         self._res = [np.zeros(nf) for _ in range(4)]
         self._save = [np.zeros(nf) for _ in range(3)]
         self._bflux_sum = np.zeros(self.boundaries.edges.size)
@@ -342,13 +367,17 @@ class ShallowWaterSolver:
             offset, minv, eoff = m._lsq
             m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._nbr, offset, minv, eoff,
                       m._grad)
-        fm, fx0, fy0, fx1, fy1, sp = m._flux
+        fm, fx0, fy0, fx1, fy1, sp, sp1 = m._flux
         m._k_edges(edges, m._ef, m._nx, m._ny, m._len, m._off0, m._off1, h, hu, hv, m._z,
                    m._grad, m.order, RIEMANN[m.riemann], m.gravity, m.dry_depth, bs.slot,
-                   bs.kind, bs.value, fm, fx0, fy0, fx1, fy1, sp)
-        m._k_faces(faces, m._fe, m._fn, m._side, m._area, fm, fx0, fy0, fx1, fy1, sp, m.order,
-                   dh, dhu, dhv, rate)
+                   bs.kind, bs.value, fm, fx0, fy0, fx1, fy1, sp, sp1)
+        m._k_faces(faces, m._fe, m._fn, m._side, m._area, fm, fx0, fy0, fx1, fy1, sp, sp1,
+                   m.order, dh, dhu, dhv, rate)
         return float(rate.max())
+
+    def _thin_layer(self):
+        if self.thin_fraction > 0:
+            self._k_thin(self._h, self._hu, self._hv, self._thin_eps)
 
     def step(self, dt_max=np.inf) -> float:
         """Advance one time step, at most ``dt_max`` s; returns the step taken."""
@@ -374,6 +403,7 @@ class ShallowWaterSolver:
                 self._bflux_sum[:] = 0.5 * fm[bedges]
                 self._k_euler(h0, hu0, hv0, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
                           self._thin, self._h, self._hu, self._hv)
+                self._thin_layer()
                 rmax1 = self._rates(self._h, self._hu, self._hv, self.t + dt)
                 if dt * rmax1 <= 1.0:
                     break
@@ -386,6 +416,7 @@ class ShallowWaterSolver:
             self._k_euler(self._h, self._hu, self._hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
                           self._thin, self._h, self._hu, self._hv)
             self._k_heun(h0, hu0, hv0, self._thin, self._h, self._hu, self._hv)
+            self._thin_layer()
         vol = self._bflux_sum * dt  # m3 out (>0) or in (<0) per boundary edge
         bs = self.boundaries
         n = len(self.mesh.tag_names)

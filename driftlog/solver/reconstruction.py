@@ -58,85 +58,126 @@ def lsq_geometry(mesh):
             np.ascontiguousarray(np.stack([ex, ey], -1)))
 
 
+@nb.njit(cache=True, inline="always")
+def _bj(phi, g_x, g_y, ex, ey, qc, qmin, qmax, ext):
+    """Barth-Jespersen factor so far ``phi``, tightened by one edge (offset ex, ey)."""
+    dq = g_x * ex + g_y * ey
+    if dq > 0.0:
+        return min(phi, (qmax + ext - qc) / dq)
+    if dq < 0.0:
+        return min(phi, (qmin - ext - qc) / dq)
+    return phi
+
+
 @kernel
 def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset,
                       grad):
     """Fill ``grad`` (n_faces, 8) with the limited gradients of eta, h, hu, hv on ``faces``.
 
     ``faces``: the active set's faces (``driftlog.solver.layout``); other rows keep theirs.
+    One pass over the neighbours gathers the four least-squares sums, their ranges and the
+    velocities' range; one pass over the edges limits the four gradients.
     """
     for i in nb.prange(faces.shape[0]):
         f = faces[i]
         for k in range(NGRAD):
             grad[f, k] = 0.0
-        if h[f] <= hdry or (minv[f, 0] == 0.0 and minv[f, 2] == 0.0):
+        hi = h[f]
+        if hi <= hdry or (minv[f, 0] == 0.0 and minv[f, 2] == 0.0):
             continue
+        n = face_n[f]
         front = False
-        for k in range(face_n[f]):
+        for k in range(n):
             j = neighbours[f, k]
             if j >= 0 and h[j] <= hdry:
                 front = True
         if front:
             continue
-        hi = h[f]
-        qi = (hi + z[f], hi, hu[f], hv[f])
-        for q in range(4):
-            qc = qi[q]
-            rx = 0.0
-            ry = 0.0
-            qmin = qc
-            qmax = qc
-            for k in range(face_n[f]):
-                j = neighbours[f, k]
-                if j < 0:
-                    continue
-                hj = h[j]
-                if q == 0:
-                    qj = hj + z[j]
-                elif q == 1:
-                    qj = hj
-                elif q == 2:
-                    qj = hu[j]
-                else:
-                    qj = hv[j]
-                d = qj - qc
-                rx += offset[f, k, 0] * d
-                ry += offset[f, k, 1] * d
-                qmin = min(qmin, qj)
-                qmax = max(qmax, qj)
-            gx = minv[f, 0] * rx + minv[f, 1] * ry
-            gy = minv[f, 1] * rx + minv[f, 2] * ry
-            # a boundary edge has no face beyond it: its value may go one range further
-            # (a one-sided gradient extrapolates there; clipping it made boundary faces first
-            # order, which cost MacDonald's channel its second order)
-            rng = qmax - qmin
-            phi = 1.0
-            for k in range(face_n[f]):  # Barth-Jespersen: edge values within [qmin, qmax]
-                dq = gx * edge_offset[f, k, 0] + gy * edge_offset[f, k, 1]
-                ext = rng if neighbours[f, k] < 0 else 0.0
-                if dq > 0.0:
-                    phi = min(phi, (qmax + ext - qc) / dq)
-                elif dq < 0.0:
-                    phi = min(phi, (qmin - ext - qc) / dq)
-            phi = max(phi, 0.0)
-            grad[f, 2 * q] = phi * gx
-            grad[f, 2 * q + 1] = phi * gy
-        # the edge velocity hu_e / h_e must stay within the neighbourhood's velocities: in thin
-        # water a small h_e would make it arbitrarily large (and the time step tiny)
-        umin = hu[f] / hi
-        umax = umin
-        vmin = hv[f] / hi
-        vmax = vmin
-        for k in range(face_n[f]):
+        c0 = hi + z[f]
+        c2 = hu[f]
+        c3 = hv[f]
+        rx0 = ry0 = rx1 = ry1 = rx2 = ry2 = rx3 = ry3 = 0.0
+        mn0 = mx0 = c0
+        mn1 = mx1 = hi
+        mn2 = mx2 = c2
+        mn3 = mx3 = c3
+        umin = umax = c2 / hi
+        vmin = vmax = c3 / hi
+        for k in range(n):
             j = neighbours[f, k]
-            if j >= 0:
-                uj = hu[j] / h[j]
-                vj = hv[j] / h[j]
-                umin = min(umin, uj)
-                umax = max(umax, uj)
-                vmin = min(vmin, vj)
-                vmax = max(vmax, vj)
-        # smooth extrema overshoot by O(dx^2): allow one neighbourhood range beyond the range
+            if j < 0:
+                continue
+            hj = h[j]
+            q0 = hj + z[j]
+            q2 = hu[j]
+            q3 = hv[j]
+            ox = offset[f, k, 0]
+            oy = offset[f, k, 1]
+            d = q0 - c0
+            rx0 += ox * d
+            ry0 += oy * d
+            d = hj - hi
+            rx1 += ox * d
+            ry1 += oy * d
+            d = q2 - c2
+            rx2 += ox * d
+            ry2 += oy * d
+            d = q3 - c3
+            rx3 += ox * d
+            ry3 += oy * d
+            mn0 = min(mn0, q0)
+            mx0 = max(mx0, q0)
+            mn1 = min(mn1, hj)
+            mx1 = max(mx1, hj)
+            mn2 = min(mn2, q2)
+            mx2 = max(mx2, q2)
+            mn3 = min(mn3, q3)
+            mx3 = max(mx3, q3)
+            uj = q2 / hj
+            vj = q3 / hj
+            umin = min(umin, uj)
+            umax = max(umax, uj)
+            vmin = min(vmin, vj)
+            vmax = max(vmax, vj)
+        a = minv[f, 0]
+        b = minv[f, 1]
+        c = minv[f, 2]
+        gx0 = a * rx0 + b * ry0
+        gy0 = b * rx0 + c * ry0
+        gx1 = a * rx1 + b * ry1
+        gy1 = b * rx1 + c * ry1
+        gx2 = a * rx2 + b * ry2
+        gy2 = b * rx2 + c * ry2
+        gx3 = a * rx3 + b * ry3
+        gy3 = b * rx3 + c * ry3
+        # Barth-Jespersen: edge values within [qmin, qmax]; a boundary edge has no face beyond
+        # it, so its value may go one range further (a one-sided gradient extrapolates there;
+        # clipping it made boundary faces first order, which cost MacDonald's channel its
+        # second order)
+        p0 = p1 = p2 = p3 = 1.0
+        for k in range(n):
+            ex = edge_offset[f, k, 0]
+            ey = edge_offset[f, k, 1]
+            bnd = neighbours[f, k] < 0
+            p0 = _bj(p0, gx0, gy0, ex, ey, c0, mn0, mx0, mx0 - mn0 if bnd else 0.0)
+            p1 = _bj(p1, gx1, gy1, ex, ey, hi, mn1, mx1, mx1 - mn1 if bnd else 0.0)
+            p2 = _bj(p2, gx2, gy2, ex, ey, c2, mn2, mx2, mx2 - mn2 if bnd else 0.0)
+            p3 = _bj(p3, gx3, gy3, ex, ey, c3, mn3, mx3, mx3 - mn3 if bnd else 0.0)
+        p0 = max(p0, 0.0)
+        p1 = max(p1, 0.0)
+        p2 = max(p2, 0.0)
+        p3 = max(p3, 0.0)
+        grad[f, 0] = p0 * gx0
+        grad[f, 1] = p0 * gy0
+        gx1 *= p1
+        gy1 *= p1
+        gx2 *= p2
+        gy2 *= p2
+        gx3 *= p3
+        gy3 *= p3
+        # the edge velocity hu_e / h_e must stay within the neighbourhood's velocities: in thin
+        # water a small h_e would make it arbitrarily large (and the time step tiny); smooth
+        # extrema overshoot by O(dx^2): allow one neighbourhood range beyond the range
         tol = 1e-12 * (abs(umin) + abs(umax) + abs(vmin) + abs(vmax)) + 1e-300
         du = umax - umin + tol
         dv = vmax - vmin + tol
@@ -144,13 +185,23 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         umax += du
         vmin -= dv
         vmax += dv
-        for k in range(face_n[f]):
-            dx = edge_offset[f, k, 0]
-            dy = edge_offset[f, k, 1]
-            he = hi + grad[f, 2] * dx + grad[f, 3] * dy
-            ue = (hu[f] + grad[f, 4] * dx + grad[f, 5] * dy) / he
-            ve = (hv[f] + grad[f, 6] * dx + grad[f, 7] * dy) / he
-            if he <= hdry or ue < umin or ue > umax or ve < vmin or ve > vmax:
-                for m in range(2, NGRAD):  # depth and discharges at first order here
-                    grad[f, m] = 0.0
+        ok = True
+        for k in range(n):
+            ex = edge_offset[f, k, 0]
+            ey = edge_offset[f, k, 1]
+            he = hi + gx1 * ex + gy1 * ey
+            if he <= hdry:
+                ok = False
                 break
+            ue = (c2 + gx2 * ex + gy2 * ey) / he
+            ve = (c3 + gx3 * ex + gy3 * ey) / he
+            if ue < umin or ue > umax or ve < vmin or ve > vmax:
+                ok = False
+                break
+        if ok:  # else depth and discharges at first order here
+            grad[f, 2] = gx1
+            grad[f, 3] = gy1
+            grad[f, 4] = gx2
+            grad[f, 5] = gy2
+            grad[f, 6] = gx3
+            grad[f, 7] = gy3

@@ -1,0 +1,123 @@
+"""Cost of two-way coupling: the Malpasset flood with logs acting on it, against the plain solve.
+
+One scenario (cases/malpasset, 46,691 triangles, first order), three runs from the dam break
+to ``--end``:
+
+- ``solve``: the solver alone (no output), the uncoupled flood;
+- ``coupled``: ``[coupling] enabled``: solver and tracker together, ``--logs`` logs (8 m,
+  0.2 m radius, pine) released at rest in the reservoir near the dam (wet from the start, so
+  every one is carried and acts on the flood from the first step), no contacts;
+- ``offline``: the same logs tracked afterwards on the solve's flow file (snapshots every
+  10 s), the one-way pipeline (solve with output, then track).
+
+Prints and writes benchmarks/results/coupling_cost{.md,.csv,.json}: wall seconds, solver
+steps, coupled / solve and coupled / (solve + offline track) ratios.  The full flood is
+4000 s (about 15 min per solve on 2 cores); ``--end 300`` (the default) is labelled as a
+shortened run.
+
+    python benchmarks/coupling_cost.py --end 300 --logs 1000
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from _common import RESULTS, machine, write_table  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+CASE = ROOT / "cases" / "malpasset" / "scenario.toml"
+CLOCKS = (time.perf_counter, time.process_time)
+
+
+def timed(fn):
+    """(result, wall s, CPU s) of fn(): CPU time is the fair measure on a loaded machine."""
+    w, c = (f() for f in CLOCKS)
+    out = fn()
+    return out, time.perf_counter() - w, time.process_time() - c
+
+
+# in the reservoir, just upstream of the dam line (bed below 100 m: wet at t = 0)
+RESERVOIR = [[4350.0, 3850.0], [4550.0, 4000.0], [4450.0, 4250.0], [4250.0, 4100.0]]
+
+
+def scenario(end, n_logs, coupled, flow_path=None):
+    """The Malpasset case to ``end`` with ``n_logs`` logs in the reservoir."""
+    from driftlog.api import as_scenario
+
+    over = {"time": {"start": 0.0, "end": end, "output_interval": 10.0},
+            "logs": [{"name": "reservoir", "seeding": "random", "count": n_logs,
+                      "polygon": RESERVOIR, "seed": 7, "theta": "random", "length": 8.0,
+                      "radius": 0.2, "density": 700.0, "velocity": "rest"}],
+            "solver": {"end": end, "output_interval": 10.0},
+            "coupling": {"enabled": coupled}}
+    if flow_path is not None:
+        over["flow"] = {"path": str(flow_path)}
+    scen = as_scenario(str(CASE), overrides=over)
+    return scen
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--end", type=float, default=300.0, help="end of the flood run (s)")
+    ap.add_argument("--logs", type=int, default=1000)
+    ap.add_argument("--name", default="coupling_cost")
+    a = ap.parse_args(argv)
+    from driftlog.api import track
+    from driftlog.solver.config import build_solver
+    from driftlog.solving import solve_scenario
+
+    tmp = Path(tempfile.mkdtemp(prefix="driftlog-coupling-"))
+    rows = []
+    # warm the kernels (numba cache) on a few steps, so no run pays for compiling
+    warm = scenario(20.0, 10, True)
+    track(warm, output=tmp / "warm.nc")
+
+    scen = scenario(a.end, a.logs, False, flow_path=tmp / "flow.nc")
+    s = build_solver(scen["solver"])
+    _, w_solve, c_solve = timed(lambda: s.advance_to(a.end))
+    rows.append(dict(run="solve (solver alone, no output)", wall_s=w_solve, cpu_s=c_solve,
+                     solver_steps=s.steps, cpu_ratio_to_solve=1.0))
+    _, w_out, c_out = timed(lambda: solve_scenario(scen, output=tmp / "flow.nc"))
+    off, w_track, c_track = timed(lambda: track(scen, output=tmp / "offline.nc"))
+    rows.append(dict(run="offline: solve with output + track", wall_s=w_out + w_track,
+                     cpu_s=c_out + c_track, solver_steps=s.steps,
+                     cpu_ratio_to_solve=(c_out + c_track) / c_solve))
+    cscen = scenario(a.end, a.logs, True)
+    res, w_c, c_c = timed(lambda: track(cscen, output=tmp / "coupled.nc"))
+    import netCDF4
+
+    with netCDF4.Dataset(tmp / "coupled.nc") as ds:
+        steps = int(ds.getncattr("coupling_solver_steps"))
+        given = float(ds.getncattr("coupling_momentum_given_x")), \
+            float(ds.getncattr("coupling_momentum_given_y"))
+    rows.append(dict(run=f"coupled: {a.logs} logs acting on the flood", wall_s=w_c, cpu_s=c_c,
+                     solver_steps=steps, cpu_ratio_to_solve=c_c / c_solve))
+    floating = int((res.logs.status == 1).sum())
+    label = "" if a.end >= 4000.0 else f" (shortened run: {a.end:g} s of the 4000-s flood)"
+    notes = (f"Malpasset, 46,691 triangles, order 1, {a.logs} logs released in the reservoir, no "
+             f"contacts{label}; 1 numba thread, CPU seconds (the machine is shared).  Coupled / "
+             f"offline pipeline (CPU): {c_c / (c_out + c_track):.2f}; offline track alone "
+             f"{c_track:.1f} CPU s ({off.stats['substeps']} sub-steps); coupled run: {floating} "
+             f"logs floating at the end, momentum given to the water ({given[0]:.3g}, "
+             f"{given[1]:.3g}) kg m/s.")
+    write_table(a.name, rows, ["run", "wall_s", "cpu_s", "solver_steps", "cpu_ratio_to_solve"],
+                f"Cost of two-way coupling: Malpasset with {a.logs} logs{label}", notes)
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    (RESULTS / f"{a.name}.json").write_text(json.dumps(dict(
+        machine=machine(), end=a.end, logs=a.logs, solve_cpu_s=c_solve, solve_wall_s=w_solve,
+        solve_with_output_cpu_s=c_out, offline_track_cpu_s=c_track, coupled_cpu_s=c_c,
+        coupled_wall_s=w_c, coupled_over_solve=c_c / c_solve,
+        coupled_over_offline=c_c / (c_out + c_track), floating_at_end=floating,
+        momentum_given=given), indent=1))
+
+
+if __name__ == "__main__":
+    main()

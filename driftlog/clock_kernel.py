@@ -1,0 +1,221 @@
+"""Per-log clocks, the kernel: every floating log to the next synchronisation time on its own.
+
+The tracker's side (contact islands, statuses) is ``driftlog.clocks``; the kernel lives apart
+so that numba's cache of it survives edits there.
+
+Algorithm 1 of the reference paper (docs/model.md section 11) advances all floating logs
+together with the smallest sub-step any of them needs (``[integrator] clock = "global"``).
+With ``clock = "per_log"`` (docs/model.md section 11.1) the logs meet only at the
+synchronisation times (hydrodynamic snapshots, output times, releases, the end); between two of
+them each log takes its own sub-steps, from its own bounds (eq. (44): length, angle, drag
+relaxation, ``max_step``), in one kernel over all logs (``per_log_mesh_advance``).  Each log's
+sub-steps are exactly the ones the global clock would give it alone: one log has the same
+trajectory, bit for bit, under both clocks.
+
+A log stops inside the interval when its status would change (left the domain, stranded,
+resting: ``driftlog.stepping.classify``'s rules); the tracker classifies it at the
+synchronisation time from the flow sampled where it stopped.  Each log's swept box (the
+bounding box of its centre over the sub-step ends) comes back for the contact islands
+(``driftlog.contact.islands``).
+
+The kernels are the fused mesh steps (``driftlog.fused``: P1 sampling on a mesh flow's node
+values, euler or rk4) with the snapshot weight computed per stage time: inside a hydrodynamic
+interval the node values are one snapshot pair; a stage that reaches the interval's end uses
+the next pair, as ``MeshFlowField.node_values`` does for the global clock.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from driftlog._numba import kernel
+from driftlog.columns import (
+    DUDY,
+    DVDX,
+    L_PAR,
+    L_PERP,
+    L_ROT,
+    NLIN,
+    NVAR,
+    OMEGA,
+    THETA,
+    UB,
+    VB,
+    WET,
+    H,
+    U,
+    V,
+    X,
+    Y,
+)
+from driftlog.flow import sample_point
+from driftlog.fused import _rk4_stage
+from driftlog.integrators import euler_row, put_row, rk4_final_row, row
+from driftlog.physics import log_rhs, rest_drive
+
+__all__ = ["CLOCKS", "per_log_mesh_advance", "OK", "TOO_SMALL", "DIVERGED", "EULER", "RK4"]
+
+CLOCKS = ("global", "per_log")
+# per-log outcome codes of per_log_mesh_advance
+OK, TOO_SMALL, DIVERGED = 0, 1, 2
+EULER, RK4 = 0, 1
+
+
+@nb.njit(cache=True, inline="always")
+def _weight(ts, T0, gap):
+    """Time weight and 1 / gap of the snapshot pair starting at T0 (``MeshFlowField._interval``)."""
+    if gap == 0.0:  # one snapshot: a steady flow
+        return 0.0, 0.0
+    a = min(max((ts - T0) / gap, 0.0), 1.0)
+    return a, 1.0 / gap
+
+
+@nb.njit(cache=True, inline="always")
+def _own_bound(s, length, ln, lf, ang, drag_fraction, explicit, max_step):
+    """One log's sub-step bound: ``StepOptions.max_step`` then ``stepping.step_bound``."""
+    dt = max_step
+    b = np.inf
+    sp = np.sqrt(s[UB] ** 2 + s[VB] ** 2)
+    if sp > 0.0:
+        b = min(b, lf * length / sp)
+    om = abs(s[OMEGA])
+    if om > 0.0:
+        b = min(b, ang / om)
+    if explicit and drag_fraction > 0.0:
+        lam = max(ln[L_PAR], max(ln[L_PERP], ln[L_ROT]))
+        if lam > 0.0:
+            b = min(b, drag_fraction / lam)
+    return min(dt, b)
+
+
+@nb.njit(cache=True, inline="always")
+def _floats(fg, fl, s, p, thr, friction, opt):
+    """True while the log stays floating (``stepping.classify``'s rules on one log)."""
+    if fg != WET:
+        return False
+    if fl[H] < thr:
+        if not friction:
+            return False
+        fx, fy, ff = rest_drive(s[THETA], fl, p, opt)
+        f = np.sqrt(fx * fx + fy * fy)
+        return f > 0.0 and f >= ff
+    return True
+
+
+@kernel
+def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t0, t_stop, tol, method,
+                         length, lf, ang, drag_fraction, explicit, max_step, min_step,
+                         tracer, rotation, thr, friction,
+                         vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split,
+                         dry_depth, recovered, loc,
+                         t_log, nsteps, dt_min, dt_max, box, code):
+    """Advance every log from t0 to t_stop with its own sub-steps (one log per thread).
+
+    Parameters
+    ----------
+    S, D0, lin0, face, F, flag : arrays
+        The logs' states (n, 6), first stage and drag linearisation at S (the tracker's
+        ``D0``, ``lin0``), face hints, flow sample and flags; all updated in place to the end
+        of each log's last sub-step.
+    P, opt : arrays
+        Parameter rows and physics options.
+    t0, t_stop, tol : float
+        The interval and the round-off tolerance of landing on t_stop.
+    method : int
+        EULER or RK4.
+    length, lf, ang, drag_fraction, explicit, max_step, min_step
+        Each log's length and the bounds of eq. (44) (``max_step`` inf when unset).
+    tracer, rotation : bool
+        Tracer level (the log takes the flow's velocity after each step), with rotation.
+    thr, friction
+        Depth below which a log stops floating (flotation depth or h*), and whether it moves
+        on the bed when the flow overcomes friction (``physics.motion = "friction"``).
+    vals_c, T0c, gap_c : node values, start and length of the snapshot pair at t0.
+    vals_n, T0n, gap_n, t_split : the pair stage times at or after ``t_split`` use.
+    dry_depth, recovered, loc : as ``driftlog.fused``.
+    t_log, nsteps, dt_min, dt_max, box, code : outputs
+        Each log's end time (t_stop unless it stopped early), sub-steps taken, shortest and
+        longest sub-step, bounding box of its centre over the sub-step ends (xmin, ymin,
+        xmax, ymax) and outcome (OK, TOO_SMALL, DIVERGED).
+    """
+    for i in nb.prange(S.shape[0]):
+        s = row(S, i)
+        p = P[i]
+        t = t0
+        k = 0
+        lo, hi = np.inf, 0.0
+        x0, y0, x1, y1 = s[X], s[Y], s[X], s[Y]
+        c = OK
+        while t < t_stop:
+            ln = (lin0[i, 0], lin0[i, 1], lin0[i, 2], lin0[i, 3], lin0[i, 4])
+            dt = min(_own_bound(s, length[i], ln, lf, ang, drag_fraction, explicit, max_step),
+                     t_stop - t)
+            if dt < min_step and t_stop - t > min_step:
+                c = TOO_SMALL
+                break
+            hint = face[i]
+            d0 = row(D0, i)
+            te = t + dt
+            if te >= t_split:
+                a_e, inv_e = _weight(te, T0n, gap_n)
+                vals_e = vals_n
+            else:
+                a_e, inv_e = _weight(te, T0c, gap_c)
+                vals_e = vals_c
+            if method == RK4:
+                tm = t + 0.5 * dt
+                if tm >= t_split:
+                    a_m, inv_m = _weight(tm, T0n, gap_n)
+                    vals_m = vals_n
+                else:
+                    a_m, inv_m = _weight(tm, T0c, gap_c)
+                    vals_m = vals_c
+                d1 = _rk4_stage(s, 1, dt, d0, hint, a_m, inv_m, vals_m, dry_depth, recovered,
+                                loc, p, opt)
+                d2 = _rk4_stage(s, 2, dt, d1, hint, a_m, inv_m, vals_m, dry_depth, recovered,
+                                loc, p, opt)
+                d3 = _rk4_stage(s, 3, dt, d2, hint, a_e, inv_e, vals_e, dry_depth, recovered,
+                                loc, p, opt)
+                s = rk4_final_row(s, dt, d0, d1, d2, d3)
+            else:
+                s = euler_row(s, dt, d0)
+            f, fg, fl = sample_point(s[X], s[Y], hint, a_e, inv_e, vals_e, dry_depth,
+                                     recovered, loc)
+            face[i] = f
+            flag[i] = fg
+            for q in range(NVAR):
+                F[i, q] = fl[q]
+            d, ln2 = log_rhs(s, fl, p, opt, True)
+            put_row(D0, i, d)
+            for q in range(NLIN):
+                lin0[i, q] = ln2[q]
+            if tracer:
+                om = 0.5 * (fl[DVDX] - fl[DUDY]) if rotation else 0.0
+                s = (s[X], s[Y], s[THETA], fl[U], fl[V], om)
+            t_prev = t
+            t = t + dt
+            if t_stop - t <= tol:
+                t = t_stop
+            taken = t - t_prev
+            lo = min(lo, taken)
+            hi = max(hi, taken)
+            k += 1
+            ok = True
+            for q in range(6):
+                if not np.isfinite(s[q]):
+                    ok = False
+            if not ok:
+                c = DIVERGED
+                break
+            x0, y0 = min(x0, s[X]), min(y0, s[Y])
+            x1, y1 = max(x1, s[X]), max(y1, s[Y])
+            if not _floats(fg, fl, s, p, thr[i], friction, opt):
+                break
+        put_row(S, i, s)
+        t_log[i] = t
+        nsteps[i] = k
+        dt_min[i] = lo
+        dt_max[i] = hi
+        box[i, 0], box[i, 1], box[i, 2], box[i, 3] = x0, y0, x1, y1
+        code[i] = c

@@ -1,0 +1,436 @@
+"""Two-way coupling: the logs act on driftlog's own flow (docs/model.md section 17).
+
+``[coupling] enabled = true`` with ``[flow] source = "solver"``: the solver and the tracker
+advance together, as in the paper's Figure 3: one hydrodynamic step [t_n, t_n+1] of the solver,
+then the logs' sub-steps inside it on the flow interpolated between the two states, then the
+reaction of the fluid forces the logs received over the step returned to the water as a
+momentum source (``driftlog.solver.momentum``), before the next hydrodynamic step.
+
+The reaction is exact: over a free sub-step the tracker's integrator changes a floating log's
+velocity by the fluid forces only (drag, pressure gradient and added mass, docs/model.md
+(33)-(35)), so the momentum a log receives from the water is m_b dU_b summed over its free
+sub-steps (contact impulses are applied outside them).  It is spread evenly over ``points``
+points along the log's axis and given, with the opposite sign, to the water of the faces under
+them (a point on a dry face or outside the mesh gives its share to the log's own face).  So
+the momentum the flow loses is what the logs gain plus what the contacts pass on to fixed
+obstacles, to round-off.  Logs held against obstacles or one another (a jam) return the drag
+they bear like any floating log: that is the jam's head loss, spread over its footprint
+(section 17.2).
+
+Spin-up: the solver runs alone from its ``[solver] start`` to ``[time] start``; the coupled
+run then goes to ``[time] end``.  The flow file of the coupled run (snapshots at the
+trajectory's output times, the volume balance, the momentum given by the logs) is written
+beside the trajectories (``coupling.flow_path``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from driftlog.columns import NQ, Q_ETA, Q_H, Q_UX, THETA, UB, VB, X, Y
+from driftlog.errors import ScenarioError
+from driftlog.flow import InMemorySnapshots, MeshFlowField, _set_gradients
+from driftlog.schema import Key, Section
+from driftlog.solver.momentum import add_face_momentum, face_momentum
+from driftlog.tracker import Tracker
+
+__all__ = ["COUPLING_SECTION", "CoupledTracker", "SolverFlow", "Coupling", "FlowOutput",
+           "start_coupling", "coupled_flow_path"]
+
+
+class SolverFlow(MeshFlowField):
+    """The solver's states at the start and end of its current step, as a flow field.
+
+    Sampled like any mesh flow (P1 on recovered node values, linear in time between the two
+    states), fused kernels included.  ``push(solver)`` makes the solver's state the end of
+    the interval (the old end becomes its start).
+    """
+
+    def __init__(self, solver, dry_depth, name="coupled solver flow"):
+        t = float(solver.t)
+        src = InMemorySnapshots([t], solver.h.copy(), solver.hu.copy(), solver.hv.copy(), name)
+        super().__init__(solver.mesh, solver.bed, src, dry_depth=dry_depth, name=name)
+        self._nodes0 = self._nodes_of(solver)
+        self._nodes1 = self._nodes0
+        self._t0 = self._t1 = t
+        self._vals = None
+
+    def _nodes_of(self, solver):
+        """Node columns of the solver's state, as ``MeshFlowField._load`` makes them.
+
+        Without its checks and copies: the solver's own arrays, finite by construction (the
+        flow file's writer checks them at every output).
+        """
+        h, hu, hv = solver.h, solver.hu, solver.hv
+        P, Px, Py = self.mesh.node_operators()
+        u, v = self._velocity(h, hu, hv)
+        eta = h + self.bed
+        nodes = np.empty((self.mesh.n_nodes, NQ))
+        nodes[:, Q_H:Q_ETA + 1] = P @ np.column_stack([h, u, v, eta])
+        np.maximum(nodes[:, Q_H], 0.0, out=nodes[:, Q_H])
+        if self.gradient == "recovered":
+            _set_gradients(nodes, Px, Py, np.column_stack([u, v, eta]))
+        else:
+            nodes[:, Q_UX:] = 0.0
+        return nodes
+
+    def push(self, solver):
+        """The solver has stepped: its state ends the interval, the previous end starts it."""
+        self._nodes0 = self._nodes1
+        self._t0 = self._t1
+        self._nodes1 = self._nodes_of(solver)
+        self._t1 = float(solver.t)
+        self._vals = None
+
+    @property
+    def times(self):
+        """The current interval's (start, end) (s)."""
+        return np.array([self._t0, self._t1])
+
+    @property
+    def time_span(self):
+        """Unbounded: the solver extends the flow as the run goes."""
+        return (-np.inf, np.inf)
+
+    def check_time(self, t):
+        """Any time: the interval is the solver's current step."""
+
+    def _interval(self, t):
+        dt = self._t1 - self._t0
+        if dt <= 0.0:
+            return 0, 0, 0.0, 0.0
+        return 0, 1, min(max((t - self._t0) / dt, 0.0), 1.0), 1.0 / dt
+
+    def node_values(self, t):
+        """Node columns of the interval's two states, the time weight of t and 1 / dt."""
+        _, _, a, inv_dt = self._interval(t)
+        if self._vals is None:
+            self._vals = np.ascontiguousarray(np.hstack([self._nodes0, self._nodes1]))
+        return self._vals, a, inv_dt
+
+
+class CoupledTracker(Tracker):
+    """The tracker of a coupled run: its landing times come from the solver's steps.
+
+    It keeps, per log, the momentum (kg m/s) the water gave it since the last hand-over
+    (``received``): m_eff dU_b over each free sub-step (``advance``), m_eff = m_b + rho V_b / 2
+    the log and the water it entrains (docs/model.md (33)), i.e. the impulse of the fluid
+    forces F_D + F_P.  A contact changes a log's velocity by impulses on m_b only (the paper's
+    eq. 11-15); the entrained water's share m_a dU_b (m_a = rho V_b / 2) of that change is
+    passed on to the contact too (``to_contacts``, kg m/s): a log held on a pier then passes the
+    whole drag to it, as a log at rest would.
+    """
+
+    def __init__(self, coupling, logs, *args, **kwargs):
+        self.coupling = coupling
+        n = len(logs)
+        self.received = np.zeros((n, 2))
+        self.to_contacts = np.zeros(2)
+        self._last_u = np.zeros((n, 2))  # velocity at the end of each log's last free sub-step
+        self._stamp = np.full(n, -1, np.int64)  # which free sub-step that was
+        self._advances = 0
+        super().__init__(coupling.flow, logs, *args, **kwargs)
+        if getattr(self.step_options, "clock", "global") != "global":
+            raise ScenarioError("integrator.clock", self.step_options.clock, "[coupling] takes "
+                                "the global clock: every log lands on each hydrodynamic step")
+        if self.physics.fluid_volume != "body":
+            raise ScenarioError("physics.fluid_volume", self.physics.fluid_volume, "[coupling] "
+                                "needs fluid_volume = 'body' (a constant added mass)")
+        self.added_mass = 0.5 * self.physics.water_density * logs.volume
+
+    def _contact_changes(self):
+        """Account the entrained water's share of the velocity changes since the last advance."""
+        if self.act.size == 0:
+            return
+        ok = self._stamp[self.act] == self._advances
+        if not ok.any():
+            return
+        idx = self.act[ok]
+        du = self.state[ok][:, UB:VB + 1] - self._last_u[idx]
+        ma = self.added_mass[idx]
+        self.to_contacts -= (ma[:, None] * du).sum(axis=0)
+        self._last_u[idx] = self.state[ok][:, UB:VB + 1]
+
+    def advance(self, dt, have_d0=False):
+        """``Tracker.advance``, keeping the momentum the water gives each floating log."""
+        n = self.state.shape[0]
+        if n:
+            self._contact_changes()
+            u0 = self.state[:, UB].copy()
+            v0 = self.state[:, VB].copy()
+            m = self.mass + self.added_mass[self.act]
+        super().advance(dt, have_d0)
+        self._advances += 1
+        if n:
+            self.received[self.act, 0] += m * (self.state[:, UB] - u0)
+            self.received[self.act, 1] += m * (self.state[:, VB] - v0)
+            self._last_u[self.act, 0] = self.state[:, UB]
+            self._last_u[self.act, 1] = self.state[:, VB]
+            self._stamp[self.act] = self._advances
+
+    def save(self):
+        """``Tracker.save`` and the momentum accounts (a rejected sub-step gives nothing)."""
+        return super().save() + (self.received.copy(), self.to_contacts.copy(),
+                                 self._last_u.copy(), self._stamp.copy(), self._advances)
+
+    def restore(self, saved):
+        """Put back what ``save`` returned."""
+        super().restore(saved[:-5])
+        rec, tc, lu, st, adv = saved[-5:]
+        np.copyto(self.received, rec)
+        np.copyto(self.to_contacts, tc)
+        np.copyto(self._last_u, lu)
+        np.copyto(self._stamp, st)
+        self._advances = adv
+
+    def momentum(self):
+        """Momentum of the logs and the water they entrain, sum of m_eff U_b (kg m/s)."""
+        L = self.logs
+        if self.act.size:
+            self._scatter()
+        m = L.mass + self.added_mass
+        return np.array([np.dot(m, L.state[:, UB]), np.dot(m, L.state[:, VB])])
+
+    def _landing_times(self, t_origin=None):
+        """Outputs, releases and the end as before; hydrodynamic steps from the solver."""
+        t0, t1 = (self.t if t_origin is None else t_origin), self.t_end
+        self._steady = False
+        n_out = int(np.floor((t1 - t0) / self.output_interval + 1e-9))
+        outs = t0 + self.output_interval * np.arange(n_out + 1)
+        self._outputs = np.unique(np.append(outs, t1))
+        fixed = np.concatenate([self._outputs, self.logs.release_time, [t1]])
+        fixed = np.unique(fixed[(fixed > self.t) & (fixed <= t1)])
+        keep = np.ones(fixed.size, bool)
+        keep[1:] = np.diff(fixed) > self.time_tol
+        return self.coupling.stops(self, fixed[keep])
+
+    def resume_from(self, t, index, columns):
+        """A coupled run cannot be resumed (the flow is not stored to the last bit)."""
+        raise ScenarioError("coupling.enabled", True, "a coupled run cannot be resumed: "
+                            "rerun it from the start")
+
+
+class Coupling:
+    """Drive a solver and a ``CoupledTracker`` together; hand the logs' reaction to the water.
+
+    Parameters
+    ----------
+    solver : ShallowWaterSolver
+        At the coupled run's start time.
+    points : int
+        Points along each log over which its reaction is spread.
+    water_density : float
+        kg/m3 (the physics section's).
+    dry_depth : float
+        The flow's dry depth for sampling (``[flow] dry_depth``).
+    writer : callable, optional
+        ``writer(solver)`` called at each output time (after the hand-over): the flow file.
+
+    Attributes
+    ----------
+    given : (2,) array
+        Momentum given to the water so far (kg m/s).
+    undelivered : (2,) array
+        Momentum the logs received that found no wet face to go back to (kg m/s): zero
+        unless a log's water dried up under it within a step.
+    """
+
+    def __init__(self, solver, points=8, water_density=1000.0, dry_depth=1e-3, writer=None):
+        self.solver = solver
+        self.points = int(points)
+        self.rho = float(water_density)
+        self.flow = SolverFlow(solver, dry_depth)
+        self.writer = writer
+        self.given = np.zeros(2)
+        self.undelivered = np.zeros(2)
+        self.solver_steps = 0
+        self.handovers = 0
+
+    def stops(self, tracker, fixed):
+        """Yield the end of each hydrodynamic step; between two, hand the reaction over.
+
+        ``fixed``: times a step must land on (outputs, releases, the end), increasing.
+        """
+        s = self.solver
+        tol = tracker.time_tol
+        k = 0
+        outputs = tracker._outputs
+        while k < fixed.size:
+            # the reaction enters the solver's next step; the logs' interval starts from the
+            # state before it (one node projection per step, not two)
+            self.handover(tracker)
+            if self.writer is not None and np.any(np.abs(outputs - s.t) <= tol):
+                self.writer(s)
+            target = fixed[k]
+            s.step(target - s.t)
+            self.solver_steps += 1
+            if target - s.t <= tol:
+                s.t = float(target)  # land exactly, as the tracker does
+                k += 1
+            self.flow.push(s)
+            yield s.t
+        self.handover(tracker)
+        if self.writer is not None:
+            self.writer(s)
+
+    def handover(self, tracker):
+        """Give the water the opposite of what the logs received since the last call.
+
+        Returns True when the solver's state changed.
+        """
+        tracker._contact_changes()
+        got = tracker.received
+        idx = np.flatnonzero((got[:, 0] != 0.0) | (got[:, 1] != 0.0))
+        if idx.size == 0:
+            return False
+        if tracker.act.size:
+            tracker._scatter()
+        L = tracker.logs
+        mesh = self.solver.mesh
+        k = self.points
+        S = L.state[idx]
+        s = ((np.arange(k) + 0.5) / k - 0.5)[None, :] * L.length[idx, None]
+        px = (S[:, X, None] + s * np.cos(S[:, THETA, None])).ravel()
+        py = (S[:, Y, None] + s * np.sin(S[:, THETA, None])).ravel()
+        centre = mesh.locate(S[:, X], S[:, Y], hint=L.face[idx])
+        face = mesh.locate(px, py, hint=np.repeat(centre, k))
+        h = self.solver.h
+        hdry = self.solver.dry_depth
+        own = np.repeat(centre, k)
+        bad = (face < 0) | (h[np.maximum(face, 0)] <= hdry)
+        face = np.where(bad, own, face)
+        mx = np.repeat(-got[idx, 0] / k, k)
+        my = np.repeat(-got[idx, 1] / k, k)
+        nowhere = face < 0
+        self.undelivered[0] += mx[nowhere].sum()
+        self.undelivered[1] += my[nowhere].sum()
+        ok = ~nowhere
+        lx, ly = add_face_momentum(self.solver, face[ok], mx[ok], my[ok], self.rho)
+        self.undelivered += (lx, ly)
+        self.given += (mx[ok].sum() - lx, my[ok].sum() - ly)
+        got[idx] = 0.0
+        self.handovers += 1
+        return True
+
+    def summary(self) -> dict:
+        """Numbers of the run: solver steps, hand-overs, momentum given and not delivered."""
+        return dict(solver_steps=self.solver_steps, handovers=self.handovers,
+                    momentum_given_x=float(self.given[0]), momentum_given_y=float(self.given[1]),
+                    momentum_undelivered_x=float(self.undelivered[0]),
+                    momentum_undelivered_y=float(self.undelivered[1]))
+
+    def water_momentum(self):
+        """Momentum of the water in the domain (kg m/s)."""
+        return self.rho * np.array(face_momentum(self.solver))
+
+
+class FlowOutput:
+    """The coupled run's flow file: a snapshot (and the volume balance) per call."""
+
+    def __init__(self, path, solver, attrs):
+        from driftlog.solver.run import _create
+
+        self.path = Path(path)
+        self.snapshots = 0
+        self._w = _create(self.path, solver, attrs)
+
+    def __call__(self, solver):
+        """Write the solver's state as the next snapshot (once per time)."""
+        from driftlog.solver.run import _write
+
+        if self.snapshots and self._last == solver.t:
+            return
+        _write(self._w, solver)
+        self._last = solver.t
+        self.snapshots += 1
+
+    def close(self, **attrs):
+        """Add global attributes and close the file."""
+        if attrs:
+            self._w.ds.setncatts(attrs)
+        self._w.close()
+
+
+def start_coupling(scenario, trajectory_path):
+    """The solver of a coupled scenario run alone to ``[time] start``, and its ``Coupling``.
+
+    The flow file (``coupled_flow_path``) is opened and gets the spun-up state as its first
+    snapshot.
+    """
+    from driftlog.files import check_output
+    from driftlog.solver.config import build_solver, estimate_mesh
+
+    sec = scenario["solver"]
+    estimate_mesh(sec)
+    path = check_output(coupled_flow_path(scenario, trajectory_path), "flow file")
+    solver = build_solver(sec)
+    t0 = float(scenario["time"]["start"])
+    if t0 < solver.t:
+        raise ScenarioError("time.start", t0, f"a coupled run starts at or after the solver's "
+                            f"start ({solver.t} s, [solver] start)")
+    solver.advance_to(t0)  # spin-up, uncoupled
+    attrs = dict(scenario.attrs())
+    attrs["title"] = (scenario["title"] or "driftlog") + " (coupled flow)"
+    attrs["coupled"] = 1
+    out = FlowOutput(path, solver, attrs)
+    c = scenario["coupling"]
+    return Coupling(solver, points=c["points"], water_density=scenario["physics"]["water_density"],
+                    dry_depth=scenario["flow"]["dry_depth"], writer=out)
+
+
+def coupled_flow_path(scenario, trajectory_path) -> Path:
+    """Where a coupled run writes its flow: ``coupling.flow_path`` or ``<trajectories>_flow.nc``."""
+    p = scenario["coupling"]["flow_path"]
+    if p:
+        return Path(p)
+    t = Path(trajectory_path)
+    return t.with_name(t.stem + "_flow.nc")
+
+
+# --------------------------------------------------------------------- the scenario section
+def _check_coupling(t, prefix, scen):
+    if not t["enabled"]:
+        return
+    flow = scen.get("flow") or {}
+    if flow.get("source") != "solver":
+        raise ScenarioError(f"{prefix}.enabled", True, "needs [flow] source = 'solver': the "
+                            f"logs act on driftlog's own flow only (source is "
+                            f"{flow.get('source')!r})")
+    solver = scen.get("solver") or {}
+    if solver.get("engine", "driftlog") != "driftlog":
+        raise ScenarioError(f"{prefix}.enabled", True, "needs [solver] engine = 'driftlog' (not "
+                            f"{solver.get('engine')!r})")
+    phys = scen.get("physics") or {}
+    if phys.get("level") == "tracer":
+        raise ScenarioError("physics.level", "tracer", "a tracer has no inertia and exerts no "
+                            "force on the flow: use 'full' or 'drag' with [coupling]")
+    if phys.get("motion", "floating") != "floating":
+        raise ScenarioError("physics.motion", phys.get("motion"), "[coupling] takes the paper's "
+                            "floating condition only (motion = 'floating'): bed friction "
+                            "forces on a log are not returned to the flow yet")
+    if phys.get("waterlogging", "off") != "off":
+        raise ScenarioError("physics.waterlogging", phys.get("waterlogging"), "[coupling] with "
+                            "waterlogging is not supported yet (the logs' mass changes outside "
+                            "the momentum balance)")
+    clock = (scen.get("integrator") or {}).get("clock", "global")
+    if clock != "global":
+        raise ScenarioError("integrator.clock", clock, "[coupling] takes the global clock (the "
+                            "paper's Algorithm 1): every log lands on each hydrodynamic step")
+    if phys.get("fluid_volume", "body") != "body":
+        raise ScenarioError("physics.fluid_volume", phys.get("fluid_volume"), "[coupling] needs "
+                            "fluid_volume = 'body' (a constant added mass)")
+    if flow.get("steady_at") is not None:
+        raise ScenarioError("flow.steady_at", flow.get("steady_at"), "a coupled flow cannot be "
+                            "frozen: remove steady_at or [coupling]")
+
+
+COUPLING_SECTION = Section("coupling", [
+    Key("enabled", "bool", False, "two-way coupling: the logs' fluid forces act back on the "
+        "solver's flow (needs [flow] source = 'solver')"),
+    Key("points", "int", 8, "points along a log over which its reaction on the water is "
+        "spread", min=1, max=1000),
+    Key("flow_path", "str", "", "flow file of the coupled run (default: beside the "
+        "trajectories, <name>_flow.nc)"),
+], doc="two-way coupling of logs and flow (docs/model.md section 17)", check=_check_coupling)

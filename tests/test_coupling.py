@@ -1,0 +1,249 @@
+"""Two-way coupling (driftlog.coupling, docs/model.md section 17): the logs act on the flow.
+
+- momentum: in a closed channel the momentum the flow loses (beyond what its walls take) is
+  what the logs gain plus what the contacts pass to fixed obstacles, to round-off;
+- well balanced: logs at rest in still water leave the flow exactly as it was;
+- validation (a): a fixed array of logs across a uniform channel raises the upstream level by
+  what the one-dimensional momentum balance with the logs' drag predicts (within 5 %);
+- the scenario section: off by default; refused where it cannot work, with the key named.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import netCDF4
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from driftlog.api import as_scenario, logs_from_scenario, track
+from driftlog.contact import ContactModel
+from driftlog.coupling import CoupledTracker, Coupling
+from driftlog.errors import ScenarioError
+from driftlog.physics import PhysicsOptions
+from driftlog.solver.config import build_solver
+
+G = 9.81
+
+
+def _parts(scen, t0, t1):
+    """Solver spun up to t0, its Coupling, the contact model and a CoupledTracker to t1."""
+    s = build_solver(scen["solver"])
+    s.advance_to(t0)
+    ref = copy.deepcopy(s)
+    cp = Coupling(s, points=scen["coupling"]["points"])
+    logs = logs_from_scenario(scen)
+    cm = (ContactModel.from_sections(scen["contact"], scen["obstacles"], mesh=s.mesh)
+          if scen["contact"]["enabled"] else None)
+    rot = scen["physics"]["rotation"] != "off"
+    phys = PhysicsOptions.from_scenario(scen["physics"], level="full", rotation=rot)
+    tr = CoupledTracker(cp, logs, phys, t_start=t0, t_end=t1, contact=cm,
+                        initial_velocity="rest")
+    return s, ref, cp, cm, tr
+
+
+def test_momentum_is_conserved_between_flow_logs_and_obstacles():
+    """Closed channel, water sloshing at 0.8 m/s, six logs thrown on a post and the walls.
+
+    The walls' pressure impulse is summed from the boundary fluxes of each (first-order)
+    step; what is left of the flow's momentum change is the coupling's, and it must equal
+    the logs' gain (with the water they entrain, m_eff = m_b + rho V / 2) plus the contact
+    impulses on the post and the walls.
+    """
+    scen = as_scenario({
+        "flow": {"source": "solver"},
+        "solver": {"mesh": "channel", "channel": [0.0, 0.0, 20.0, 6.0], "cell_size": 0.6,
+                   "end": 10.0,
+                   "initial": {"type": "level", "value": 1.0, "velocity": [0.8, 0.0]}},
+        "time": {"start": 0.0, "end": 5.0},
+        "logs": [{"seeding": "grid", "count": 6,
+                  "polygon": [[9.0, 1.5], [11.0, 1.5], [11.0, 4.5], [9.0, 4.5]],
+                  "length": 1.5, "radius": 0.15, "density": 700.0, "theta": 1.5707963,
+                  "velocity": "rest"}],
+        "contact": {"enabled": True, "method": "moreau", "restitution": 0.0},
+        "obstacles": [{"name": "post", "type": "circle", "center": [12.0, 3.0],
+                       "radius": 0.3}],
+        "coupling": {"enabled": True},
+    })
+    s, _, cp, cm, tr = _parts(scen, 0.0, 5.0)
+    wall = np.zeros(2)
+    step = s.step
+
+    def counted(dt_max=np.inf):
+        dt = step(dt_max)
+        be = s.boundaries.edges
+        wall[0] -= dt * s._flux[1][be].sum()
+        wall[1] -= dt * s._flux[2][be].sum()
+        return dt
+
+    s.step = counted
+    w0, l0 = cp.water_momentum(), tr.momentum()
+    tr.run()
+    flow_loss = -(cp.water_momentum() - w0 - 1000.0 * wall)
+    logs_gain = tr.momentum() - l0
+    passed = cm.obstacle_impulse.sum(axis=0) + tr.to_contacts
+    scale = np.abs(flow_loss).max()
+    assert scale > 100.0  # kg m/s: the logs took real momentum from the flow
+    assert np.abs(cm.obstacle_impulse).max() > 10.0  # and the post or the walls took some
+    np.testing.assert_allclose(flow_loss, logs_gain + passed, rtol=0, atol=1e-10 * scale)
+    np.testing.assert_allclose(-cp.given, flow_loss, rtol=0, atol=1e-10 * scale)
+    assert np.all(cp.undelivered == 0.0)
+
+
+@pytest.mark.parametrize("slope", [0.0, 0.01])
+def test_logs_at_rest_in_still_water_leave_the_flow_untouched(slope):
+    """Well balanced: no drag, no pressure gradient, no reaction: the lake stays as it was.
+
+    The solver's own lake at rest carries round-off velocities (~1e-14 m/s on this mesh,
+    flat or sloping), which the logs feel and return: the coupled flow equals the uncoupled
+    one, step for step, to round-off, and the logs stay at rest.
+    """
+    scen = as_scenario({
+        "flow": {"source": "solver"},
+        "solver": {"mesh": "channel", "channel": [0.0, 0.0, 10.0, 4.0], "cell_size": 0.5,
+                   "bed": "slope", "slope": slope, "end": 10.0,
+                   "initial": {"type": "level", "value": 1.0}},
+        "time": {"start": 0.0, "end": 3.0},
+        "logs": [{"seeding": "grid", "count": 4,
+                  "polygon": [[2.0, 1.0], [6.0, 1.0], [6.0, 3.0], [2.0, 3.0]],
+                  "length": 1.0, "radius": 0.1, "density": 600.0, "velocity": "rest"}],
+        "coupling": {"enabled": True},
+    })
+    s, ref, cp, _, tr = _parts(scen, 0.0, 3.0)
+    steps = []
+    step = s.step
+
+    def recorded(dt_max=np.inf):
+        steps.append(step(dt_max))
+        return steps[-1]
+
+    s.step = recorded
+    tr.run()
+    assert cp.solver_steps > 10
+    for dt in steps:  # the same steps without logs
+        ref.step(dt)
+    for a in ("h", "hu", "hv"):
+        np.testing.assert_allclose(getattr(s, a), getattr(ref, a), rtol=0, atol=1e-13)
+    assert np.abs(cp.given).max() < 1e-10  # kg m/s: round-off, logs of 19 kg
+    assert np.abs(tr.logs.state[:, 3:5]).max() < 1e-12
+
+
+def _array_scenario(cell, t0, t1, method="event"):
+    W, r, L, xa = 4.0, 0.15, 1.8, 15.0
+    return as_scenario({
+        "flow": {"source": "solver"},
+        "solver": {"mesh": "channel", "channel": [0.0, 0.0, 30.0, W], "cell_size": cell,
+                   "structured": True, "manning": 0.03, "end": t1,
+                   "boundaries": {"inflow": {"type": "discharge", "value": 1.0 * W},
+                                  "outflow": {"type": "level", "value": 1.0}},
+                   "initial": {"type": "level", "value": 1.0, "velocity": [1.0, 0.0]}},
+        "physics": {"drag_law": "constant", "drag_coefficient": 1.0, "drag_area": "paper",
+                    "rotation": "off"},
+        "time": {"start": t0, "end": t1},
+        "logs": [{"seeding": "list", "x": [xa, xa], "y": [1.0, 3.0], "length": L,
+                  "radius": r, "density": 700.0, "theta": np.pi / 2, "velocity": "rest"}],
+        "contact": {"enabled": True, "method": method, "restitution": 0.0, "walls": False},
+        # posts just downstream of each log hold it broadside (a rack of two logs)
+        "obstacles": [{"name": f"post{i}", "type": "circle", "center": [xa + r + 0.05, y],
+                       "radius": 0.05} for i, y in enumerate([0.4, 1.6, 2.4, 3.6])],
+        "coupling": {"enabled": True},
+    })
+
+
+def array_backwater(cell, t0=60.0, t1=150.0, method="event"):
+    """(measured, predicted) rise of the level 3-8 m upstream of a fixed array of two logs.
+
+    Measured: the coupled run minus the same flow without logs, at t1.  Predicted: the
+    one-dimensional momentum balance between the sections 3-8 m upstream (1) and downstream
+    (2) of the array,
+
+        g (h1^2 - h2^2) / 2 + q^2 (1/h1 - 1/h2) = F_f + N C_D r L (q / h1)^2 / W,
+
+    with the logs' drag at the approach velocity q / h1 (C_D = 1 on the broadside area 2 r L,
+    the scenario's drag law), h2 the coupled run's downstream depth and the friction term F_f
+    the same balance on the run without logs.  Also returns the mean force on the posts.
+    """
+    scen = _array_scenario(cell, t0, t1, method)
+    s, ref, cp, cm, tr = _parts(scen, t0, t1)
+    tr.run()
+    ref.advance_to(t1)
+    fx = s.mesh.face_x
+    up = (fx > 15.0 - 8.0) & (fx < 15.0 - 3.0)
+    down = (fx > 15.0 + 3.0) & (fx < 15.0 + 8.0)
+    q, W, r, L = 1.0, 4.0, 0.15, 1.8
+
+    def m(a, b):
+        return G * (a * a - b * b) / 2 + q * q * (1 / a - 1 / b)
+
+    hu0, hd0 = ref.h[up].mean(), ref.h[down].mean()
+    hu1, hd1 = s.h[up].mean(), s.h[down].mean()
+    friction = m(hu0, hd0)
+    h1 = brentq(lambda a: m(a, hd1) - friction - 2 * 1.0 * r * L * (q / a) ** 2 / W,
+                hd1, hd1 + 0.5)
+    force = (cm.obstacle_impulse[:, 0].sum() + tr.to_contacts[0]) / (t1 - t0)
+    drag = 2 * 0.5 * 1000.0 * 1.0 * 2 * r * L * (q / hu1) ** 2
+    return hu1 - hu0, h1 - hu0, force, drag
+
+
+def test_fixed_log_array_raises_the_level_as_the_momentum_balance_predicts():
+    measured, predicted, force, drag = array_backwater(0.5)
+    assert predicted > 0.01  # about 14 mm on 1 m of water
+    assert abs(measured / predicted - 1.0) < 0.05
+    # the posts bear the logs' drag, 2 x 1/2 rho C_D (2 r L) u^2 (about 500 N)
+    assert force == pytest.approx(drag, rel=0.05)
+
+
+def test_coupled_track_writes_its_flow_and_balance(tmp_path):
+    out = tmp_path / "logs.nc"
+    scen = {
+        "flow": {"source": "solver"},
+        "solver": {"mesh": "channel", "channel": [0.0, 0.0, 12.0, 3.0], "cell_size": 0.5,
+                   "end": 20.0,
+                   "boundaries": {"inflow": {"type": "discharge", "value": 1.2},
+                                  "outflow": {"type": "level", "value": 0.8}},
+                   "initial": {"type": "level", "value": 0.8, "velocity": [0.5, 0.0]}},
+        "time": {"start": 1.0, "end": 3.0, "output_interval": 1.0},
+        "logs": [{"seeding": "list", "x": [4.0], "y": [1.5], "length": 1.0, "radius": 0.1,
+                  "velocity": "rest"}],
+        "coupling": {"enabled": True},
+        "output": {"path": str(out)},
+    }
+    res = track(scen)
+    flow = tmp_path / "logs_flow.nc"
+    with netCDF4.Dataset(out) as ds:
+        assert ds.getncattr("coupled_flow") == str(flow)
+        given = ds.getncattr("coupling_momentum_given_x")
+        assert ds.getncattr("coupling_solver_steps") > 10
+    assert given < 0.0  # the log was set moving downstream by the water
+    with netCDF4.Dataset(flow) as ds:
+        np.testing.assert_allclose(ds.variables["time"][:], [1.0, 2.0, 3.0])
+        assert abs(ds.variables["volume_error"][-1]) < 1e-9 * ds.variables["volume"][-1]
+    assert res.logs.state[0, 0] > 4.0
+
+
+@pytest.mark.parametrize("change, key", [
+    ({"flow": {"source": "analytic", "kind": "uniform", "velocity": [1.0, 0.0],
+               "depth": 1.0}}, "coupling.enabled"),
+    ({"physics": {"level": "tracer"}}, "physics.level"),
+    ({"physics": {"fluid_volume": "submerged"}}, "physics.fluid_volume"),
+    ({"physics": {"motion": "friction"}}, "physics.motion"),
+    ({"integrator": {"clock": "per_log"}}, "integrator.clock"),
+])
+def test_coupling_refuses_what_it_cannot_couple(change, key):
+    base = {"flow": {"source": "solver"},
+            "solver": {"mesh": "channel", "channel": [0.0, 0.0, 10.0, 2.0], "cell_size": 0.5,
+                       "end": 10.0},
+            "logs": [{"x": [1.0], "y": [1.0]}],
+            "coupling": {"enabled": True}}
+    base.update(change)
+    with pytest.raises(ScenarioError) as e:
+        as_scenario(base)
+    assert key in str(e.value)
+
+
+def test_coupling_is_off_by_default():
+    scen = as_scenario({"flow": {"source": "analytic", "kind": "uniform",
+                                 "velocity": [1.0, 0.0], "depth": 1.0},
+                        "time": {"end": 1.0}, "logs": [{"x": [0.0], "y": [0.0]}]})
+    assert scen["coupling"]["enabled"] is False
