@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from driftlog.errors import ScenarioError
-from driftlog.solver.boundaries import DEPTH, DISCHARGE, LEVEL, BoundarySet
+from driftlog.solver.boundaries import DEPTH, DISCHARGE, LEVEL, WALL, BoundarySet
 from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes
 from driftlog.solver.fluxes import edge_fluxes, face_residuals, face_sides
 from driftlog.solver.friction import euler_stage, heun_average, thin_layer
@@ -220,6 +220,13 @@ class ShallowWaterSolver:
             self._lsq = tuple(faces_(g) for g in lsq_geometry(mesh))
             self._grad = np.zeros((nf, NGRAD))
             nbr = self._nbr
+            # the gradients' neighbours: -1 an open boundary edge (no state beyond: its edge
+            # value may go one range further), -2 a wall (its mirror state bounds the range)
+            bs = self.boundaries
+            ekind = np.full(ne, -1, dtype=np.int64)
+            ekind[bs.edges] = bs.kind
+            wall = (nbr < 0) & (self._fe >= 0) & (ekind[np.maximum(self._fe, 0)] == WALL)
+            self._gnbr = np.ascontiguousarray(np.where(wall, -2, nbr))
             zj = self._z[np.where(nbr >= 0, nbr, np.arange(nf)[:, None])]
             self._thin_eps = self.thin_fraction * np.abs(zj - self._z[:, None]).max(1)
         else:
@@ -365,7 +372,7 @@ class ShallowWaterSolver:
         m.face_updates += faces.shape[0]
         if m.order == 2:
             offset, minv, eoff = m._lsq
-            m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._nbr, offset, minv, eoff,
+            m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._gnbr, offset, minv, eoff,
                       m._grad)
         fm, fx0, fy0, fx1, fy1, sp, sp1 = m._flux
         m._k_edges(edges, m._ef, m._nx, m._ny, m._len, m._off0, m._off1, h, hu, hv, m._z,

@@ -150,15 +150,17 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         gy2 = b * rx2 + c * ry2
         gx3 = a * rx3 + b * ry3
         gy3 = b * rx3 + c * ry3
-        # Barth-Jespersen: edge values within [qmin, qmax]; a boundary edge has no face beyond
-        # it, so its value may go one range further (a one-sided gradient extrapolates there;
-        # clipping it made boundary faces first order, which cost MacDonald's channel its
-        # second order)
+        # Barth-Jespersen: edge values within [qmin, qmax]; an open boundary edge (neighbour
+        # -1) has no state beyond it, so its value may go one range further (a one-sided
+        # gradient extrapolates there; clipping it made boundary faces first order, which cost
+        # MacDonald's channel its second order); a wall (-2) is not widened: its mirror state
+        # holds the level and the speed, and widening there let Ritter's dry front on
+        # triangles grow noisy under refinement
         p0 = p1 = p2 = p3 = 1.0
         for k in range(n):
             ex = edge_offset[f, k, 0]
             ey = edge_offset[f, k, 1]
-            bnd = neighbours[f, k] < 0
+            bnd = neighbours[f, k] == -1
             p0 = _bj(p0, gx0, gy0, ex, ey, c0, mn0, mx0, mx0 - mn0 if bnd else 0.0)
             p1 = _bj(p1, gx1, gy1, ex, ey, hi, mn1, mx1, mx1 - mn1 if bnd else 0.0)
             p2 = _bj(p2, gx2, gy2, ex, ey, c2, mn2, mx2, mx2 - mn2 if bnd else 0.0)
