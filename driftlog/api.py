@@ -251,7 +251,7 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     writer = (writer or TrajectoryWriter)(out, logs, attrs=attrs,
                                           flush_interval=scen["output"]["flush_interval"],
                                           obstacle_names=names, **kw)
-    initial = np.array([scen["logs"][g]["velocity"] for g in logs.group])
+    initial = np.array([g["velocity"] for g in scen["logs"]])[logs.group]  # no loop per log
     opts = dict(method=scen["integrator"]["method"],
                 step=StepOptions.from_scenario(scen["integrator"]), contact=contact,
                 t_start=t_start, t_end=t_end, output_interval=tm["output_interval"],

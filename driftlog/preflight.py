@@ -37,33 +37,45 @@ def _log_capsules(logs):
 
 
 def _segment_distance(px, py, caps):
-    """Distance from points (n,) to segments caps (m, 4): (n, m)."""
-    ax, ay, bx, by = (caps[:, k][None, :] for k in range(4))
+    """Distance from points (n,) to segments caps (n, 4), pairwise: (n,)."""
+    ax, ay, bx, by = (caps[:, k] for k in range(4))
     dx, dy = bx - ax, by - ay
     ll = dx * dx + dy * dy
-    t = np.clip(((px[:, None] - ax) * dx + (py[:, None] - ay) * dy) / np.where(ll > 0, ll, 1.0),
-                0.0, 1.0)
-    return np.hypot(px[:, None] - (ax + t * dx), py[:, None] - (ay + t * dy))
+    t = np.clip(((px - ax) * dx + (py - ay) * dy) / np.where(ll > 0, ll, 1.0), 0.0, 1.0)
+    return np.hypot(px - (ax + t * dx), py - (ay + t * dy))
+
+
+_PAIRS = 1 << 20  # (log, obstacle) pairs measured at a time: bounded memory
 
 
 def _capsule_gaps(logs, caps):
-    """Smallest gap between each log capsule and the obstacle capsules (n,).
+    """Smallest gap between each log capsule and the obstacle capsules near it (n,).
 
     Each log axis is sampled at 9 points: exact for circles and at the axis ends; a segment
     crossing the axis between two samples is found as an overlap all the same (its distance
-    to the nearest sample is below L/16).
+    to the nearest sample is below L/16).  Only the pairs whose boxes touch are measured (the
+    contact broad phase's static grid): a log far from every obstacle gets +inf, as its gap is
+    positive anyway; time and memory grow with the logs, not logs x obstacles.
     """
+    from driftlog.contact.broadphase import StaticGrid
+
     lc = _log_capsules(logs)
     best = np.full(len(logs), np.inf)
-    if caps.shape[0] == 0:
+    if caps.shape[0] == 0 or len(logs) == 0:
         return best
-    for s in np.linspace(0.0, 1.0, 9):
-        px = lc[:, 0] + s * (lc[:, 2] - lc[:, 0])
-        py = lc[:, 1] + s * (lc[:, 3] - lc[:, 1])
-        for k0 in range(0, caps.shape[0], 2048):  # bounded memory: (n, 2048) at a time
-            c = caps[k0:k0 + 2048]
-            d = _segment_distance(px, py, c) - c[:, 4][None, :] - lc[:, 4][:, None]
-            best = np.minimum(best, d.min(axis=1))
+    ex = 0.5 * np.abs(lc[:, 2] - lc[:, 0]) + lc[:, 4]
+    ey = 0.5 * np.abs(lc[:, 3] - lc[:, 1]) + lc[:, 4]
+    cx, cy = 0.5 * (lc[:, 0] + lc[:, 2]), 0.5 * (lc[:, 1] + lc[:, 3])
+    pairs = StaticGrid(caps, 2.0 * max(float(ex.max()), float(ey.max()))).query(cx, cy, ex, ey)
+    for p0 in range(0, pairs.shape[0], _PAIRS):
+        i, k = pairs[p0:p0 + _PAIRS, 0], pairs[p0:p0 + _PAIRS, 1]
+        c, li = caps[k], lc[i]
+        gap = np.full(i.size, np.inf)
+        for s in np.linspace(0.0, 1.0, 9):
+            px = li[:, 0] + s * (li[:, 2] - li[:, 0])
+            py = li[:, 1] + s * (li[:, 3] - li[:, 1])
+            gap = np.minimum(gap, _segment_distance(px, py, c) - c[:, 4] - li[:, 4])
+        np.minimum.at(best, i, gap)
     return best
 
 
@@ -237,10 +249,11 @@ def estimate_run(scen, output=None):
     """Refuse (``SizeError``) a run too large for this machine, before anything is allocated.
 
     Memory: about 2 kB per log for the tracker (state, integrator stages, flow samples,
-    contacts) and the buffered records (``flush_interval`` records of 85 bytes per log), and
-    the final rewrite of the trajectory file, 32 bytes per observation (one variable at a
-    time, with its sort order).  Disk: 85 bytes per observation, twice (the ``.partial`` file
-    and the final file).  Returns (logs, observations, bytes of memory).
+    contacts) and the buffered records (``flush_interval`` records of 85 bytes per log, at most
+    ``trajectory.MAX_BUFFERED_OBS`` observations), and the final rewrite of the trajectory
+    file, 16 bytes per observation (one variable at a time, with its sort order).  Disk: 85
+    bytes per observation, twice (the ``.partial`` file and the final file).  Returns (logs,
+    observations, bytes of memory).
     """
     import shutil
 
@@ -250,7 +263,10 @@ def estimate_run(scen, output=None):
     tm = scen["time"]
     records = int((tm["end"] - tm["start"]) / tm["output_interval"]) + 2
     nobs = float(n) * records
-    mem = n * (2000.0 + 85.0 * scen["output"]["flush_interval"]) + 32.0 * nobs
+    from driftlog.trajectory import MAX_BUFFERED_OBS
+
+    buffered = min(float(n) * scen["output"]["flush_interval"], MAX_BUFFERED_OBS)
+    mem = n * 2000.0 + 85.0 * buffered + 16.0 * nobs
     advice = ("fewer logs (count), a longer [time] output_interval, or an ensemble "
               "(driftlog ensemble) that runs the logs in members")
     check_fits(mem, f"tracking {n:.3g} logs over {records} records ({nobs:.3g} observations)",

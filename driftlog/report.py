@@ -25,6 +25,8 @@ ITEMS = [
      "point location and flow sampling throughput"),
     ("tracking", "tracking_benchmark.py", ["--quick"], "tracking throughput (log-steps/s)"),
     ("peers", "peers_tracking.py", ["--quick"], "tracer mode vs OpenDrift and Parcels"),
+    ("tracer_peers", "tracer_peers.py", ["--quick"],
+     "tracer mode vs OceanTracker and Parcels 4 on a triangle mesh"),
     ("swashes", "swashes_validation.py", ["--quick"],
      "shallow-water solver against SWASHES exact solutions"),
     ("malpasset", "malpasset.py", ["--quick"], "the Malpasset dam break against observations"),

@@ -70,6 +70,10 @@ HIT_VARS = {
 }
 
 
+# observations buffered at most before a flush, whatever flush_interval says: the buffer of a
+# run with many logs stays bounded (1e6 logs x 10 records would hold 1e7 observations, 0.85 GB)
+MAX_BUFFERED_OBS = 1 << 20
+
 HIT_KEYS = (("time", "hit_time"), ("log_id", "hit_log"), ("other", "hit_other"),
             ("impulse", "hit_impulse"), ("x", "hit_x"), ("y", "hit_y"))
 
@@ -85,7 +89,7 @@ class TrajectoryWriter:
     attrs : dict
         Global attributes (scenario, physics choices...).
     flush_interval : int
-        Records between flushes.
+        Records between flushes (sooner when ``MAX_BUFFERED_OBS`` observations are buffered).
     resume : bool
         Append to an existing ``.partial`` file (after a crash) instead of starting afresh.
     """
@@ -96,6 +100,7 @@ class TrajectoryWriter:
         self.partial = self.path.with_name(self.path.name + ".partial")
         self.flush_interval = int(flush_interval)
         self._buf = []
+        self._nbuf = 0  # observations in _buf
         self._hbuf = []
         if resume:
             try:
@@ -164,14 +169,16 @@ class TrajectoryWriter:
         """Append one record: observations of logs ``index`` at time t (columns by name).
 
         Records are buffered and written every ``flush_interval`` records (one write per
-        variable, not per record).
+        variable, not per record), or as soon as ``MAX_BUFFERED_OBS`` observations are
+        buffered.
         """
         if len(index) == 0:
             return
         names = [*OBS_VARS, *(k for k in EXTRA_OBS_VARS if k in columns)]
         self._buf.append((t, np.asarray(index).copy(),
                           {k: np.asarray(columns[k]).copy() for k in names}))
-        if len(self._buf) >= self.flush_interval:
+        self._nbuf += len(index)
+        if len(self._buf) >= self.flush_interval or self._nbuf >= MAX_BUFFERED_OBS:
             self.flush()
 
     def _write_buffer(self):
@@ -194,6 +201,7 @@ class TrajectoryWriter:
             self.ds[name][sl] = np.concatenate([b[2][name] for b in self._buf])
         self.nobs += k
         self._buf = []
+        self._nbuf = 0
         if self._hbuf:
             k = sum(len(h["time"]) for h in self._hbuf)
             sl = slice(self.nhit, self.nhit + k)
@@ -267,17 +275,23 @@ def _recover(partial):
     os.remove(old)
 
 
+_BLOCK = 1 << 20  # observations per write when rewriting contiguous
+
+
 def _to_contiguous(src, dst):
     """Rewrite an indexed ragged trajectory file as a contiguous ragged one (stable by time)."""
     tmp = Path(str(dst) + ".tmp")
     with netCDF4.Dataset(src) as a, netCDF4.Dataset(tmp, "w", format="NETCDF4") as b:
         a.set_auto_maskandscale(False)  # copied as stored (times on the run's clock)
         idx = a["trajectory_index"][:]
-        order = np.argsort(idx, kind="stable")
         ntraj = len(a.dimensions["trajectory"])
+        rows = np.bincount(idx, minlength=ntraj)
+        nobs = idx.size
+        order = np.argsort(idx, kind="stable")
+        del idx  # memory: the sort order and one variable at a time (16 bytes per observation)
         b.setncatts({k: a.getncattr(k) for k in a.ncattrs() if k != "hit_count"})
         b.createDimension("trajectory", ntraj)
-        b.createDimension("obs", idx.size)
+        b.createDimension("obs", nobs)
         nhit = int(a.getncattr("hit_count")) if "hit_count" in a.ncattrs() else \
             len(a.dimensions["hit"])  # rows after hit_count: stale, from before a resume
         b.createDimension("hit", nhit)
@@ -291,14 +305,16 @@ def _to_contiguous(src, dst):
             v.set_auto_maskandscale(False)
             data = var[:]
             if var.dimensions == ("obs",):
-                data = data[order]
-            elif var.dimensions == ("hit",):
+                for start in range(0, nobs, _BLOCK):  # permuted block by block
+                    v[start:start + _BLOCK] = data[order[start:start + _BLOCK]]
+                continue
+            if var.dimensions == ("hit",):
                 data = data[:nhit]
             v[:] = data
         rs = b.createVariable("rowSize", "i8", ("trajectory",))
         rs.setncatts(dict(long_name="number of observations for this trajectory",
                           sample_dimension="obs"))
-        rs[:] = np.bincount(idx, minlength=ntraj)
+        rs[:] = rows
     os.replace(tmp, dst)
 
 

@@ -169,3 +169,67 @@ def test_logs_lift_off_when_the_wave_arrives(flood):
     # (those on the north side of the line, in slack water, by tens; measured 14-886 m)
     assert moved_logs == 10
     assert min(east) > 0.0 and np.sum(np.array(east) > 100.0) >= 7
+
+
+# ten thousand logs on the valley floor around the G7 line (1 km below the dam), inside the
+# mesh; 0.8 m long on a 2.9 m grid: none touch at the start
+G7_AREA = [[5640.0, 4150.0], [5800.0, 4150.0], [5850.0, 4650.0], [5700.0, 4700.0]]
+LOGS_END = 120.0  # s: the wave reaches the area at about 100 s
+
+
+@pytest.mark.slow  # minutes on the shared cores (contacts among the lifted logs): --runslow
+def test_ten_thousand_logs_all_accounted_for(flood):
+    """1e4 logs, full physics, contacts on, per-log clocks, streamed to a trajectory file over
+    the first 120 s, as the wave reaches them (benchmarks/million_logs.py is the same run at
+    1e4 to 1e6 logs over the valley): the file is complete (every log has a record at every
+    output time until it leaves the domain), no log is lost (each ends in the mesh, or
+    reported left_domain where it left it), the logs' mass is what was released, and a log
+    floats only where the water floats it (depth at least its flotation depth) and lies
+    stranded only where it does not."""
+    from driftlog.api import track
+    from driftlog.logs import FLOATING, LEFT, STRANDED, WAITING
+
+    scen, _, path, ex, mesh, _, tmp = flood
+    n = 10_100  # the grid in this polygon holds 10,100 logs (count 10,000 gives 9,999)
+    over = _reduced(tmp)
+    over["logs"] = [{"name": "G7 area", "seeding": "grid", "polygon": G7_AREA, "count": n,
+                     "theta": "random", "seed": 5, "length": 0.8, "radius": 0.08,
+                     "density": 700.0, "velocity": "rest"}]
+    over["time"] = {"end": LOGS_END, "output_interval": 30.0}
+    over["physics"] = {"level": "full"}
+    over["integrator"] = {"method": "rk4", "clock": "per_log"}
+    over["contact"] = {"enabled": True, "method": "moreau"}
+    out = tmp / "ten_thousand.nc"
+    res = track(CASE, output=out, overrides=over)
+    assert len(res.logs) == n
+    with netCDF4.Dataset(out) as ds:
+        ds.set_auto_maskandscale(False)
+        assert len(ds.dimensions["trajectory"]) == n
+        rows = ds["rowSize"][:]
+        t, st = ds["time"][:], ds["status"][:]
+        x, y, depth = ds["x"][:], ds["y"][:], ds["water_depth"][:]
+        density, radius, length = ds["density"][:], ds["radius"][:], ds["length"][:]
+        float_depth = ds["flotation_depth"][:]
+    assert rows.sum() == t.size
+    first, last = np.cumsum(rows) - rows, np.cumsum(rows) - 1
+    times = np.arange(0.0, LOGS_END + 1.0, 30.0)
+    # complete: a log's records are the output times, from 0 until it left the domain
+    assert np.all(rows >= 1) and np.all(t[first] == 0.0)
+    gone = st[last] == LEFT
+    assert np.all(rows[~gone] == times.size)
+    for i in np.flatnonzero(gone):
+        np.testing.assert_array_equal(t[first[i]:last[i] + 1], times[:rows[i]])
+    # accounted for: nobody still waiting; every log not reported out is in the mesh
+    assert not np.any(st[last] == WAITING)
+    assert np.all(mesh.locate(x[last[~gone]], y[last[~gone]]) >= 0)
+    # mass: no waterlogging, the logs are the ones released (700 kg/m3, 0.8 m x 0.08 m)
+    mass = density * np.pi * radius ** 2 * length
+    assert np.allclose(mass, 700.0 * np.pi * 0.08 ** 2 * 0.8, rtol=1e-12)
+    assert np.allclose(res.logs.mass, mass, rtol=1e-12)
+    # floating where the water floats them, stranded where it does not; the wave has lifted
+    # some by 120 s (dry at the start: all stranded)
+    assert np.all(st[first] == STRANDED)
+    fl, sd = st[last] == FLOATING, st[last] == STRANDED
+    assert fl.sum() > 100
+    assert np.all(depth[last[fl]] >= (float_depth[fl] - 1e-9).astype(np.float32))
+    assert np.all(depth[last[sd]] < float_depth[sd])

@@ -1,0 +1,256 @@
+"""Many logs on the Malpasset flood: wall time, CPU time, peak memory and output size.
+
+The malpasset case (cases/malpasset/scenario.toml: the 1959 flood on driftlog's solver, read
+from its stored flow file) with its 40 logs replaced by N logs on a grid (``seeding =
+"grid"``) over the valley floor: the polygon through the ends of the case's four release
+lines, clipped to the mesh and 5 m inside it (its largest piece: x 7.4 to 9.7 km, 3 to 5.7 km
+below the dam, 1.17 km2, where the wave arrives after 300 to 700 s): logs 0.8 m long of
+radius 0.08 m
+(pine, 700 kg/m3) at random angles, on a grid spacing of sqrt(area / N) (1.08 m at N = 1e6:
+no two logs touch at the start).  Full physics,
+contacts on (logs, the mesh's walls; Moreau-Jean by default), RK4 on per-log clocks (``--clock
+global``: the paper's), trajectories streamed to a CF trajectory file.
+
+Each N runs in its own process (so that the peak resident memory, ``ru_maxrss``, is that run's
+alone); a thread samples the resident memory every 0.2 s, so the table gives the memory after
+the set-up (flow open, logs seeded) and the peak during the run.  Checked after each run: the
+file holds N trajectories and N final states; every log is in the mesh or reported out
+(status left_domain); counts of each final status.
+
+    python benchmarks/million_logs.py --flow /tmp/malpasset_o1_4000.nc --logs 10000 --end 300
+    python benchmarks/million_logs.py --flow F --sweep 1e4 1e5 1e6 --end 120   # a table
+
+writes benchmarks/results/million_logs.{json,md} (sweep).  The flow file comes from
+``python benchmarks/malpasset.py --flow F --solve-only`` (4000 s, about 10 min).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from _common import RESULTS, machine  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+CASE = ROOT / "cases" / "malpasset" / "scenario.toml"
+# the valley floor between the case's release lines G7, G8, G10 and G11 (m)
+VALLEY = [[5670.0, 4200.0], [6600.0, 3670.0], [8580.0, 3260.0], [9560.0, 2400.0],
+          [9720.0, 3380.0], [8593.0, 3720.0], [6820.0, 3920.0], [5760.0, 4600.0]]
+STATUS = ["waiting", "floating", "resting", "stranded", "left_domain"]
+
+
+def valley_polygon(mesh):
+    """VALLEY clipped to the mesh (the union of its faces near VALLEY), 5 m inside its edge,
+    its largest piece, as a list of [x, y] (shapely)."""
+    import shapely
+
+    valley = shapely.Polygon(VALLEY)
+    x0, y0, x1, y1 = valley.bounds
+    fn = mesh.face_nodes[:, :3]
+    fx, fy = mesh.node_x[fn], mesh.node_y[fn]
+    near = np.flatnonzero((fx.max(1) >= x0) & (fx.min(1) <= x1) & (fy.max(1) >= y0)
+                          & (fy.min(1) <= y1))
+    faces = shapely.polygons(np.stack([fx[near], fy[near]], axis=-1))
+    clipped = valley.intersection(shapely.union_all(faces)).buffer(-5.0).simplify(1.0)
+    if clipped.geom_type != "Polygon":
+        clipped = max(clipped.geoms, key=lambda g: g.area)
+    return np.asarray(clipped.exterior.coords)[:-1].tolist()
+
+
+def overrides(flow, n, end, output_interval, method, flush_interval, clock="per_log"):
+    """The malpasset case with N logs on a grid over the valley, contacts on."""
+    from driftlog.flowfile import open_flow
+
+    poly = valley_polygon(open_flow(flow).mesh)
+    return {
+        "flow": {"source": "file", "path": str(flow)},
+        "time": {"start": 0.0, "end": float(end), "output_interval": float(output_interval)},
+        "logs": [{"name": f"{n} logs over the valley", "seeding": "grid", "polygon": poly,
+                  "count": int(n), "theta": "random", "seed": 1, "length": 0.8,
+                  "radius": 0.08, "density": 700.0, "velocity": "rest"}],
+        "physics": {"level": "full"},
+        "integrator": {"method": "rk4", "clock": clock},
+        "contact": {"enabled": True, "method": method},
+        "output": {"flush_interval": int(flush_interval)},
+    }
+
+
+class RSSMonitor(threading.Thread):
+    """Samples this process's resident memory (bytes) every ``interval`` s."""
+
+    def __init__(self, interval=0.2):
+        super().__init__(daemon=True)
+        self.interval, self.peak, self.samples = interval, 0, []
+        self._halt = threading.Event()
+
+    def rss(self):
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+    def run(self):
+        t0 = time.perf_counter()
+        while not self._halt.is_set():
+            r = self.rss()
+            self.peak = max(self.peak, r)
+            self.samples.append((time.perf_counter() - t0, r))
+            self._halt.wait(self.interval)
+
+    def stop(self):
+        self._halt.set()
+        self.join()
+
+
+def check_output(path, n, flow):
+    """Facts about the trajectory file; raises if a log is missing or lost."""
+    import netCDF4
+
+    from driftlog.flowfile import open_flow
+
+    with netCDF4.Dataset(path) as ds:
+        ds.set_auto_maskandscale(False)
+        ntraj = len(ds.dimensions["trajectory"])
+        nobs = len(ds.dimensions["obs"])
+        rows = np.asarray(ds["rowSize"][:])
+        last = np.cumsum(rows) - 1
+        has = rows > 0
+        status = np.full(ntraj, 0, np.int8)
+        x = np.full(ntraj, np.nan)
+        y = np.full(ntraj, np.nan)
+        status[has] = np.asarray(ds["status"][:])[last[has]]
+        x[has] = np.asarray(ds["x"][:])[last[has]]
+        y[has] = np.asarray(ds["y"][:])[last[has]]
+        nhit = len(ds.dimensions["hit"])
+    if ntraj != n or int(rows.sum()) != nobs:
+        raise RuntimeError(f"{path}: {ntraj} trajectories, {rows.sum()} rows for {nobs} "
+                           f"observations; expected {n} trajectories")
+    mesh = open_flow(flow).mesh
+    inside = mesh.locate(x, y) >= 0
+    lost = np.flatnonzero(has & (status != 4) & ~inside)
+    if lost.size:
+        raise RuntimeError(f"{path}: {lost.size} logs outside the mesh without status "
+                           f"left_domain (first: log {lost[0]})")
+    return dict(trajectories=ntraj, observations=nobs, hits=nhit,
+                never_recorded=int(np.sum(~has)),
+                final_status={s: int(np.sum(status[has] == k)) for k, s in enumerate(STATUS)})
+
+
+def run_one(a):
+    """One run in this process; prints one JSON line of facts."""
+    from driftlog.api import as_scenario, track
+
+    mon = RSSMonitor()
+    mon.start()
+    rss0 = mon.rss()
+    out = Path(a.out)
+    for p in (out, Path(str(out) + ".partial")):
+        p.unlink(missing_ok=True)
+    c0, w0 = time.process_time(), time.perf_counter()
+    scen = as_scenario(CASE, overrides(a.flow, a.logs, a.end, a.output_interval, a.method,
+                                       a.flush_interval, a.clock))
+    res = track(scen, output=out, progress=a.progress)
+    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    mon.stop()
+    facts = check_output(out, a.logs, a.flow)
+    floating = [r for r in res.stats.items() if r[0] in ("substeps", "rhs_evaluations")]
+    row = dict(logs=a.logs, end_s=a.end, output_interval_s=a.output_interval,
+               contact_method=a.method, clock=a.clock, wall_s=wall, cpu_s=cpu,
+               rss_start_mb=rss0 / 2**20,
+               peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+               sampled_peak_mb=mon.peak / 2**20,
+               output_mb=out.stat().st_size / 2**20, physics=res.physics["level"],
+               **dict(floating), **facts)
+    print("RESULT " + json.dumps(row), flush=True)
+    if not a.keep:
+        out.unlink(missing_ok=True)
+    return row
+
+
+def sweep(a):
+    rows = []
+    for n in a.sweep:
+        cmd = [sys.executable, __file__, "--flow", str(a.flow), "--logs", str(int(n)), "--end",
+               str(a.end), "--output-interval", str(a.output_interval), "--method", a.method,
+               "--flush-interval", str(a.flush_interval), "--clock", a.clock, "--out", a.out]
+        print(" ".join(cmd), flush=True)
+        p = subprocess.run(cmd, capture_output=True, text=True)
+        line = [q for q in p.stdout.splitlines() if q.startswith("RESULT ")]
+        if p.returncode or not line:
+            print(p.stdout[-3000:], p.stderr[-3000:])
+            rows.append(dict(logs=int(n), end_s=a.end, error=(p.stderr or p.stdout)[-500:]))
+            continue
+        rows.append(json.loads(line[-1][7:]))
+        print(rows[-1], flush=True)
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    info = dict(machine=machine(), flow=str(a.flow), end_s=a.end,
+                output_interval_s=a.output_interval, contact_method=a.method, clock=a.clock,
+                threads=os.environ.get("NUMBA_NUM_THREADS", "all"))
+    name = a.name or "million_logs"
+    (RESULTS / f"{name}.json").write_text(json.dumps({"info": info, "runs": rows}, indent=1))
+    lines = [f"### Many logs on the Malpasset flood (first {a.end:g} s)", "",
+             f"Measured on {info['machine']}; NUMBA_NUM_THREADS={info['threads']}.  Logs 0.8 m "
+             "long, radius 0.08 m, on a grid over the valley 3 to 5.7 km below the dam, "
+             "full physics, "
+             f"RK4 ({a.clock} clock), contacts ({a.method}), records every "
+             f"{a.output_interval:g} s.  "
+             f"Re-create: `python benchmarks/million_logs.py --flow F --sweep "
+             f"{' '.join(str(int(n)) for n in a.sweep)} --end {a.end:g} --output-interval "
+             f"{a.output_interval:g}`.", "",
+             "| logs | wall (s) | CPU (s) | RSS after imports (MB) | peak RSS (MB) | output (MB) "
+             "| observations | sub-steps | hits | final status |",
+             "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    for r in rows:
+        if "error" in r:
+            lines.append(f"| {r['logs']} | failed: {r['error'][-200:]!r} |")
+            continue
+        fin = ", ".join(f"{k} {v}" for k, v in r["final_status"].items() if v)
+        lines.append(f"| {r['logs']:.0f} | {r['wall_s']:.0f} | {r['cpu_s']:.0f} | "
+                     f"{r['rss_start_mb']:.0f} | {r['peak_rss_mb']:.0f} | {r['output_mb']:.1f} | "
+                     f"{r['observations']} | {r.get('substeps', '?')} | {r['hits']} | {fin} |")
+    text = "\n".join(lines) + "\n"
+    (RESULTS / f"{name}.md").write_text(text)
+    print(text)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--flow", default="/tmp/malpasset_o1_4000.nc",
+                   help="stored flow file of the flood (benchmarks/malpasset.py --flow)")
+    p.add_argument("--logs", type=float, default=1e4, help="number of logs")
+    p.add_argument("--sweep", type=float, nargs="+", help="several N, each in a new process")
+    p.add_argument("--end", type=float, default=4000.0, help="end of the run (s)")
+    p.add_argument("--output-interval", type=float, default=60.0, help="record interval (s)")
+    p.add_argument("--method", default="moreau", choices=("event", "moreau"),
+                   help="contact method")
+    p.add_argument("--flush-interval", type=int, default=10, help="records between flushes")
+    p.add_argument("--clock", default="per_log", choices=("global", "per_log"),
+                   help="[integrator] clock")
+    p.add_argument("--out", default="/tmp/million_logs.nc", help="trajectory file")
+    p.add_argument("--name", help="results name (default million_logs)")
+    p.add_argument("--keep", action="store_true", help="keep the trajectory file")
+    p.add_argument("--progress", action="store_true")
+    a = p.parse_args(argv)
+    if not Path(a.flow).is_file():
+        raise SystemExit(f"flow file {a.flow} not found: python benchmarks/malpasset.py "
+                         f"--flow {a.flow} --solve-only")
+    a.logs = int(a.logs)
+    if a.sweep:
+        sweep(a)
+    else:
+        run_one(a)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
