@@ -2,13 +2,13 @@
 
 (a) + (c): a fixed array of two logs (1.8 m, 0.15 m radius, broadside, held by posts) across a
 4 m channel carrying 1 m2/s on 1 m of water: the rise of the level 3-8 m upstream against the
-one-dimensional momentum balance with the logs' drag (docs/model.md eq. (74)), at three mesh
+one-dimensional momentum balance with the logs' drag (docs/model.md eq. (76)), at three mesh
 sizes (the test runs the middle one, tests/test_coupling.py).
 
 (b): cases/bridge_jam/coupled.toml: 30 logs jam at a deck across a 7 m channel; the level
 along the channel at the end against the same flow without logs (a figure), the backwater
 2-12 m upstream of the deck, the deck's force (contact impulses and the entrained water's,
-(71)), and the backwater the momentum balance (74) gives for that force.
+(73)), and the backwater the momentum balance (76) gives for that force.
 
 Writes benchmarks/results/coupling_validation{.md,.csv,.json} and coupling_backwater.png.
 
@@ -103,7 +103,7 @@ def bridge_jam(out_dir):
     fig.tight_layout()
     RESULTS.mkdir(parents=True, exist_ok=True)
     fig.savefig(RESULTS / "coupling_backwater.png", dpi=130)
-    # the jam's force from the level difference it holds, (74) reversed, at the mean depth
+    # the jam's force from the level difference it holds, (76) reversed, at the mean depth
     h_up = float(snap["h"][up].mean())
     q = 1.0
     force_from_levels = G * h_up * rise * (1 - q * q / (G * h_up ** 3)) * 1000 * 7.0
@@ -129,7 +129,7 @@ def main(argv=None):
             "logs_at_deck", "momentum_given_x", "force_from_levels_N", "wall_s"]
     write_table("coupling_validation", rows, cols, "Two-way coupling: backwater (issue 16)",
                 "Backwater = level with logs minus level without, 3-8 m (a) or 2-12 m (b) "
-                "upstream; predicted by the 1D momentum balance docs/model.md (74).")
+                "upstream; predicted by the 1D momentum balance docs/model.md (76).")
     (RESULTS / "coupling_validation.json").write_text(json.dumps(
         dict(machine=machine(), rows=rows), indent=1, default=float))
 

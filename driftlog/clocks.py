@@ -4,7 +4,7 @@ Algorithm 1 of the reference paper (docs/model.md section 11) advances all float
 together with the smallest sub-step any of them needs (``clock = "global"``).  With
 ``clock = "per_log"`` the logs meet only at the synchronisation times (hydrodynamic snapshots,
 output times, releases, the end); between two of them each log takes its own sub-steps, from
-its own bounds (eq. (69)), in one kernel over all logs (``driftlog.clock_kernel``).  Each
+its own bounds (eq. (70)), in one kernel over all logs (``driftlog.clock_kernel``).  Each
 log's sub-steps are exactly the ones the global clock would give it alone: one log has the
 same trajectory, bit for bit, under both clocks.
 
