@@ -181,10 +181,18 @@ def seed_positions(group: dict, prefix: str = "logs[0]"):
         lo, hi = poly.min(axis=0), poly.max(axis=0)
         area = 0.5 * abs(np.dot(poly[:, 0], np.roll(poly[:, 1], -1))
                          - np.dot(poly[:, 1], np.roll(poly[:, 0], -1)))
-        d = np.sqrt(area / group["count"])
-        gx, gy = np.meshgrid(np.arange(lo[0] + d / 2, hi[0], d), np.arange(lo[1] + d / 2, hi[1], d))
-        pts = np.column_stack([gx.ravel(), gy.ravel()])
-        pts = pts[MplPath(poly).contains_points(pts)][:group["count"]]
+        n = group["count"]
+        d = np.sqrt(area / n)
+        inside = MplPath(poly)
+        while True:  # spacing sqrt(area / count), made finer until the grid holds count logs
+            gx, gy = np.meshgrid(np.arange(lo[0] + d / 2, hi[0], d),
+                                 np.arange(lo[1] + d / 2, hi[1], d))
+            pts = np.column_stack([gx.ravel(), gy.ravel()])
+            pts = pts[inside.contains_points(pts)]
+            if len(pts) >= n:
+                break
+            d *= 0.99
+        pts = pts[:n]
         x, y = pts[:, 0], pts[:, 1]
     else:  # validated upstream
         raise ScenarioError(f"{prefix}.seeding", s, "unknown seeding")

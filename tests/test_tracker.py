@@ -129,6 +129,12 @@ def test_seeding_is_reproducible_bit_for_bit():
     x, y, _ = seed_positions(dict(seeding="grid", polygon=[[0, 0], [4, 0], [4, 4], [0, 4]],
                                   count=16, seed=0, theta=0.0))
     assert x.size == 16 and np.allclose(sorted(set(x)), [0.5, 1.5, 2.5, 3.5])
+    # a strip and a triangle: the grid of spacing sqrt(area / count) holds fewer than count
+    # (14 of 20 and 10 of 12, without a word); it is made finer until it holds them all
+    for poly, n in (([[0, 0], [10, 0], [10, 1], [0, 1]], 20), ([[0, 0], [10, 0], [0, 10]], 12)):
+        x, y, _ = seed_positions(dict(seeding="grid", polygon=poly, count=n, seed=0, theta=0.0))
+        assert x.size == n and len(set(zip(x, y, strict=True))) == n
+        assert MplPath(np.array(poly)).contains_points(np.column_stack([x, y])).all()
 
 
 def test_auto_physics_chooses_and_explains():
