@@ -85,3 +85,24 @@ def breaking_after(flow, t_break):
     broken = Breaks.__new__(Breaks)
     broken.__dict__.update(flow.__dict__)
     return broken
+
+
+def draining_channel(mesh, times):
+    """Sheared, meandering flow to the east (out through the mesh's east side) over a bank
+    (12 < x < 20, y > 6) that dries from 0.6 m at 0.05 m/s: the scene of the fused-step and
+    per-log-clock tests."""
+    import numpy as np
+
+    from driftlog.flow import MeshFlowField
+
+    xc, yc = mesh.face_x, mesh.face_y
+    h, hu, hv = [], [], []
+    for t in times:
+        depth = np.where((xc > 12) & (xc < 20) & (yc > 6), max(0.6 - 0.05 * t, 0.0), 0.6)
+        u = 0.8 + 0.3 * np.sin(yc / 2.0) + 0.01 * t
+        v = 0.25 * np.cos(xc / 3.0)
+        h.append(depth)
+        hu.append(depth * u)
+        hv.append(depth * v)
+    return MeshFlowField.from_arrays(mesh, np.zeros(mesh.n_faces), times, np.array(h),
+                                     np.array(hu), np.array(hv))

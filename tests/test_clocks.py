@@ -6,10 +6,10 @@ solutions converge at the integrator's order with per-log steps.
 """
 import numpy as np
 import pytest
+from conftest import draining_channel
 
 from driftlog.analytic import UniformFlow, on_mesh
 from driftlog.errors import ScenarioError
-from driftlog.flow import MeshFlowField
 from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, Logs
 from driftlog.mesh import Mesh
 from driftlog.physics import PhysicsOptions
@@ -19,22 +19,7 @@ MESH = Mesh.regular_grid(30, 10, 1.0)
 TIMES = np.arange(0.0, 21.0, 4.0)
 
 
-def draining_channel():
-    """test_fused's scene: sheared, meandering flow to the east over a bank that dries."""
-    xc, yc = MESH.face_x, MESH.face_y
-    h, hu, hv = [], [], []
-    for t in TIMES:
-        depth = np.where((xc > 12) & (xc < 20) & (yc > 6), max(0.6 - 0.05 * t, 0.0), 0.6)
-        u = 0.8 + 0.3 * np.sin(yc / 2.0) + 0.01 * t
-        v = 0.25 * np.cos(xc / 3.0)
-        h.append(depth)
-        hu.append(depth * u)
-        hv.append(depth * v)
-    return MeshFlowField.from_arrays(MESH, np.zeros(MESH.n_faces), TIMES, np.array(h),
-                                     np.array(hu), np.array(hv))
-
-
-FLOW = draining_channel()
+FLOW = draining_channel(MESH, TIMES)
 N = 120
 
 

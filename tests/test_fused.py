@@ -1,9 +1,9 @@
 """The fused per-log steps (driftlog.fused) give the general path's trajectories bit for bit."""
 import numpy as np
 import pytest
+from conftest import draining_channel
 
 from driftlog.analytic import FreeVortex, on_mesh
-from driftlog.flow import MeshFlowField
 from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, Logs
 from driftlog.mesh import Mesh
 from driftlog.physics import PhysicsOptions
@@ -13,22 +13,7 @@ MESH = Mesh.regular_grid(30, 10, 1.0)
 TIMES = np.arange(0.0, 21.0, 4.0)  # sub-steps land on each snapshot: the node pair switches
 
 
-def draining_channel():
-    """Sheared, meandering flow to the east (out through x = 30) over a bank that dries."""
-    xc, yc = MESH.face_x, MESH.face_y
-    h, hu, hv = [], [], []
-    for t in TIMES:
-        depth = np.where((xc > 12) & (xc < 20) & (yc > 6), max(0.6 - 0.05 * t, 0.0), 0.6)
-        u = 0.8 + 0.3 * np.sin(yc / 2.0) + 0.01 * t
-        v = 0.25 * np.cos(xc / 3.0)
-        h.append(depth)
-        hu.append(depth * u)
-        hv.append(depth * v)
-    return MeshFlowField.from_arrays(MESH, np.zeros(MESH.n_faces), TIMES, np.array(h),
-                                     np.array(hu), np.array(hv))
-
-
-FLOW = draining_channel()
+FLOW = draining_channel(MESH, TIMES)
 
 
 def run(level, rotation, method, fused, flow=FLOW, t_end=20.0):
