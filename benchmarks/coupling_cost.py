@@ -11,7 +11,10 @@ to ``--end``:
   10 s), the one-way pipeline (solve with output, then track).
 
 Prints and writes benchmarks/results/coupling_cost{.md,.csv,.json}: wall seconds, solver
-steps, coupled / solve and coupled / (solve + offline track) ratios.  The full flood is
+steps, coupled / solve and coupled / (solve + offline track) ratios; and
+coupling_cost_parts{.md,.csv}: the coupled run's CPU time per part (the solver's steps, the
+flow's node values, the tracker's sub-steps, the hand-over of the logs' reaction, the flow
+file, the rest: setup, spin-up, trajectory file), in total and per solver step.  The full flood is
 4000 s (about 15 min per solve on 2 cores); ``--end 300`` (the default) is labelled as a
 shortened run.
 
@@ -35,6 +38,10 @@ from _common import RESULTS, machine, write_table  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 CASE = ROOT / "cases" / "malpasset" / "scenario.toml"
 CLOCKS = (time.perf_counter, time.process_time)
+# the coupled run's parts (driftlog.coupling.Coupling.cpu, written as coupling_cpu_<key>_s)
+PARTS = {"solver": "solver steps", "flow_nodes": "flow node values (region, push)",
+         "tracker": "tracker sub-steps", "handover": "hand-over of the reaction",
+         "flow_file": "flow file (snapshots)"}
 
 
 def timed(fn):
@@ -98,6 +105,9 @@ def main(argv=None):
         steps = int(ds.getncattr("coupling_solver_steps"))
         given = float(ds.getncattr("coupling_momentum_given_x")), \
             float(ds.getncattr("coupling_momentum_given_y"))
+        region = float(ds.getncattr("coupling_region_nodes"))
+        widened = int(ds.getncattr("coupling_region_widenings"))
+        parts = {k: float(ds.getncattr(f"coupling_cpu_{k}_s")) for k in PARTS}
     rows.append(dict(run=f"coupled: {a.logs} logs acting on the flood", wall_s=w_c, cpu_s=c_c,
                      solver_steps=steps, cpu_ratio_to_solve=c_c / c_solve))
     floating = int((res.logs.status == 1).sum())
@@ -110,13 +120,27 @@ def main(argv=None):
              f"{given[1]:.3g}) kg m/s.")
     write_table(a.name, rows, ["run", "wall_s", "cpu_s", "solver_steps", "cpu_ratio_to_solve"],
                 f"Cost of two-way coupling: Malpasset with {a.logs} logs{label}", notes)
+    parts["rest"] = c_c - sum(parts.values())
+    prow = [dict(part=PARTS.get(k, "rest: setup, spin-up, trajectory file, outputs"), cpu_s=v,
+                 ms_per_solver_step=1e3 * v / steps, share_of_solve=v / c_solve)
+            for k, v in parts.items()]
+    prow.append(dict(part="solve alone (for comparison)", cpu_s=c_solve,
+                     ms_per_solver_step=1e3 * c_solve / s.steps, share_of_solve=1.0))
+    pnotes = (f"CPU seconds of each part of the coupled run above ({steps} solver steps, "
+              f"{a.logs} logs); the flow's node values were computed on {region:.0f} of "
+              f"{s.mesh.n_nodes} nodes per step on average (the region around the logs; "
+              f"{widened} steps widened to the whole mesh).")
+    write_table(f"{a.name}_parts", prow, ["part", "cpu_s", "ms_per_solver_step",
+                                          "share_of_solve"],
+                f"Where the coupled run's time goes{label}", pnotes)
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / f"{a.name}.json").write_text(json.dumps(dict(
         machine=machine(), end=a.end, logs=a.logs, solve_cpu_s=c_solve, solve_wall_s=w_solve,
         solve_with_output_cpu_s=c_out, offline_track_cpu_s=c_track, coupled_cpu_s=c_c,
         coupled_wall_s=w_c, coupled_over_solve=c_c / c_solve,
         coupled_over_offline=c_c / (c_out + c_track), floating_at_end=floating,
-        momentum_given=given), indent=1))
+        momentum_given=given, region_nodes=region, n_nodes=s.mesh.n_nodes,
+        region_widenings=widened, coupled_parts_cpu_s=parts), indent=1))
 
 
 if __name__ == "__main__":

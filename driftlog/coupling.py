@@ -132,6 +132,17 @@ class SolverFlow(MeshFlowField):
         for a, b in zip(self._start, _arrays(self.solver), strict=True):
             np.copyto(a, b)  # kept in case the step must widen the region (``widen``)
 
+    def focus_all(self):
+        """Before a step: every node (the end columns of the last step become start columns)."""
+        nn = self.mesh.n_nodes
+        if self.partial:
+            out = np.flatnonzero(self._node_mark != self._stamp)
+            self._compute(out, out.size, NQ)  # the state now, as at the last push
+            self._node_mark[:] = self._stamp
+            self._rows, self._spare = np.arange(nn, dtype=np.int64), self._rows
+            self._count = nn
+        self._vals[:, :NQ] = self._vals[:, NQ:]
+
     def widen(self):
         """Every node, for the current interval (a log strayed out of the region)."""
         nn = self.mesh.n_nodes
@@ -359,8 +370,10 @@ class Coupling:
         clock, cpu = time.process_time, self.cpu
         c = clock()
         while k < fixed.size:
-            if self._dt > 0.0:  # the first step computes every node (no step known yet)
+            if self._dt > 0.0:
                 self.focus(tracker)
+            else:  # the first step computes every node (no step known yet)
+                self.flow.focus_all()
             c1 = clock()
             cpu["flow nodes"] += c1 - c
             # the reaction enters the solver's next step; the logs' interval starts from the
