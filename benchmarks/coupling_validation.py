@@ -249,8 +249,10 @@ def river_piers(out_dir, reuse=False):
     rise = float((snap["eta"][up] - eta_ref[up]).mean())
     logs = res.logs
     x, y = logs.state[:, 0], logs.state[:, 1]
-    speed = np.hypot(logs.state[:, 3], logs.state[:, 4])
-    at_a = (x > 540.0) & (x < 620.0) & (speed < 0.05)
+    # held at bridge A: still upstream of its piers' axis after 900 s in a 0.9 m/s river (the
+    # recorded velocity of a log held by the projected contact solve is not zero: it carries
+    # what the drag gave it over the step before the projection)
+    at_a = (x > 450.0) & (x < 600.0)
 
     def discharge(hu, at=300.0):  # mean unit discharge of the faces about x = at, times W
         return float(hu[np.abs(fx - at) < 10.0].mean() * 170.0)
