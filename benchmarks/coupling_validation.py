@@ -231,6 +231,9 @@ def river_piers(out_dir, reuse=False):
     wall = float("nan")
     if reuse and done.exists():
         res = _stored_run(done)
+        prev = RESULTS / "coupling_river_piers.json"
+        if prev.exists():
+            wall = json.loads(prev.read_text())["rows"][0].get("wall_s", wall)
     else:
         t0 = time.perf_counter()
         res = track(scen, output=done)
