@@ -58,7 +58,7 @@ class SolverFlow(MeshFlowField):
     states), fused kernels included.  ``push(solver)`` makes the solver's state the end of
     the interval (the old end becomes its start).
 
-    The node values are computed only where the logs can sample them (docs/model.md 17.4):
+    The node values are computed only where the logs can sample them (docs/model.md 17.5):
     ``focus(x, y, margin)``, before a step, restricts them to the nodes of the faces within
     ``margin`` of the points given (the logs); the other nodes hold NaN, so that a log that
     strays out of the region samples NaN, never a stale value: ``sample_into`` and the

@@ -1,4 +1,4 @@
-"""The coupled flow's node values on the region around the logs (docs/model.md 17.4).
+"""The coupled flow's node values on the region around the logs (docs/model.md 17.5).
 
 The same coupled run three ways: node values on the whole mesh at every step (as the coupling
 first did), on the region around the logs (the default), and on a region around the first
