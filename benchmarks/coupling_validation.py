@@ -16,8 +16,9 @@ across a 4 m channel and by one another through Moreau-Jean contacts) on meshes 
 their changes from mesh to mesh and observed orders (the test runs the three coarsest,
 tests/test_coupling.py).  Writes coupling_convergence{.md,.csv,.json}.
 
-(d) cases/river_piers/coupled.toml: a raft of 12 logs of 44 m held at the first pier group of
-the river; the level upstream of it against the same flow without logs.  Writes
+(d) cases/river_piers/coupled.toml: a raft of 9 logs of 44 m held at the deck of the first
+bridge (its pier group) of the river; the level upstream of it against the same flow without
+logs.  Writes
 coupling_river_piers{.md,.json} and coupling_river_piers.png.
 
 Writes benchmarks/results/coupling_validation{.md,.csv,.json} ((a), (b): the rows of the parts
