@@ -9,7 +9,8 @@
   the region's nodes become its start columns, nodes that left the region are poisoned (NaN);
 - ``scatter_reaction``: the logs' reaction spread over points along their axes and added to
   the water of the faces under them (``driftlog.solver.momentum.add_face_momentum``'s
-  arithmetic);
+  arithmetic); a log whose two ends lie well inside its centre's face has every point there,
+  without locating them;
 - ``account_advance`` and ``account_contacts``: the momentum the water gave each floating log
   over a free sub-step, and the entrained water's share of the contacts' velocity changes.
 """
@@ -18,7 +19,7 @@ import numba as nb
 import numpy as np
 
 from driftlog.columns import NQ, Q_ETA, Q_EX, Q_EY, Q_H, Q_U, Q_UX, Q_UY, Q_V, Q_VX, Q_VY, UB, VB
-from driftlog.locate import locate_one
+from driftlog.locate import _edge_side, locate_one
 
 __all__ = ["mark_region", "node_rows", "shift_rows", "poison_rows", "scatter_reaction",
            "account_advance", "account_contacts"]
@@ -159,6 +160,24 @@ def poison_rows(rows, count, node_mark, stamp, vals):
 
 
 @nb.njit(cache=True)
+def _well_inside(px, py, f, loc):
+    """Whether (px, py) is inside face f by a margin far above round-off on every edge.
+
+    Two such points have every point between them inside f (a convex face; the sides are
+    linear along a segment) with room to spare: ``locate_one`` from f returns f for each.
+    """
+    face_nodes = loc.face_nodes
+    n = loc.face_n[f]
+    for k in range(n):
+        a = face_nodes[f, k]
+        b = face_nodes[f, k + 1] if k + 1 < n else face_nodes[f, 0]
+        c, s = _edge_side(px, py, loc.node_x[a], loc.node_y[a], loc.node_x[b], loc.node_y[b])
+        if not c > 1e-9 * s:
+            return False
+    return True
+
+
+@nb.njit(cache=True)
 def scatter_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h, state_face,
                      area, density, dry_depth, hu, hv, sx, sy, touched):
     """Give the water the opposite of the momentum ``got`` (n, 2) of each log (kg m/s).
@@ -185,11 +204,19 @@ def scatter_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h, stat
         centre = locate_one(x[i], y[i], hi if 0 <= hi < area.shape[0] else -1, loc)
         mx = -gx / points
         my = -gy / points
+        # both ends well inside the log's face: every point is in it (no walk to make)
+        within = False
+        if centre >= 0:
+            s = (0.5 / points - 0.5) * length[i]
+            e = ((points - 0.5) / points - 0.5) * length[i]
+            within = (_well_inside(x[i] + s * cos_t[i], y[i] + s * sin_t[i], centre, loc)
+                      and _well_inside(x[i] + e * cos_t[i], y[i] + e * sin_t[i], centre, loc))
         for k in range(points):
-            s = ((k + 0.5) / points - 0.5) * length[i]
-            px = x[i] + s * cos_t[i]
-            py = y[i] + s * sin_t[i]
-            f = locate_one(px, py, centre, loc)
+            if within:
+                f = centre
+            else:
+                s = ((k + 0.5) / points - 0.5) * length[i]
+                f = locate_one(x[i] + s * cos_t[i], y[i] + s * sin_t[i], centre, loc)
             if f < 0 or h[state_face[max(f, 0)]] <= dry_depth:
                 f = centre
             if f < 0:
