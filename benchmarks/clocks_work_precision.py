@@ -15,7 +15,8 @@ in memory (no file), one thread (run with NUMBA_NUM_THREADS=1), best of ``--repe
 
     python benchmarks/clocks_work_precision.py --malpasset-flow F [--cases flume,malpasset]
 
-Writes benchmarks/results/clocks_work_precision.{md,json,png}.
+Writes benchmarks/results/clocks_work_precision.{md,json,png} (and each case's rows in
+clocks_work_precision_<case>.json; ``--table-only`` redraws from those).
 """
 
 from __future__ import annotations
@@ -116,7 +117,17 @@ def main(argv=None):
     p.add_argument("--refine", default="4,2,1,0.5,0.25", help="step-bound factors r")
     p.add_argument("--reference", type=float, default=1 / 32, help="reference run's r")
     p.add_argument("--repeat", type=int, default=2, help="runs per point (best CPU time)")
+    p.add_argument("--table-only", action="store_true",
+                   help="only the table and chart, from the cases' saved rows")
     a = p.parse_args(argv)
+    if a.table_only:
+        rows = []
+        for case in a.cases.split(","):
+            f = RESULTS / f"clocks_work_precision_{case}.json"
+            if f.exists():
+                rows += json.loads(f.read_text())
+        write(rows, a)
+        return
     from driftlog.api import as_scenario
     from driftlog.sources import flow_from_scenario
 
@@ -144,6 +155,8 @@ def main(argv=None):
                 rows.append(row)
                 print(f"  {method:11s} {clock:7s} r={r:<5g} CPU {cpu:7.3f} s  median "
                       f"{med:.3g} m  max {worst:.3g} m {row['failed']}", flush=True)
+        (RESULTS / f"clocks_work_precision_{case}.json").write_text(
+            json.dumps([r for r in rows if r["case"] == case], indent=1))
     write(rows, a)
 
 

@@ -8,10 +8,13 @@ its own bounds (eq. (70)), in one kernel over all logs (``driftlog.clock_kernel`
 log's sub-steps are exactly the ones the global clock would give it alone: one log has the
 same trajectory, bit for bit, under both clocks.
 
-With contacts, the logs whose swept boxes may touch each other or an obstacle form contact
-islands (connected components of the overlap graph); each island runs the global clock's
-contact steps among its own logs, so its next contact ends only its own step
-(``contact_advance``).
+With contacts, the interval is cut into contact windows; in each, the logs whose swept boxes
+(in the frame of their mean drift) may touch each other or an obstacle form contact islands
+(connected components of the overlap graph); every island runs the event-driven contact steps
+among its own logs, all islands in one kernel (``driftlog.island_kernel``), so an island's next
+contact ends only its own step (``contact_advance``, ``contact_window``).  Moreau-Jean, the
+dichotomy and the fcl backend run the islands through the Python contact model
+(``python_islands``).
 """
 
 from __future__ import annotations
