@@ -180,6 +180,7 @@ def write(rows, a):
     (RESULTS / "clocks_work_precision.json").write_text(json.dumps(rows, indent=1))
     print(text)
     import matplotlib
+    import matplotlib.ticker
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -196,6 +197,7 @@ def write(rows, a):
                 x, y = zip(*sorted(pts), strict=True)
                 ax.loglog(x, y, "o-" if clock == "global" else "s--", color=colors[method],
                           label=f"{method}, {clock}", mfc="none" if clock == "global" else None)
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_xlabel("CPU time of the run (s)")
         ax.set_ylabel("median position error (m)")
         ax.set_title(case)
