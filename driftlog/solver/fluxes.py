@@ -210,17 +210,24 @@ def face_residuals(faces, face_edges, face_n, face_side, area, fmass, fx0, fy0, 
         ry = 0.0
         rs = 0.0
         for k in range(face_n[f]):
+            # without branches (a face is side 0 or 1 of its edges at random: a branch on it
+            # was mispredicted half the time); a - b is a + (-1 * b) exactly (IEEE 754)
             e = face_edges[f, k]
-            if face_side[f, k]:
-                rh -= fmass[e]
-                rx -= fx0[e]
-                ry -= fy0[e]
+            out = face_side[f, k] != 0
+            sign = -1.0 if out else 1.0
+            x0 = fx0[e]
+            x1 = fx1[e]
+            y0 = fy0[e]
+            y1 = fy1[e]
+            rh += sign * fmass[e]
+            rx += sign * (x0 if out else x1)
+            ry += sign * (y0 if out else y1)
+            if order == 1:
                 rs += speed[e]
             else:
-                rh += fmass[e]
-                rx += fx1[e]
-                ry += fy1[e]
-                rs += speed[e] if order == 1 else speed1[e]
+                s0 = speed[e]
+                s1 = speed1[e]
+                rs += s0 if out else s1
         inv = 1.0 / area[f]
         dh[f] = rh * inv
         dhu[f] = rx * inv
