@@ -30,7 +30,7 @@ from sampling_benchmark import points
 
 from driftlog.analytic import FreeVortex, on_mesh
 from driftlog.columns import X, Y
-from driftlog.fused import rk4_mesh_step
+from driftlog.fused import NCTL, rk4_mesh_step
 from driftlog.logs import Logs
 from driftlog.physics import PhysicsOptions, log_parameters, rhs_kernel
 from driftlog.tracker import StepOptions, Tracker
@@ -113,8 +113,10 @@ def breakdown(flow, x, y, steps=20, dt=0.5):
             else:
                 rhs_kernel(S, F, tr.P, tr.opt, D, lin, True)
                 vals, a, inv_dt = flow.node_values(t_s)
+                m = S.shape[0]
                 tail = (a, inv_dt, vals, a, inv_dt, vals, flow.dry_depth, True,
-                        flow.mesh.locator())
+                        flow.mesh.locator(), False, np.zeros(NCTL), tr.length,
+                        np.empty(m, np.int8), np.empty(m))
                 row["fused_step_ns"], row["fused_inner_ns"] = fused_ns(
                     S, D, lin, face, F, flag, tr.P, tr.opt, dt, tail)
                 kern = row["fused_step_ns"]
