@@ -95,3 +95,39 @@ def macdonald_bed(x, length=1000.0, discharge=2.0, manning=0.033, gravity=9.81):
     half = 0.5 * (length - a)
     pts = half * gx + 0.5 * (length + a)
     return -(half[:, 0] * (slope(pts) * gw).sum(1))
+
+
+def thacker_parabola(x, t, length=4.0, a=1.0, h0=0.5, gravity=9.81):
+    """Thacker's planar surface in a parabola: bed, depth and speed at ``x`` and time ``t``.
+
+    SWASHES ``1 4 1 1`` (Delestre et al. 2013, sect. 4.2.1), starting from rest.
+    z(x) = h0 ((x - L/2)^2 / a^2 - 1); h(x, t) = max(0, -h0 (((x - L/2)/a + cos(w t)/2)^2 - 1));
+    u(t) = B sin(w t) where wet, with w = sqrt(2 g h0) / a and B = sqrt(2 g h0) / (2 a).
+    Returns ``(z, h, u, w)``; the period is 2 pi / w.
+    """
+    x = np.asarray(x, dtype=float)
+    w = np.sqrt(2.0 * gravity * h0) / a
+    s = (x - length / 2.0) / a
+    z = h0 * (s * s - 1.0)
+    h = np.maximum(0.0, -h0 * ((s + 0.5 * np.cos(w * t)) ** 2 - 1.0))
+    u = np.where(h > 0.0, np.sqrt(2.0 * gravity * h0) / (2.0 * a) * np.sin(w * t), 0.0)
+    return z, h, u, w
+
+
+def thacker_paraboloid(x, y, t, a=1.0, h0=0.1, eta=0.5, gravity=9.81):
+    """Thacker's planar surface in a paraboloid: bed, depth and velocity at ``(x, y)``, ``t``.
+
+    SWASHES ``2 1 1 2`` (Delestre et al. 2013, sect. 4.3.1).
+    z = -h0 (1 - r^2 / a^2); h = max(0, eta h0 / a^2 (2 x cos(w t) + 2 y sin(w t) - eta) - z);
+    (u, v) = (-eta w sin(w t), eta w cos(w t)) where wet, with w = sqrt(2 g h0) / a.
+    Returns ``(z, h, u, v, w)``; the period is 2 pi / w.
+    """
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    w = np.sqrt(2.0 * gravity * h0) / a
+    z = -h0 * (1.0 - (x * x + y * y) / a ** 2)
+    h = np.maximum(0.0, eta * h0 / a ** 2 * (2.0 * x * np.cos(w * t)
+                                              + 2.0 * y * np.sin(w * t) - eta) - z)
+    wet = h > 0.0
+    u = np.where(wet, -eta * w * np.sin(w * t), 0.0)
+    v = np.where(wet, eta * w * np.cos(w * t), 0.0)
+    return z, h, u, v, w
