@@ -62,11 +62,12 @@ def lsq_geometry(mesh):
 def _bj(phi, g_x, g_y, ex, ey, qc, qmin, qmax, ext):
     """Barth-Jespersen factor so far ``phi``, tightened by one edge (offset ex, ey)."""
     dq = g_x * ex + g_y * ey
-    if dq > 0.0:
-        return min(phi, (qmax + ext - qc) / dq)
-    if dq < 0.0:
-        return min(phi, (qmin - ext - qc) / dq)
-    return phi
+    # selects, not branches: the sign of dq is a coin toss from edge to edge, and the
+    # mispredicted branches took a third of the gradient kernel's time (same numbers)
+    flat = dq == 0.0
+    bound = (qmax + ext - qc) if dq > 0.0 else (qmin - ext - qc)
+    r = bound / (1.0 if flat else dq)
+    return phi if flat else min(phi, r)
 
 
 @kernel
