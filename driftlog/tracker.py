@@ -380,9 +380,14 @@ class Tracker:
     def _packed(self, vals):
         """The packed node rows (``fused.pack_tracer_nodes``) of the snapshot pair ``vals``.
 
-        Those of the two latest pairs are kept (a step's stages may use two).
+        Those of the two latest pairs are kept (a step's stages may use two) where the flow
+        is a plain ``MeshFlowField``, whose ``node_values`` gives a new array whenever the pair
+        changes; another flow's (a coupled run's, updated in place) are packed at every call.
         """
-        for v, pk, pr in self._packs:
+        from driftlog.flow import MeshFlowField
+
+        fresh = getattr(self._kernel.node_values, "__func__", None) is MeshFlowField.node_values
+        for v, pk, pr in self._packs if fresh else ():
             if v is vals:
                 return pk, pr
         loc = self._kernel.locator
