@@ -184,6 +184,9 @@ class Tracker:
                           rejected=0, wall_seconds=0.0)
         self._recorded_left = np.zeros(len(logs), dtype=bool)
         self._settle_next = False
+        # tracer mode's own kernels, and the fused step settling the logs (False: the fused
+        # step alone and the tracker's passes, as before; for before/after measurements)
+        self._tracer_kernels = self._settling = True
         self._packs = []  # tracer mode's packed node rows of the latest snapshot pairs
         self._next_release = -np.inf
         self._resumed = False
@@ -335,7 +338,8 @@ class Tracker:
         evaluation of its own) and no waterlogging (the densities change after the step).
         """
         ph = self.physics
-        return (self.contact is None and ph.motion == "floating" and ph.waterlogging == "off")
+        return (self._settling and self.contact is None and ph.motion == "floating"
+                and ph.waterlogging == "off")
 
     def _settled_now(self):
         """What the last settling step found, if it still describes the current arrays."""
@@ -357,7 +361,8 @@ class Tracker:
         head = (self.state, self.D0, self.lin0, self._next, self.face, self.F, self.flag,
                 self.P, self.opt, dt, True)
         # node values in the order the general path asks for them (the flow caches one pair)
-        tracer = (self.physics.level == "tracer" and self.physics.motion == "floating")
+        tracer = (self._tracer_kernels and self.physics.level == "tracer"
+                  and self.physics.motion == "floating")
         if tracer and self.integrator.name == "rk4":
             # tracer mode's own kernels: the flow on packed node rows, no force evaluation
             vals_m, a_m, _ = kern.node_values(t0 + RK4_C[1] * dt)  # stages 1 and 2
