@@ -214,7 +214,8 @@ class CoupledTracker(Tracker):
     forces F_D + F_P.  A contact changes a log's velocity by impulses on m_b only (the paper's
     eq. 11-15); the entrained water's share m_a dU_b (m_a = rho V_b / 2) of that change is
     passed on to the contact too (``to_contacts``, kg m/s): a log held on a pier then passes the
-    whole drag to it, as a log at rest would.
+    whole drag to it, as a log at rest would.  So is the drag a held log bore beyond what its
+    free sub-step integrated (``held_drag``, docs/model.md (73a)), added to ``received``.
     """
 
     def __init__(self, coupling, logs, *args, **kwargs):
