@@ -109,6 +109,8 @@ def main(argv=None):
                    help="how the crowd with contacts is seeded")
     p.add_argument("--dense", action="store_true",
                    help="the crowd with contacts on a 2.4-m grid (1e4 logs; 2.7 m without)")
+    p.add_argument("--at-piers", action="store_true",
+                   help="with --dense: the crowd's front just upstream of the first bridge")
     p.add_argument("--serial", action="store_true",
                    help="serial kernels at every size (one thread: the parallel copies only add "
                    "their compile time and the thread pool's overhead)")
@@ -146,8 +148,9 @@ def main(argv=None):
                             "time": {"end": cend}})
     river_c["logs"] = [{**crowd, "seeding": a.crowd_seeding}]
     if a.dense:  # 2.4 m grid spacing: 2-m logs that turn touch their neighbours
-        river_c["logs"][0]["polygon"] = [[100.0, 8.0], [482.0, 8.0], [482.0, 162.0],
-                                         [100.0, 162.0]]
+        x0 = 200.0 if a.at_piers else 100.0  # at_piers: the front 3 m from bridge A
+        river_c["logs"][0]["polygon"] = [[x0, 8.0], [x0 + 382.0, 8.0], [x0 + 382.0, 162.0],
+                                         [x0, 162.0]]
     if "crowd" in scenes:
         scene(f"river_piers crowd ({n} logs, {cend:g} s, event-driven contacts)", RIVER,
               river_c, cend, rows, notes, reference=False)
