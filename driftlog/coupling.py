@@ -34,6 +34,8 @@ from driftlog.columns import NQ, THETA, UB, VB, X, Y
 from driftlog.coupling_kernels import (
     account_advance,
     account_contacts,
+    held_drag,
+    keep_linearisation,
     mark_region,
     node_rows,
     poison_rows,
@@ -212,7 +214,8 @@ class CoupledTracker(Tracker):
     forces F_D + F_P.  A contact changes a log's velocity by impulses on m_b only (the paper's
     eq. 11-15); the entrained water's share m_a dU_b (m_a = rho V_b / 2) of that change is
     passed on to the contact too (``to_contacts``, kg m/s): a log held on a pier then passes the
-    whole drag to it, as a log at rest would.
+    whole drag to it, as a log at rest would.  So is the drag a held log bore beyond what its
+    free sub-step integrated (``held_drag``, docs/model.md (73a)), added to ``received``.
     """
 
     def __init__(self, coupling, logs, *args, **kwargs):
@@ -223,6 +226,8 @@ class CoupledTracker(Tracker):
         self._last_u = np.zeros((n, 2))  # velocity at the end of each log's last free sub-step
         self._stamp = np.full(n, -1, np.int64)  # which free sub-step that was
         self._advances = 0
+        self._lin = np.zeros((n, 4))  # drag linearisation at the start of that sub-step
+        self._dt = np.zeros(n)  # and its length
         self._u0 = self._v0 = np.empty(0)  # velocities before a sub-step (buffers)
         super().__init__(coupling.flow, logs, *args, **kwargs)
         if getattr(self.step_options, "clock", "global") != "global":
@@ -234,7 +239,14 @@ class CoupledTracker(Tracker):
         self.added_mass = 0.5 * self.physics.water_density * logs.volume
 
     def _contact_changes(self):
-        """Account the entrained water's share of the velocity changes since the last advance."""
+        """Account the velocity changes the contacts made since the last advance.
+
+        The drag the held logs bore beyond their free sub-step (``held_drag``), then the
+        entrained water's share (``account_contacts``).
+        """
+        held_drag(self.act, self.state, self._last_u, self._stamp, self._advances,
+                  self.logs.mass, self.added_mass, self._lin, self._dt, self.received,
+                  self.to_contacts)
         account_contacts(self.act, self.state, self._last_u, self._stamp, self._advances,
                          self.added_mass, self.to_contacts)
 
@@ -253,6 +265,10 @@ class CoupledTracker(Tracker):
             u0, v0 = self._u0[:n], self._v0[:n]
             np.copyto(u0, self.state[:, UB])
             np.copyto(v0, self.state[:, VB])
+            if not have_d0:  # the first stage, as Tracker.advance would: its drag linearisation
+                self._rhs(self.state, self.t, self.D0, self.lin0)
+                have_d0 = True
+            keep_linearisation(self.act, self.lin0, dt, self._lin, self._dt)
             if self.coupling.flow.partial:
                 saved = Tracker.save(self)
         super().advance(dt, have_d0)
@@ -260,7 +276,9 @@ class CoupledTracker(Tracker):
                                       and np.isfinite(self.F).all()):
             Tracker.restore(self, saved)
             self.coupling.flow.widen()
-            super().advance(dt, False)
+            self._rhs(self.state, self.t, self.D0, self.lin0)
+            keep_linearisation(self.act, self.lin0, dt, self._lin, self._dt)
+            super().advance(dt, True)
         self._advances += 1
         if n:
             account_advance(self.act, self.state, u0, v0, self.mass, self.added_mass,
@@ -269,12 +287,15 @@ class CoupledTracker(Tracker):
     def save(self):
         """``Tracker.save`` and the momentum accounts (a rejected sub-step gives nothing)."""
         return super().save() + (self.received.copy(), self.to_contacts.copy(),
-                                 self._last_u.copy(), self._stamp.copy(), self._advances)
+                                 self._last_u.copy(), self._stamp.copy(), self._lin.copy(),
+                                 self._dt.copy(), self._advances)
 
     def restore(self, saved):
         """Put back what ``save`` returned."""
-        super().restore(saved[:-5])
-        rec, tc, lu, st, adv = saved[-5:]
+        super().restore(saved[:-7])
+        rec, tc, lu, st, lin, dt, adv = saved[-7:]
+        np.copyto(self._lin, lin)
+        np.copyto(self._dt, dt)
         np.copyto(self.received, rec)
         np.copyto(self.to_contacts, tc)
         np.copyto(self._last_u, lu)

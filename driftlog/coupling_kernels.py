@@ -12,7 +12,9 @@
   arithmetic); a log whose two ends lie well inside its centre's face has every point there,
   without locating them;
 - ``account_advance`` and ``account_contacts``: the momentum the water gave each floating log
-  over a free sub-step, and the entrained water's share of the contacts' velocity changes.
+  over a free sub-step, and the entrained water's share of the contacts' velocity changes;
+- ``keep_linearisation`` and ``held_drag``: the drag a contact-held log bears beyond what its
+  free sub-step integrated (docs/model.md (73a)).
 """
 
 import numba as nb
@@ -22,7 +24,7 @@ from driftlog.columns import NQ, Q_ETA, Q_EX, Q_EY, Q_H, Q_U, Q_UX, Q_UY, Q_V, Q
 from driftlog.locate import _edge_side, locate_one
 
 __all__ = ["mark_region", "node_rows", "shift_rows", "poison_rows", "scatter_reaction",
-           "account_advance", "account_contacts"]
+           "account_advance", "account_contacts", "keep_linearisation", "held_drag"]
 
 
 @nb.njit(cache=True)
@@ -293,3 +295,53 @@ def account_contacts(act, state, last_u, stamp, advances, added_mass, to_contact
     if any_:
         to_contacts[0] -= sx
         to_contacts[1] -= sy
+
+
+@nb.njit(cache=True)
+def keep_linearisation(act, lin, dt, lin_last, dt_last):
+    """Keep each log's drag linearisation at the start of its free sub-step, and the step."""
+    for i in range(act.shape[0]):
+        j = act[i]
+        for k in range(4):  # L_PAR, L_PERP, L_WX, L_WY
+            lin_last[j, k] = lin[i, k]
+        dt_last[j] = dt
+
+
+@nb.njit(cache=True)
+def held_drag(act, state, last_u, stamp, advances, mass, added_mass, lin_last, dt_last,
+              received, to_contacts):
+    """The drag a contact-held log bears beyond what its free sub-step integrated.
+
+    A free sub-step integrates the fluid forces along the log's unconstrained path (it
+    accelerates, its relative velocity and drag fall); the contacts then take back the velocity
+    change dU_c = U_b - U_b,free.  Along the path the contacts held it on, the fluid force is
+    larger by the linearised drag times the velocity difference, which grows linearly over the
+    step from 0 to -dU_c (the contact force acting over the step):
+
+        dJ = -(dt / 2) m_eff A dU_c,   A = l_par n n^T + l_perp (I - n n^T)
+
+    (docs/model.md (73a); exact for a quadratic drag law held at rest).  The log's velocity is
+    the contacts' (it is held), so dJ is passed on to them: added to what the log received
+    from the water and to ``to_contacts``.  Call before ``account_contacts`` (which brings
+    ``last_u`` up to date).
+    """
+    sx = sy = 0.0
+    for i in range(act.shape[0]):
+        j = act[i]
+        if stamp[j] != advances:
+            continue
+        dux = state[i, UB] - last_u[j, 0]
+        duy = state[i, VB] - last_u[j, 1]
+        if dux == 0.0 and duy == 0.0:
+            continue
+        lp, lq, nx, ny = lin_last[j, 0], lin_last[j, 1], lin_last[j, 2], lin_last[j, 3]
+        dn = (lp - lq) * (nx * dux + ny * duy)
+        c = -0.5 * dt_last[j] * (mass[j] + added_mass[j])
+        jx = c * (lq * dux + dn * nx)
+        jy = c * (lq * duy + dn * ny)
+        received[j, 0] += jx
+        received[j, 1] += jy
+        sx += jx
+        sy += jy
+    to_contacts[0] += sx
+    to_contacts[1] += sy
