@@ -19,6 +19,12 @@ fraction of faces in the flux passes, and a check that both runs end in the same
     python benchmarks/solver_throughput.py            # 1e4, 1e5, 1e6 faces + Malpasset 300 s
     python benchmarks/solver_throughput.py --quick    # 1e4, 1e5 faces, Malpasset 60 s
     python benchmarks/solver_throughput.py --malpasset 0 --orderings rcm   # throughput only
+    python benchmarks/solver_throughput.py --breakdown 1e6   # CPU time per kernel, 1 thread
+
+``--breakdown`` times every kernel of a step (1 thread, serial kernels, best of ``--repeat``
+runs of the steps) on a mesh of about the given size, orders 1 and 2, and writes
+``solver_breakdown.md``: the CPU seconds per step of each kernel, in ns per face, and the
+share of the step (``other``: the Python between the kernels, boundary volumes, the CFL max).
 """
 
 import argparse
@@ -49,24 +55,80 @@ def square_mesh(n_faces):
     return polygon_mesh(rectangle(0, 0, 1000, 1000), cell)
 
 
-def measure(mesh, order, threads, steps, ordering="rcm"):
-    """Time ``steps`` steps of the dam break; returns a row (dict)."""
+def measure(mesh, order, threads, steps, ordering="rcm", repeat=1):
+    """Time ``steps`` steps of the dam break (best CPU time of ``repeat`` runs); a row (dict)."""
     numba.set_num_threads(threads)
     t0 = time.perf_counter()
     s = ShallowWaterSolver(mesh, order=order, manning=0.03, parallel=threads > 1,
                            renumber=ordering)
     setup = time.perf_counter() - t0
-    s.set_state(np.where(mesh.face_x < 500.0, 2.0, 1.0) + 0.1 * np.sin(mesh.face_y / 50.0))
+    h0 = np.where(mesh.face_x < 500.0, 2.0, 1.0) + 0.1 * np.sin(mesh.face_y / 50.0)
+    s.set_state(h0)
     s.step()  # compile / load the kernels
-    t0, c0 = time.perf_counter(), time.process_time()
-    for _ in range(steps):
-        s.step()
-    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    wall = cpu = np.inf
+    for _ in range(repeat):
+        s.set_state(h0)
+        t0, c0 = time.perf_counter(), time.process_time()
+        for _ in range(steps):
+            s.step()
+        w, c = time.perf_counter() - t0, time.process_time() - c0
+        if c < cpu:
+            wall, cpu = w, c
     n = mesh.n_faces * steps
     return dict(faces=mesh.n_faces, order=order, threads=threads, ordering=ordering,
                 steps=steps, setup_s=setup, wall_s=wall, cpu_s=cpu, updates_per_s=n / wall,
                 updates_per_cpu_s=n / cpu, per_core=n / wall / threads,
                 load_after=os.getloadavg()[0])
+
+
+# the solver's kernel attributes, in the order a step calls them
+KERNELS = {"_k_mark": "active set", "_k_grad": "gradients + limiter", "_k_edges": "edge fluxes",
+           "_k_faces": "face residuals", "_k_euler": "Euler stage", "_k_thin": "thin layer",
+           "_k_heun": "Heun average"}
+
+
+class _Timed:
+    """A kernel wrapper that adds each call's CPU time to ``acc[name]``."""
+
+    def __init__(self, fn, acc, name):
+        self.fn, self.acc, self.name = fn, acc, name
+
+    def __call__(self, *args):
+        c0 = time.process_time()
+        out = self.fn(*args)
+        self.acc[self.name] += time.process_time() - c0
+        return out
+
+
+def breakdown(mesh, order, steps, repeat):
+    """CPU seconds per step of each kernel (1 thread, serial kernels), best of ``repeat``."""
+    numba.set_num_threads(1)
+    s = ShallowWaterSolver(mesh, order=order, manning=0.03, parallel=False)
+    h0 = np.where(mesh.face_x < 500.0, 2.0, 1.0) + 0.1 * np.sin(mesh.face_y / 50.0)
+    names = list(KERNELS.values()) + ["extremes"]
+    best = None
+    for _ in range(repeat + 1):  # the first run compiles / loads the kernels
+        s.set_state(h0)
+        acc = dict.fromkeys(names, 0.0)
+        for attr, name in KERNELS.items():
+            k = getattr(s, attr)
+            setattr(s, attr, _Timed(k.fn if isinstance(k, _Timed) else k, acc, name))
+        s.extremes._kernel = _Timed(s.extremes._kernel, acc, "extremes")
+        c0 = time.process_time()
+        for _ in range(steps):
+            s.step()
+        acc["total"] = time.process_time() - c0
+        if best is None or acc["total"] < best["total"]:
+            best = acc
+    best["other"] = best["total"] - sum(best[n] for n in names)
+    nf = mesh.n_faces
+    rows = [dict(faces=nf, order=order, kernel=k, ms_per_step=1e3 * v / steps,
+                 ns_per_face=1e9 * v / steps / nf, share=v / best["total"])
+            for k, v in best.items() if k != "total" and (v > 0 or k == "other")]
+    rows.append(dict(faces=nf, order=order, kernel="step", ms_per_step=1e3 * best["total"] / steps,
+                     ns_per_face=1e9 * best["total"] / steps / nf, share=1.0,
+                     updates_per_cpu_s=nf * steps / best["total"], load_after=os.getloadavg()[0]))
+    return rows
 
 
 def malpasset(end):
@@ -112,7 +174,32 @@ def main(argv=None):
     ap.add_argument("--malpasset", type=float, default=None,
                     help="Malpasset's first seconds, with and without the active set "
                          "(default 300, --quick 60; 0: skip)")
+    ap.add_argument("--breakdown", type=float, default=None, metavar="FACES",
+                    help="only the CPU time per kernel of a step on a mesh of about FACES "
+                         "triangles, orders 1 and 2, 1 thread")
+    ap.add_argument("--repeat", type=int, default=3,
+                    help="best of N runs of the steps (by CPU time; default 3)")
     args = ap.parse_args(argv)
+    if args.breakdown:
+        start = machine()
+        mesh = square_mesh(int(args.breakdown))
+        steps = max(2, int(4e6 / mesh.n_faces))
+        rows = breakdown(mesh, 1, steps, args.repeat) + breakdown(mesh, 2, max(steps // 2, 1),
+                                                                   args.repeat)
+        for r in rows:
+            print(f"{r['faces']:>8} faces order {r['order']} {r['kernel']:>20}: "
+                  f"{r['ms_per_step']:8.2f} ms/step {r['ns_per_face']:7.1f} ns/face "
+                  f"{100 * r['share']:5.1f} %", flush=True)
+        write_table(f"solver_breakdown_{mesh.n_faces // 1000}k", rows,
+                    ["faces", "order", "kernel", "ms_per_step", "ns_per_face", "share",
+                     "updates_per_cpu_s", "load_after"],
+                    "Shallow-water solver: CPU time per kernel of a step (1 thread, serial "
+                    "kernels, triangles, HLLC)",
+                    notes=f"Started on {start}. Best of {args.repeat} runs of the steps, CPU "
+                          "(process) time of each kernel call; an order-2 step runs the "
+                          "gradients, fluxes and residuals twice (Heun); other: the Python "
+                          "between the kernels (boundary volumes, the CFL max, copies).")
+        return
     orderings = args.orderings.split(",")
     sizes = [(1e4, 300), (1e5, 40)] + ([] if args.quick else [(1e6, 8)])
     rows = []
@@ -127,7 +214,7 @@ def main(argv=None):
             if threads > numba.config.NUMBA_NUM_THREADS:
                 continue
             r = measure(mesh, order, threads, steps if order == 1 else max(steps // 2, 2),
-                        ordering)
+                        ordering, args.repeat)
             rows.append(r)
             print(f"{r['faces']:>8} faces order {order} threads {threads} {ordering:>7}: "
                   f"{r['updates_per_s']:.3g} cell-updates/s wall, "
@@ -144,7 +231,8 @@ def main(argv=None):
                       "reverse Cuthill-McKee, the default from 20,000 faces; none: the "
                       "mesher's). setup_s: building the solver (renumbering included). "
                       "load_after: the 1-minute load average after each measurement (2 "
-                      "cores; above 2, other processes shared the cores).")
+                      "cores; above 2, other processes shared the cores). Best of "
+                      f"{args.repeat} runs of the steps by CPU time (wall of that run).")
     out = dict(machine=start, rows=rows)
     end = args.malpasset if args.malpasset is not None else (60.0 if args.quick else 300.0)
     if end > 0:

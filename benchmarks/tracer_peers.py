@@ -31,9 +31,11 @@ before, one after), divided by the difference in particle-steps.  Accuracy:
 each tool's largest and mean position error against the exact trajectories after 900 s, for
 several steps.
 
-    python benchmarks/tracer_peers.py [--quick]
+    python benchmarks/tracer_peers.py [--quick] [--tools driftlog ...]
 
-writes benchmarks/results/tracer_peers{,_quick}.{json,md}.
+writes benchmarks/results/tracer_peers{,_quick}.{json,md}; with ``--tools`` only those tools
+run (driftlog always), into tracer_peers{,_quick}_<tools>.{json,md} (e.g. a rerun of driftlog
+alone after a change, beside the peers' figures of the full table).
 """
 
 from __future__ import annotations
@@ -425,11 +427,12 @@ def markdown(info, speed_rows, acc_rows, name):
     print(text)
 
 
-def main(quick=False):
+def main(quick=False, only=None):
     nb.set_num_threads(1)
     RESULTS.mkdir(parents=True, exist_ok=True)
     vers = versions()
-    available = [t for t in ("OceanTracker", "Parcels") if not vers[t].startswith("unavail")]
+    available = [t for t in ("OceanTracker", "Parcels") if not vers[t].startswith("unavail")
+                 and (only is None or t in only)]
     info = {"machine": machine(), "versions": ", ".join(f"{k} {v}" for k, v in vers.items())}
     rng = np.random.default_rng(11)
     with tempfile.TemporaryDirectory() as tmp:
@@ -459,6 +462,8 @@ def main(quick=False):
     info.update(duration=DURATION, accuracy_particles=n_acc, speed_duration=speed_duration,
                 threads=1, numba_threads_env=os.environ.get("NUMBA_NUM_THREADS"))
     name = "tracer_peers_quick" if quick else "tracer_peers"
+    if only is not None:
+        name += "_" + "_".join(sorted({"driftlog", *only})).lower()
     (RESULTS / f"{name}.json").write_text(json.dumps(
         {"info": info, "speed": speed_rows, "accuracy": acc_rows}, indent=1))
     markdown(info, speed_rows, acc_rows, name)
@@ -467,4 +472,7 @@ def main(quick=False):
 if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="fewer particles and steps")
-    main(p.parse_args().quick)
+    p.add_argument("--tools", nargs="+", choices=["driftlog", "OceanTracker", "Parcels"],
+                   help="run only these tools (driftlog always)")
+    a = p.parse_args()
+    main(a.quick, a.tools)

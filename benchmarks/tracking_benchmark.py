@@ -10,8 +10,8 @@ for full physics, on the general stage-by-stage path too.  Rates are per
 CPU second of the process (``time.process_time``: the machine is shared, wall time counts
 other people's jobs), i.e. per core.
 
-    python benchmarks/tracking_benchmark.py [--quick | --breakdown | --targets | --forces]
-                                            [--label NAME]
+    python benchmarks/tracking_benchmark.py [--quick | --breakdown | --targets | --forces |
+                                             --before-after] [--label NAME]
 
 writes benchmarks/results/tracking.csv and .md, and tracking_breakdown.csv and .md (where
 an RK4 log-step's time goes); ``--targets`` only the issue's two targets at 1e5 logs on one
@@ -30,7 +30,7 @@ from sampling_benchmark import points
 
 from driftlog.analytic import FreeVortex, on_mesh
 from driftlog.columns import X, Y
-from driftlog.fused import rk4_mesh_step
+from driftlog.fused import NCTL, rk4_mesh_step
 from driftlog.logs import Logs
 from driftlog.physics import PhysicsOptions, log_parameters, rhs_kernel
 from driftlog.tracker import StepOptions, Tracker
@@ -113,8 +113,10 @@ def breakdown(flow, x, y, steps=20, dt=0.5):
             else:
                 rhs_kernel(S, F, tr.P, tr.opt, D, lin, True)
                 vals, a, inv_dt = flow.node_values(t_s)
+                m = S.shape[0]
                 tail = (a, inv_dt, vals, a, inv_dt, vals, flow.dry_depth, True,
-                        flow.mesh.locator())
+                        flow.mesh.locator(), False, np.zeros(NCTL), tr.length,
+                        np.empty(m, np.int8), np.empty(m))
                 row["fused_step_ns"], row["fused_inner_ns"] = fused_ns(
                     S, D, lin, face, F, flag, tr.P, tr.opt, dt, tail)
                 kern = row["fused_step_ns"]
@@ -186,6 +188,63 @@ def targets(n=100_000, steps=20, repeat=3, label=""):
                 "process; ns_per_step: CPU ns per log-step; load: the machine's 1-minute load "
                 "average before and after the runs.  Flow: free vortex on the Malpasset mesh. "
                 "Re-create: `python benchmarks/tracking_benchmark.py --targets`.")
+    return rows
+
+
+def before_after(combos=(("tracer", "rk4"), ("full", "rk4"), ("tracer", "euler")),
+                 n=100_000, steps=20, repeat=3):
+    """The fused step with and without settling and tracer kernels, in one process.
+
+    Before: the fused step alone, then the tracker's separate passes (statuses, step bound,
+    divergence check, tracer velocity sync) and, in tracer mode, the general fused kernel;
+    after: the default (``Tracker._settling``, ``Tracker._tracer_kernels``).  Alternately,
+    best CPU time of ``repeat`` each, 1 thread; the final states compared bit for bit.
+    """
+    import os
+
+    mesh = malpasset_mesh()
+    flow = vortex_flow(mesh)
+    x, y = points(mesh, n, np.random.default_rng(3))
+    numba.set_num_threads(1)
+
+    def go(xs, ys, level, method, k, new, dt=0.5):
+        logs = Logs(xs, ys, 0.3, 2.0, 0.2, 700.0)
+        tr = Tracker(flow, logs, PhysicsOptions(level=level), method,
+                     StepOptions(max_step=dt, length_fraction=1e9, angle_step=1e9),
+                     t_end=k * dt, output_interval=k * dt, hydro_step=k * dt)
+        tr._tracer_kernels = tr._settling = new
+        tr._first_check = True
+        tr._release()  # set-up (release, first sampling) is not timed
+        tr._update_status()
+        c0 = time.process_time()
+        tr.run()
+        return tr.stats["substeps"], time.process_time() - c0, logs.state.copy()
+
+    rows = []
+    for level, method in combos:
+        for new in (False, True):
+            go(x[:2049], y[:2049], level, method, 2, new)  # compile / load the cache
+        best, states, load0 = {False: np.inf, True: np.inf}, {}, os.getloadavg()[0]
+        for _ in range(repeat):
+            for new in (False, True):
+                sub, cpu, states[new] = go(x, y, level, method, steps, new)
+                best[new] = min(best[new], cpu)
+        r0, r1 = n * sub / best[False], n * sub / best[True]
+        rows.append(dict(logs=n, level=level, integrator=method, before_per_cpu_s=r0,
+                         before_ns=1e9 / r0, after_per_cpu_s=r1, after_ns=1e9 / r1,
+                         gain=r1 / r0, bit_identical=bool(np.array_equal(states[False],
+                                                                         states[True])),
+                         load=f"{load0:.1f}-{os.getloadavg()[0]:.1f}"))
+        print(rows[-1], flush=True)
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    write_table("tracking_before_after", rows,
+                ["logs", "level", "integrator", "before_per_cpu_s", "before_ns",
+                 "after_per_cpu_s", "after_ns", "gain", "bit_identical", "load"],
+                f"Fused step: tracker passes separate (before) or settled in the step, tracer "
+                f"kernels (after); 1 thread, best of {repeat}, one process",
+                "per_cpu_s: log-steps per CPU second; ns: CPU ns per log-step; the same flow "
+                "and logs as --targets.  Re-create: `python benchmarks/tracking_benchmark.py "
+                "--before-after`.")
     return rows
 
 
@@ -271,10 +330,14 @@ if __name__ == "__main__":
                    help="only the issue's 1e5-log targets on 1 thread (full RK4, tracer)")
     p.add_argument("--forces", action="store_true",
                    help="only the cost of one force evaluation (1 thread)")
+    p.add_argument("--before-after", action="store_true",
+                   help="the fused step with and without settling / tracer kernels (1 thread)")
     p.add_argument("--label", default="", help="name of the code measured (--targets, --forces)")
     a = p.parse_args()
     if a.forces:
         forces(label=a.label)
+    elif a.before_after:
+        before_after()
     elif a.targets:
         targets(label=a.label)
     elif a.breakdown:

@@ -59,7 +59,7 @@ def kernel(func=None, *, size_arg=0):
 # compiled, 45 CPU s for the whole run against about 10 s warm; numba writes the kernels to
 # __pycache__ and loads them on the next runs)
 COMPILE_SECONDS = {"tracking": 20, "solver": 20, "contacts": 15}
-_PROBES = {"tracking": ("", "physics.rhs_kernel"), "solver": ("solver", "fluxes.edge_fluxes"),
+_PROBES = {"tracking": ("", "physics.rhs_kernel"), "solver": ("solver", "fluxes.edge_fluxes_1"),
            "contacts": ("contact", "geometry.capsule_gap")}
 
 

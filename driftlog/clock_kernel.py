@@ -49,6 +49,7 @@ from driftlog.columns import (
     X,
     Y,
 )
+from driftlog.contact.geometry import log_endpoints
 from driftlog.flow import sample_point
 from driftlog.fused import _rk4_stage
 from driftlog.integrators import euler_row, put_row, rk4_final_row, row
@@ -108,7 +109,7 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t0, t_stop, tol, me
                          length, lf, ang, drag_fraction, explicit, max_step, min_step,
                          tracer, rotation, thr, friction,
                          vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split,
-                         dry_depth, recovered, loc,
+                         dry_depth, recovered, loc, fx, fy,
                          t_log, nsteps, dt_min, dt_max, box, code):
     """Advance every log from t0 to t_stop with its own sub-steps (one log per thread).
 
@@ -134,10 +135,14 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t0, t_stop, tol, me
     vals_c, T0c, gap_c : node values, start and length of the snapshot pair at t0.
     vals_n, T0n, gap_n, t_split : the pair stage times at or after ``t_split`` use.
     dry_depth, recovered, loc : as ``driftlog.fused``.
+    fx, fy : float
+        Velocity of the frame the swept boxes are measured in (contact windows: the logs'
+        mean velocity, so that logs drifting together do not sweep over each other).
     t_log, nsteps, dt_min, dt_max, box, code : outputs
         Each log's end time (t_stop unless it stopped early), sub-steps taken, shortest and
-        longest sub-step, bounding box of its centre over the sub-step ends (xmin, ymin,
-        xmax, ymax) and outcome (OK, TOO_SMALL, DIVERGED).
+        longest sub-step, bounding box of its axis ends over t0 and its sub-step ends, in
+        the frame moving at (fx, fy) from t0 (xmin, ymin, xmax, ymax) and outcome (OK,
+        TOO_SMALL, DIVERGED).
     """
     for i in nb.prange(S.shape[0]):
         s = row(S, i)
@@ -145,7 +150,8 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t0, t_stop, tol, me
         t = t0
         k = 0
         lo, hi = np.inf, 0.0
-        x0, y0, x1, y1 = s[X], s[Y], s[X], s[Y]
+        ax, ay, bx, by = log_endpoints(s[X], s[Y], s[THETA], length[i])
+        x0, y0, x1, y1 = min(ax, bx), min(ay, by), max(ax, bx), max(ay, by)
         c = OK
         while t < t_stop:
             ln = (lin0[i, 0], lin0[i, 1], lin0[i, 2], lin0[i, 3], lin0[i, 4])
@@ -208,8 +214,11 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t0, t_stop, tol, me
             if not ok:
                 c = DIVERGED
                 break
-            x0, y0 = min(x0, s[X]), min(y0, s[Y])
-            x1, y1 = max(x1, s[X]), max(y1, s[Y])
+            tau = t - t0
+            ax, ay, bx, by = log_endpoints(s[X] - fx * tau, s[Y] - fy * tau, s[THETA],
+                                           length[i])
+            x0, y0 = min(x0, min(ax, bx)), min(y0, min(ay, by))
+            x1, y1 = max(x1, max(ax, bx)), max(y1, max(ay, by))
             if not _floats(fg, fl, s, p, thr[i], friction, opt):
                 break
         put_row(S, i, s)

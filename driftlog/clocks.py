@@ -8,10 +8,13 @@ its own bounds (eq. (70)), in one kernel over all logs (``driftlog.clock_kernel`
 log's sub-steps are exactly the ones the global clock would give it alone: one log has the
 same trajectory, bit for bit, under both clocks.
 
-With contacts, the logs whose swept boxes may touch each other or an obstacle form contact
-islands (connected components of the overlap graph); each island runs the global clock's
-contact steps among its own logs, so its next contact ends only its own step
-(``contact_advance``).
+With contacts, the interval is cut into contact windows; in each, the logs whose swept boxes
+(in the frame of their mean drift) may touch each other or an obstacle form contact islands
+(connected components of the overlap graph); every island runs the event-driven contact steps
+among its own logs, all islands in one kernel (``driftlog.island_kernel``), so an island's next
+contact ends only its own step (``contact_advance``, ``contact_window``).  Moreau-Jean, the
+dichotomy and the fcl backend run the islands through the Python contact model
+(``python_islands``).
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ from driftlog.clock_kernel import (
 from driftlog.contact.islands import island_labels
 from driftlog.logs import FLOATING
 
-__all__ = ["CLOCKS", "per_log_interval", "free_advance", "contact_advance", "touching"]
+__all__ = ["CLOCKS", "per_log_interval", "free_advance", "contact_advance", "contact_window"]
 
 
 # --------------------------------------------------------------------- the tracker's side
@@ -55,11 +58,12 @@ def per_log_interval(tr, stop, bar=None):
         bar.update(stop - t0)
 
 
-def free_advance(tr, stop):
+def free_advance(tr, stop, frame=(0.0, 0.0)):
     """Every floating log of ``tr`` to ``stop`` with its own sub-steps (one kernel).
 
-    Returns each log's swept box (n, 4: xmin, ymin, xmax, ymax of its centre over its
-    sub-step ends).  A log whose status changes on the way stops there; the tracker then
+    Returns each log's swept box (n, 4: xmin, ymin, xmax, ymax of its axis ends at the start
+    and its sub-step ends, in a frame moving at ``frame`` (m/s) from the start).  A log
+    whose status changes on the way stops there; the tracker then
     classifies it from the flow sampled where it stopped (``F``, as the global clock would).
     """
     from driftlog.columns import P_HSTAR
@@ -87,8 +91,8 @@ def free_advance(tr, stop):
         tr.time_tol, method, np.ascontiguousarray(tr.length), so.length_fraction,
         so.angle_step, so.drag_fraction, explicit, so.max_step if so.max_step else np.inf,
         so.min_step, tracer, bool(tr.physics.rotation), thr, friction, vals_c, T0c, gap_c,
-        vals_n, T0n, gap_n, t_split, kern.dry_depth, kern.recovered, kern.locator, t_log,
-        nsteps, dt_min, dt_max, box, code)
+        vals_n, T0n, gap_n, t_split, kern.dry_depth, kern.recovered, kern.locator,
+        float(frame[0]), float(frame[1]), t_log, nsteps, dt_min, dt_max, box, code)
     tr._F_valid = tr._d0_valid = True
     k = int(nsteps.sum())
     st = tr.stats
@@ -114,6 +118,312 @@ def free_advance(tr, stop):
     return box
 
 
+# --------------------------------------------------------------------- contact windows
+# A contact window lasts WINDOW times the logs' typical time to move their own length (the
+# median over the floating logs of L / |U|): long enough for many own sub-steps, short enough
+# that the boxes the logs sweep in it (in the frame of their mean drift) stay apart, so that
+# the contact islands stay small.
+WINDOW = 0.5
+HIT_BUFFER = 4096
+
+
+def contact_advance(tr, stop, max_tries=3):
+    """Per-log clocks with contacts: free logs on their own clocks, each island on its own.
+
+    The interval to ``stop`` is cut into contact windows (``WINDOW``); in each
+    (``contact_window``) every floating log first runs free on its own clock, then the logs
+    whose swept boxes may touch each other or an obstacle run again from the window's start
+    as contact islands, all islands in one kernel (``driftlog.island_kernel``), each on its
+    own clock.  The floating logs meet at the window ends (and their statuses are updated
+    there, as the global clock does after each sub-step).
+    """
+    C = tr.contact
+    if C.method != "event" or C.time_of_impact != "conservative" or C.backend.name != "native":
+        python_islands(tr, stop, max_tries)
+        return
+    while stop - tr.t > tr.time_tol and tr.act.size:
+        contact_window(tr, _window_end(tr, stop), max_tries)
+        tr._update_status()
+    tr.t = stop
+
+
+def _window_end(tr, stop):
+    """The next contact window's end: WINDOW median L / |U| ahead (the last one reaches stop)."""
+    sp = np.hypot(tr.state[:, 3], tr.state[:, 4]) + np.abs(tr.state[:, 5]) * 0.5 * tr.length
+    moving = sp > 0.0
+    if not moving.any():
+        return stop
+    w = WINDOW * float(np.median(tr.length[moving] / sp[moving]))
+    return stop if tr.t + 1.5 * w >= stop else tr.t + w
+
+
+def _reach(tr):
+    """How far a log's surface reaches beyond its swept axis box (radius, path bulge, tol)."""
+    so = tr.step_options
+    L = tr.length
+    tol = tr.contact.tolerance * float(tr.radius.min())
+    return (1.25 * tr.radius + 0.1 * so.length_fraction * L
+            + 0.5 * L * (1.0 - np.cos(0.5 * min(so.angle_step, np.pi))) + tol)
+
+
+def _pairs(box, reach):
+    """Log pairs whose swept boxes grown by ``reach`` overlap (``broadphase.grid_pairs``)."""
+    from driftlog.contact.broadphase import grid_pairs
+
+    cx = 0.5 * (box[:, 0] + box[:, 2])
+    cy = 0.5 * (box[:, 1] + box[:, 3])
+    return grid_pairs(cx, cy, 0.5 * (box[:, 2] - box[:, 0]) + reach,
+                      0.5 * (box[:, 3] - box[:, 1]) + reach)
+
+
+def _obstacle_pairs(tr, box, reach, frame, span):
+    """(log, capsule) pairs whose swept boxes (absolute frame) meet an obstacle's box."""
+    from driftlog.contact.broadphase import StaticGrid
+
+    caps = tr.contact.obstacles.capsules
+    if caps.shape[0] == 0 or box.shape[0] == 0:
+        return np.empty((0, 2), np.int64)
+    # the frame's drift over the window, added back: the boxes in the ground's frame
+    dx, dy = frame[0] * span, frame[1] * span
+    x0, x1 = box[:, 0] + min(dx, 0.0), box[:, 2] + max(dx, 0.0)
+    y0, y1 = box[:, 1] + min(dy, 0.0), box[:, 3] + max(dy, 0.0)
+    cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+    ex, ey = 0.5 * (x1 - x0) + reach, 0.5 * (y1 - y0) + reach
+    cell = 2.0 * max(float(ex.max()), float(ey.max()))
+    g = getattr(tr, "_clock_grid", None)
+    if g is None or cell > 2.0 * g[0] or cell < 0.25 * g[0]:
+        g = tr._clock_grid = (cell, StaticGrid(caps, cell))
+    return g[1].query(cx, cy, ex, ey)
+
+
+def _csr(labels, pool, lo):
+    """Islands of the pool logs as CSR (members, start) and their obstacle capsules."""
+    order = pool[np.argsort(labels[pool], kind="stable")]
+    lab = labels[order]
+    cuts = np.flatnonzero(np.diff(lab)) + 1
+    start = np.concatenate([[0], cuts, [order.size]]).astype(np.int64)
+    q_of = np.full(labels.size, -1, np.int64)
+    q_of[order] = np.repeat(np.arange(start.size - 1), np.diff(start))
+    if lo.shape[0]:
+        q = q_of[lo[:, 0]]
+        keep = q >= 0
+        qc = np.unique(np.column_stack([q[keep], lo[keep, 1]]), axis=0)
+        ocaps = np.ascontiguousarray(qc[:, 1], dtype=np.int64)
+        ostart = np.searchsorted(qc[:, 0], np.arange(start.size)).astype(np.int64)
+    else:
+        ocaps = np.empty(0, np.int64)
+        ostart = np.zeros(start.size, np.int64)
+    return order.astype(np.int64), start, ocaps, ostart
+
+
+def contact_window(tr, stop, max_tries=3):
+    """One contact window of ``contact_advance``: free logs, then the islands (one kernel).
+
+    1. Every floating log runs free to ``stop`` (``free_advance``): the box its axis swept, in
+       the frame of the logs' mean velocity.
+    2. Logs whose boxes (grown by the radius, the path's bulge between sub-step ends and the
+       tolerance) overlap another log's, or an obstacle's, are the contact set; the connected
+       components of the overlap graph are its islands.  The others keep their free motion.
+    3. Every island restarts from the window's start and runs the event-driven contact steps
+       among its own logs (``island_kernel.island_advance``): impulses, conservative
+       advancement, rejected steps, as ``ContactModel``; its next contact ends only its step.
+    4. Closure: if an island's actual sweep reaches a free log's box or another island's, those
+       join and the window is computed again; after ``max_tries``, the whole contact set and
+       the logs it reaches are one island.
+    """
+    from driftlog.contact.model import ContactJamError
+    from driftlog.island_kernel import (
+        DIVERGED as I_DIV,
+    )
+    from driftlog.island_kernel import (
+        HIT_FULL,
+        JAM,
+        NSTAT,
+        ST_ADVANCES,
+        ST_EVENTS,
+        ST_LOG_STEPS,
+        ST_MAX_CONTACTS,
+        ST_REJECTED,
+        ST_SEPARATIONS,
+        ST_STEPS,
+        island_advance,
+    )
+    from driftlog.island_kernel import (
+        TOO_SMALL as I_SMALL,
+    )
+    from driftlog.stepping import IntegrationError, StepTooSmallError
+
+    C, so, kern = tr.contact, tr.step_options, tr._kernel
+    t0 = tr.t
+    tr._sample_current()
+    n = tr.act.size
+    S0, face0, F0, flag0 = tr.state.copy(), tr.face.copy(), tr.F.copy(), tr.flag.copy()
+    frame = (float(S0[:, 3].mean()), float(S0[:, 4].mean())) if n else (0.0, 0.0)
+    box = free_advance(tr, stop, frame)
+    E = (tr.state.copy(), tr.face.copy(), tr.F.copy(), tr.flag.copy())
+    reach = _reach(tr)
+    span = stop - t0
+    edges = _pairs(box, reach)
+    lo = _obstacle_pairs(tr, box, reach, frame, span)
+    pool_mask = np.zeros(n, bool)
+    pool_mask[edges.ravel()] = True
+    pool_mask[lo[:, 0]] = True
+    if not pool_mask.any():  # nobody near anybody: the free motion stands
+        tr.t = stop
+        tr._scatter()
+        return
+    # what the islands need of the flow and the model
+    vals_c, T0c, gap_c, t_split = kern.node_pair(t0)
+    vals_n, T0n, gap_n = (kern.node_pair(stop)[:3] if stop >= t_split
+                          else (vals_c, T0c, gap_c))
+    friction = tr.physics.motion != "floating"
+    from driftlog.columns import P_HSTAR
+
+    thr = (tr.P[:, P_HSTAR].copy() if friction
+           else np.ascontiguousarray(tr.logs.float_depth[tr.act]))
+    caps = np.ascontiguousarray(C.obstacles.capsules, dtype=float)
+    owner = np.ascontiguousarray(C.obstacles.owner, dtype=np.int64)
+    active_in = np.sort(np.asarray(C._active if isinstance(C._active, np.ndarray)
+                                   else np.empty(0), dtype=np.int64))
+    length = np.ascontiguousarray(tr.length, dtype=float)
+    radius = np.ascontiguousarray(tr.radius, dtype=float)
+    mass = np.ascontiguousarray(tr.mass, dtype=float)
+    inertia = np.ascontiguousarray(tr.inertia, dtype=float)
+    ids = np.ascontiguousarray(tr.ids, dtype=np.int64)
+    method = 1 if tr.integrator.name == "rk4" else 0
+    tracer = tr.physics.level == "tracer"
+    explicit = not tr.integrator.stiff_stable and not tracer
+    cap_hits = HIT_BUFFER
+    one_pool = False
+    for attempt in range(max_tries + 1):
+        labels = (np.where(pool_mask, 0, np.arange(1, n + 1)) if one_pool
+                  else island_labels(n, np.ascontiguousarray(edges[:, 0]),
+                                     np.ascontiguousarray(edges[:, 1]))[0])
+        pool = np.flatnonzero(pool_mask)
+        members, start, ocaps, ostart = _csr(labels, pool, lo)
+        while True:
+            S = np.where(pool_mask[:, None], S0, E[0])
+            face = np.where(pool_mask, face0, E[1])
+            F = np.where(pool_mask[:, None], F0, E[2])
+            flag = np.where(pool_mask, flag0, E[3]).astype(np.int8)
+            D0, lin0 = np.empty_like(tr.D0), np.empty_like(tr.lin0)
+            sw = box.copy()
+            ends = _axis_box(S0[pool], tr.length[pool])
+            sw[pool] = ends
+            obst = np.zeros_like(C.obstacle_impulse)
+            hits = [np.empty(cap_hits) for _ in range(6)]
+            hits[1], hits[2] = np.empty(cap_hits, np.int64), np.empty(cap_hits, np.int64)
+            nhit = np.zeros(1, np.int64)
+            active_out = np.empty(max(16, 8 * pool.size + active_in.size), np.int64)
+            nactive = np.zeros(1, np.int64)
+            stats = np.zeros(NSTAT, np.int64)
+            dt_lim = np.array([np.inf, 0.0])
+            code = np.zeros(start.size - 1, np.int64)
+            t_code = np.zeros(start.size - 1)
+            island_advance(
+                S, F, flag, face, D0, lin0, tr.P, tr.opt, length, radius, mass, inertia, ids,
+                members, start, caps, owner, ocaps, ostart, t0, stop, tr.time_tol, method,
+                so.length_fraction, so.angle_step, so.drag_fraction, explicit,
+                so.max_step if so.max_step else np.inf, so.min_step, tracer,
+                bool(tr.physics.rotation), thr, friction, vals_c, T0c, gap_c, vals_n, T0n,
+                gap_n, t_split, kern.dry_depth, kern.recovered, kern.locator, C.tolerance,
+                C.restitution, C.rest_speed, C.near, C.max_events, active_in, frame[0],
+                frame[1], sw, obst, hits[0], hits[1], hits[2], hits[3], hits[4], hits[5],
+                nhit, active_out, nactive, stats, dt_lim, code, t_code)
+            if not np.any(code == HIT_FULL):
+                break
+            cap_hits *= 4
+        for kind, exc in ((I_SMALL, StepTooSmallError), (I_DIV, IntegrationError),
+                          (JAM, ContactJamError)):
+            bad = np.flatnonzero(code == kind)
+            if bad.size:
+                q = bad[0]
+                logs = ids[members[start[q]:start[q + 1]]][:10].tolist()
+                raise exc(_island_message(kind, float(t_code[q]), logs, tr, C))
+        # closure: the islands' actual sweeps against the free boxes and each other
+        cross = _pairs(sw, reach)
+        cross = cross[labels[cross[:, 0]] != labels[cross[:, 1]]]
+        lo2 = _obstacle_pairs(tr, sw, reach, frame, span)
+        ncap = max(caps.shape[0], 1)
+        new_lo = lo2[~np.isin(lo2[:, 0] * ncap + lo2[:, 1], lo[:, 0] * ncap + lo[:, 1])]
+        if cross.size == 0 and new_lo.size == 0:
+            break
+        # a deflected path reaches a free log or another island: compute the window again
+        tr.stats["clock_retries"] = tr.stats.get("clock_retries", 0) + 1
+        pool_mask[cross.ravel()] = True
+        pool_mask[new_lo[:, 0]] = True
+        edges = np.vstack([edges, cross])
+        lo = np.unique(np.vstack([lo, lo2]), axis=0)
+        if attempt + 1 >= max_tries:  # the last try: every floating log in one island
+            pool_mask[:] = True
+            one_pool = True
+    else:
+        raise RuntimeError("contact_window: the closure did not settle")  # unreachable
+    # the window's result: the logs, the model's hits, impulses, contacts in touch, stats
+    tr.state, tr.face, tr.F, tr.flag = S, face, F, flag
+    tr.t = stop
+    tr._F_valid, tr._d0_valid = True, False
+    tr._scatter()
+    k = int(nhit[0])
+    if k:
+        C._hits.append(dict(time=hits[0][:k].copy(), log_id=hits[1][:k].copy(),
+                            other=hits[2][:k].copy(), impulse=hits[3][:k].copy(),
+                            x=hits[4][:k].copy(), y=hits[5][:k].copy()))
+    C.obstacle_impulse += obst
+    keys = active_out[:int(nactive[0])]
+    C._active = np.unique(np.concatenate([keys, active_in[~np.isin(
+        active_in // (1 << 32), ids[pool])]]))
+    cs = C.stats
+    cs["substeps"] += int(stats[ST_STEPS])
+    cs["advances"] += int(stats[ST_ADVANCES])
+    cs["rejected"] += int(stats[ST_REJECTED])
+    cs["events"] += int(stats[ST_EVENTS])
+    cs["separations"] += int(stats[ST_SEPARATIONS])
+    cs["max_contacts"] = max(cs["max_contacts"], int(stats[ST_MAX_CONTACTS]))
+    st = tr.stats
+    st["substeps"] += int(stats[ST_STEPS])
+    st["log_substeps"] = st.get("log_substeps", 0) + int(stats[ST_LOG_STEPS])
+    st["rhs_evaluations"] += int(stats[ST_LOG_STEPS]) * (4 if method else 1)
+    if stats[ST_STEPS]:
+        st["min_dt"] = min(st["min_dt"], float(dt_lim[0]))
+        st["max_dt"] = max(st["max_dt"], float(dt_lim[1]))
+    st["contact_set"] = max(st.get("contact_set", 0), int(pool.size))
+    st["islands"] = st.get("islands", 0) + int(start.size - 1)
+    st["largest_island"] = max(st.get("largest_island", 0), int(np.diff(start).max()))
+    st["windows"] = st.get("windows", 0) + 1
+
+
+def _axis_box(S, length):
+    """Boxes (xmin, ymin, xmax, ymax) of the logs' axes at states S."""
+    hx = 0.5 * length * np.cos(S[:, 2])
+    hy = 0.5 * length * np.sin(S[:, 2])
+    return np.column_stack([S[:, 0] - np.abs(hx), S[:, 1] - np.abs(hy), S[:, 0] + np.abs(hx),
+                            S[:, 1] + np.abs(hy)])
+
+
+def _island_message(kind, t, logs, tr, C):
+    """The error of an island that could not go on (the global clock's messages)."""
+    from driftlog.island_kernel import DIVERGED as I_DIV
+    from driftlog.island_kernel import JAM
+
+    so = tr.step_options
+    if kind == JAM:
+        return (f"event-driven contact stalls at t = {t:.6g} s in a contact island: the "
+                f"contact sub-step fell below min_step = {so.min_step:.3g} s or exceeded "
+                f"contact.max_events = {C.max_events}; logs {logs} are in persistent contact "
+                f"(restitution {C.restitution}): a jam, where impulses and contact times "
+                "cannot make progress.  Use contact.method = \"moreau\" (time-stepping "
+                "contact, stable in jams), or raise contact.max_events")
+    if kind == I_DIV:
+        return (f"the {tr.integrator.name} integration diverged at t = {t:.6g} s (logs "
+                f"{logs[:5]}): the step is too long for the drag relaxation time; use "
+                "integrator.method = 'exponential' or set integrator.drag_fraction > 0")
+    return (f"sub-step below integrator.min_step = {so.min_step} s for the contact island of "
+            f"logs {logs} at t = {t} s; a log spins or moves too fast for its length (check "
+            "the flow at the logs) or lower integrator.min_step")
+
+
+# ------------------------------------------------ the Python islands (Moreau-Jean, fcl)
 def _boxes(box, half):
     """Centres and half extents of swept boxes (xmin, ymin, xmax, ymax) grown by ``half``."""
     cx = 0.5 * (box[:, 0] + box[:, 2])
@@ -147,8 +457,11 @@ def touching(tr, box, half):
     return hit, pairs
 
 
-def contact_advance(tr, stop, max_tries=3):
-    """Per-log clocks with contacts: free logs on their own clocks, each island on its own.
+def python_islands(tr, stop, max_tries=3):
+    """Per-log clocks with contacts, islands through the Python contact model (Moreau-Jean).
+
+    The path of ``contact.method = "moreau"``, the dichotomy time of impact and the fcl
+    backend (``contact_advance`` runs the event-driven conservative method in a kernel).
 
     1. Every floating log runs free to ``stop`` (``free_advance``): its swept box.
     2. Logs whose boxes (grown by half a length, the radius and a margin) overlap another

@@ -25,15 +25,26 @@ beside the trajectories (``coupling.flow_path``).
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
 
-from driftlog.columns import NQ, Q_ETA, Q_H, Q_UX, THETA, UB, VB, X, Y
+from driftlog.columns import NQ, THETA, UB, VB, X, Y
+from driftlog.coupling_kernels import (
+    account_advance,
+    account_contacts,
+    mark_region,
+    node_rows,
+    poison_rows,
+    scatter_reaction,
+    shift_rows,
+)
 from driftlog.errors import ScenarioError
-from driftlog.flow import InMemorySnapshots, MeshFlowField, _set_gradients
+from driftlog.flow import InMemorySnapshots, MeshFlowField
+from driftlog.logs import FLOATING
 from driftlog.schema import Key, Section
-from driftlog.solver.momentum import add_face_momentum, face_momentum
+from driftlog.solver.momentum import _arrays, face_momentum
 from driftlog.tracker import Tracker
 
 __all__ = ["COUPLING_SECTION", "CoupledTracker", "SolverFlow", "Coupling", "FlowOutput",
@@ -46,43 +57,118 @@ class SolverFlow(MeshFlowField):
     Sampled like any mesh flow (P1 on recovered node values, linear in time between the two
     states), fused kernels included.  ``push(solver)`` makes the solver's state the end of
     the interval (the old end becomes its start).
+
+    The node values are computed only where the logs can sample them (docs/model.md 17.5):
+    ``focus(x, y, margin)``, before a step, restricts them to the nodes of the faces within
+    ``margin`` of the points given (the logs); the other nodes hold NaN, so that a log that
+    strays out of the region samples NaN, never a stale value: ``sample_into`` and the
+    coupled tracker detect it and ``widen`` to the whole mesh for the step (exact: the
+    interval's start state is kept).  The values at the region's nodes are those of the
+    whole-mesh projection bit for bit (``driftlog.coupling_kernels.node_rows``).
     """
 
     def __init__(self, solver, dry_depth, name="coupled solver flow"):
         t = float(solver.t)
         src = InMemorySnapshots([t], solver.h.copy(), solver.hu.copy(), solver.hv.copy(), name)
         super().__init__(solver.mesh, solver.bed, src, dry_depth=dry_depth, name=name)
-        self._nodes0 = self._nodes_of(solver)
-        self._nodes1 = self._nodes0
+        self.solver = solver
+        mesh = self.mesh
+        P, Px, Py = mesh.node_operators()
+        for M in (Px, Py):
+            if not (np.array_equal(M.indptr, P.indptr) and np.array_equal(M.indices, P.indices)):
+                raise RuntimeError("the node operators do not share one sparsity pattern")
+        self._state_face = _state_index(solver)
+        face = np.ascontiguousarray(P.indices, dtype=np.int64)
+        self._ops = (np.ascontiguousarray(P.data, dtype=np.float64),
+                     np.ascontiguousarray(Px.data, dtype=np.float64),
+                     np.ascontiguousarray(Py.data, dtype=np.float64),
+                     np.ascontiguousarray(P.indptr, dtype=np.int64), face,
+                     np.ascontiguousarray(self._state_face[face]))
+        nn = mesh.n_nodes
+        loc = mesh.locator()
+        self._bin_mark = np.full(loc.nbx * loc.nby, -1, np.int64)
+        self._face_mark = np.full(mesh.n_faces, -1, np.int64)
+        self._node_mark = np.zeros(nn, np.int64)  # the region: nodes marked ``_stamp``
+        self._stamp = 0
+        self._rows = np.arange(nn, dtype=np.int64)  # the region's nodes (all at first)
+        self._count = nn
+        self._spare = np.empty(nn, np.int64)
+        self._fresh = np.empty(nn, np.bool_)
+        self._start = tuple(np.empty(mesh.n_faces) for _ in range(3))  # the interval's start
+        self._vals = np.empty((nn, 2 * NQ))
+        self.speed = self._compute(self._rows, nn, 0)
+        self._vals[:, NQ:] = self._vals[:, :NQ]
         self._t0 = self._t1 = t
-        self._vals = None
+        self.region_nodes = 0  # nodes computed over the run (the whole mesh: nn per step)
+        self.widenings = 0  # steps where a log strayed out of the region
 
-    def _nodes_of(self, solver):
-        """Node columns of the solver's state, as ``MeshFlowField._load`` makes them.
+    @property
+    def partial(self) -> bool:
+        """Whether the node values cover a region only (not every node)."""
+        return self._count < self.mesh.n_nodes
 
-        Without its checks and copies: the solver's own arrays, finite by construction (the
-        flow file's writer checks them at every output).
+    def _compute(self, rows, count, col, state=None):
+        """Node columns of ``rows[:count]`` from a face state (default: the solver's now)."""
+        h, hu, hv = _arrays(self.solver) if state is None else state
+        vp, vx, vy, indptr, face, state_face = self._ops
+        return node_rows(rows, count, col, vp, vx, vy, indptr, face, state_face, h, hu, hv,
+                         self.bed, self.dry_depth, self.gradient == "recovered", self._vals)
+
+    def focus(self, x, y, margin):
+        """Before a step: the region is the nodes of the faces within ``margin`` of (x, y).
+
+        The interval's start columns of nodes new to the region are computed from the
+        solver's state (the start of the coming step); nodes that leave it get NaN.
         """
-        h, hu, hv = solver.h, solver.hu, solver.hv
-        P, Px, Py = self.mesh.node_operators()
-        u, v = self._velocity(h, hu, hv)
-        eta = h + self.bed
-        nodes = np.empty((self.mesh.n_nodes, NQ))
-        nodes[:, Q_H:Q_ETA + 1] = P @ np.column_stack([h, u, v, eta])
-        np.maximum(nodes[:, Q_H], 0.0, out=nodes[:, Q_H])
-        if self.gradient == "recovered":
-            _set_gradients(nodes, Px, Py, np.column_stack([u, v, eta]))
-        else:
-            nodes[:, Q_UX:] = 0.0
-        return nodes
+        old, stamp = self._stamp, self._stamp + 1
+        rows, self._spare = self._spare, self._rows
+        n = mark_region(np.ascontiguousarray(x), np.ascontiguousarray(y), float(margin),
+                        self.mesh.locator(), self._bin_mark, self._face_mark, self._node_mark,
+                        stamp, old, rows, self._fresh)
+        todo = shift_rows(rows, n, self._fresh, self._vals)
+        self._compute(todo, todo.size, 0)
+        poison_rows(self._spare, self._count, self._node_mark, stamp, self._vals)
+        self._rows, self._count, self._stamp = rows, n, stamp
+        for a, b in zip(self._start, _arrays(self.solver), strict=True):
+            np.copyto(a, b)  # kept in case the step must widen the region (``widen``)
+
+    def focus_all(self):
+        """Before a step: every node (the end columns of the last step become start columns)."""
+        nn = self.mesh.n_nodes
+        if self.partial:
+            out = np.flatnonzero(self._node_mark != self._stamp)
+            self._compute(out, out.size, NQ)  # the state now, as at the last push
+            self._node_mark[:] = self._stamp
+            self._rows, self._spare = np.arange(nn, dtype=np.int64), self._rows
+            self._count = nn
+        self._vals[:, :NQ] = self._vals[:, NQ:]
+
+    def widen(self):
+        """Every node, for the current interval (a log strayed out of the region)."""
+        nn = self.mesh.n_nodes
+        out = np.flatnonzero(self._node_mark != self._stamp)
+        self._compute(out, out.size, 0, self._start)
+        self._compute(out, out.size, NQ)
+        self._node_mark[:] = self._stamp
+        self._rows, self._spare = np.arange(nn, dtype=np.int64), self._rows
+        self._count = nn
+        self.widenings += 1
 
     def push(self, solver):
         """The solver has stepped: its state ends the interval, the previous end starts it."""
-        self._nodes0 = self._nodes1
         self._t0 = self._t1
-        self._nodes1 = self._nodes_of(solver)
         self._t1 = float(solver.t)
-        self._vals = None
+        self.speed = self._compute(self._rows, self._count, NQ)
+        self.region_nodes += self._count
+
+    def sample_into(self, x, y, t, face, out, flag):
+        """``MeshFlowField.sample_into``; over the whole mesh if a point left the region."""
+        hint = face.copy() if self.partial else None
+        super().sample_into(x, y, t, face, out, flag)
+        if hint is not None and not np.isfinite(out).all():
+            self.widen()
+            np.copyto(face, hint)
+            super().sample_into(x, y, t, face, out, flag)
 
     @property
     def times(self):
@@ -106,9 +192,15 @@ class SolverFlow(MeshFlowField):
     def node_values(self, t):
         """Node columns of the interval's two states, the time weight of t and 1 / dt."""
         _, _, a, inv_dt = self._interval(t)
-        if self._vals is None:
-            self._vals = np.ascontiguousarray(np.hstack([self._nodes0, self._nodes1]))
         return self._vals, a, inv_dt
+
+
+def _state_index(solver):
+    """Index in the solver's state arrays of each mesh face (it may renumber them)."""
+    inv = getattr(solver, "_inv", None)
+    if inv is None or getattr(solver, "_identity", True):
+        return np.arange(solver.mesh.n_faces, dtype=np.int64)
+    return np.ascontiguousarray(inv, dtype=np.int64)
 
 
 class CoupledTracker(Tracker):
@@ -131,6 +223,7 @@ class CoupledTracker(Tracker):
         self._last_u = np.zeros((n, 2))  # velocity at the end of each log's last free sub-step
         self._stamp = np.full(n, -1, np.int64)  # which free sub-step that was
         self._advances = 0
+        self._u0 = self._v0 = np.empty(0)  # velocities before a sub-step (buffers)
         super().__init__(coupling.flow, logs, *args, **kwargs)
         if getattr(self.step_options, "clock", "global") != "global":
             raise ScenarioError("integrator.clock", self.step_options.clock, "[coupling] takes "
@@ -142,33 +235,36 @@ class CoupledTracker(Tracker):
 
     def _contact_changes(self):
         """Account the entrained water's share of the velocity changes since the last advance."""
-        if self.act.size == 0:
-            return
-        ok = self._stamp[self.act] == self._advances
-        if not ok.any():
-            return
-        idx = self.act[ok]
-        du = self.state[ok][:, UB:VB + 1] - self._last_u[idx]
-        ma = self.added_mass[idx]
-        self.to_contacts -= (ma[:, None] * du).sum(axis=0)
-        self._last_u[idx] = self.state[ok][:, UB:VB + 1]
+        account_contacts(self.act, self.state, self._last_u, self._stamp, self._advances,
+                         self.added_mass, self.to_contacts)
 
     def advance(self, dt, have_d0=False):
-        """``Tracker.advance``, keeping the momentum the water gives each floating log."""
+        """``Tracker.advance``, keeping the momentum the water gives each floating log.
+
+        Where the flow's node values cover a region only, a sub-step whose logs sampled out
+        of it (NaN in their state or flow) is done again on the whole mesh.
+        """
         n = self.state.shape[0]
+        saved = None
         if n:
             self._contact_changes()
-            u0 = self.state[:, UB].copy()
-            v0 = self.state[:, VB].copy()
-            m = self.mass + self.added_mass[self.act]
+            if self._u0.shape[0] < n:
+                self._u0, self._v0 = np.empty(n), np.empty(n)
+            u0, v0 = self._u0[:n], self._v0[:n]
+            np.copyto(u0, self.state[:, UB])
+            np.copyto(v0, self.state[:, VB])
+            if self.coupling.flow.partial:
+                saved = Tracker.save(self)
         super().advance(dt, have_d0)
+        if saved is not None and not (np.isfinite(self.state).all()
+                                      and np.isfinite(self.F).all()):
+            Tracker.restore(self, saved)
+            self.coupling.flow.widen()
+            super().advance(dt, False)
         self._advances += 1
         if n:
-            self.received[self.act, 0] += m * (self.state[:, UB] - u0)
-            self.received[self.act, 1] += m * (self.state[:, VB] - v0)
-            self._last_u[self.act, 0] = self.state[:, UB]
-            self._last_u[self.act, 1] = self.state[:, VB]
-            self._stamp[self.act] = self._advances
+            account_advance(self.act, self.state, u0, v0, self.mass, self.added_mass,
+                            self.received, self._last_u, self._stamp, self._advances)
 
     def save(self):
         """``Tracker.save`` and the momentum accounts (a rejected sub-step gives nothing)."""
@@ -212,6 +308,12 @@ class CoupledTracker(Tracker):
                             "rerun it from the start")
 
 
+# the region of the flow's node values: margin = REGION_MARGIN x (distance the fastest log or
+# water covers in a solver step) + half the longest log; doubled after a step that strayed out
+REGION_MARGIN = 3.0
+CPU_PARTS = ("solver", "flow nodes", "tracker", "hand-over", "flow file")
+
+
 class Coupling:
     """Drive a solver and a ``CoupledTracker`` together; hand the logs' reaction to the water.
 
@@ -247,33 +349,84 @@ class Coupling:
         self.undelivered = np.zeros(2)
         self.solver_steps = 0
         self.handovers = 0
+        self.margin_factor = REGION_MARGIN
+        self.cpu = dict.fromkeys(CPU_PARTS, 0.0)
+        nf = solver.mesh.n_faces
+        self._sx, self._sy = np.zeros(nf), np.zeros(nf)
+        self._touched = np.empty(0, np.int64)
+        self._dt = 0.0  # recent solver steps (s), for the region's margin
+        self._widenings = 0
 
     def stops(self, tracker, fixed):
         """Yield the end of each hydrodynamic step; between two, hand the reaction over.
 
         ``fixed``: times a step must land on (outputs, releases, the end), increasing.
+        CPU seconds per part go to ``cpu`` (the tracker's: from a yield to the next step).
         """
         s = self.solver
         tol = tracker.time_tol
         k = 0
         outputs = tracker._outputs
+        clock, cpu = time.process_time, self.cpu
+        c = clock()
         while k < fixed.size:
+            if self._dt > 0.0:
+                self.focus(tracker)
+            else:  # the first step computes every node (no step known yet)
+                self.flow.focus_all()
+            c1 = clock()
+            cpu["flow nodes"] += c1 - c
             # the reaction enters the solver's next step; the logs' interval starts from the
             # state before it (one node projection per step, not two)
             self.handover(tracker)
+            c2 = clock()
+            cpu["hand-over"] += c2 - c1
             if self.writer is not None and np.any(np.abs(outputs - s.t) <= tol):
                 self.writer(s)
+            c3 = clock()
+            cpu["flow file"] += c3 - c2
             target = fixed[k]
+            t0 = s.t
             s.step(target - s.t)
             self.solver_steps += 1
+            # a step cut short to land on a time does not shrink the margin at once
+            self._dt = max(s.t - t0, 0.9 * self._dt)
             if target - s.t <= tol:
                 s.t = float(target)  # land exactly, as the tracker does
                 k += 1
+            c4 = clock()
+            cpu["solver"] += c4 - c3
             self.flow.push(s)
+            c = clock()
+            cpu["flow nodes"] += c - c4
             yield s.t
+            c5 = clock()
+            cpu["tracker"] += c5 - c
+            c = c5
         self.handover(tracker)
         if self.writer is not None:
             self.writer(s)
+
+    def focus(self, tracker):
+        """Restrict the flow's node values to where the logs can sample in the coming step.
+
+        The logs that the tracker may sample (all but those gone and recorded) with a margin
+        ``margin_factor`` times the distance the fastest of them, or the fastest water in
+        the current region, covers in a recent solver step, plus half the longest log.
+        """
+        L = tracker.logs
+        S = tracker.state
+        rest = np.flatnonzero((L.status != FLOATING) & ~tracker._recorded_left)
+        x = np.concatenate([S[:, X], L.state[rest, X]])
+        y = np.concatenate([S[:, Y], L.state[rest, Y]])
+        speed = self.flow.speed
+        if S.shape[0]:
+            speed = max(speed, float(np.sqrt((S[:, UB] ** 2 + S[:, VB] ** 2).max())))
+        length = float(L.length.max()) if len(L) else 0.0
+        if self.flow.widenings > self._widenings:  # a log strayed out: a wider margin
+            self._widenings = self.flow.widenings
+            self.margin_factor *= 2.0
+        self.flow.focus(x, y, self.margin_factor * self._dt * speed + 0.5 * length)
 
     def handover(self, tracker):
         """Give the water the opposite of what the logs received since the last call.
@@ -288,38 +441,38 @@ class Coupling:
         if tracker.act.size:
             tracker._scatter()
         L = tracker.logs
-        mesh = self.solver.mesh
-        k = self.points
         S = L.state[idx]
-        s = ((np.arange(k) + 0.5) / k - 0.5)[None, :] * L.length[idx, None]
-        px = (S[:, X, None] + s * np.cos(S[:, THETA, None])).ravel()
-        py = (S[:, Y, None] + s * np.sin(S[:, THETA, None])).ravel()
-        centre = mesh.locate(S[:, X], S[:, Y], hint=L.face[idx])
-        face = mesh.locate(px, py, hint=np.repeat(centre, k))
-        h = self.solver.h
-        hdry = self.solver.dry_depth
-        own = np.repeat(centre, k)
-        bad = (face < 0) | (h[np.maximum(face, 0)] <= hdry)
-        face = np.where(bad, own, face)
-        mx = np.repeat(-got[idx, 0] / k, k)
-        my = np.repeat(-got[idx, 1] / k, k)
-        nowhere = face < 0
-        self.undelivered[0] += mx[nowhere].sum()
-        self.undelivered[1] += my[nowhere].sum()
-        ok = ~nowhere
-        lx, ly = add_face_momentum(self.solver, face[ok], mx[ok], my[ok], self.rho)
-        self.undelivered += (lx, ly)
-        self.given += (mx[ok].sum() - lx, my[ok].sum() - ly)
+        need = idx.size * self.points
+        if self._touched.size < need:
+            self._touched = np.empty(need, np.int64)
+        s = self.solver
+        h, hu, hv = _arrays(s)
+        gx, gy, ux, uy = scatter_reaction(
+            got[idx], np.ascontiguousarray(S[:, X]), np.ascontiguousarray(S[:, Y]),
+            np.cos(S[:, THETA]), np.sin(S[:, THETA]), L.length[idx], L.face[idx], self.points,
+            s.mesh.locator(), h, self.flow._state_face, s.mesh.face_area, self.rho,
+            s.dry_depth, hu, hv, self._sx, self._sy, self._touched)
+        self.given += (gx, gy)
+        self.undelivered += (ux, uy)
         got[idx] = 0.0
         self.handovers += 1
         return True
 
     def summary(self) -> dict:
-        """Numbers of the run: solver steps, hand-overs, momentum given and not delivered."""
-        return dict(solver_steps=self.solver_steps, handovers=self.handovers,
-                    momentum_given_x=float(self.given[0]), momentum_given_y=float(self.given[1]),
-                    momentum_undelivered_x=float(self.undelivered[0]),
-                    momentum_undelivered_y=float(self.undelivered[1]))
+        """Numbers of the run: solver steps, hand-overs, momentum given and not delivered.
+
+        Also the flow's node values computed per step on average (``region_nodes``), the
+        steps widened to the whole mesh, and the CPU seconds of each part (``cpu_*_s``).
+        """
+        out = dict(solver_steps=self.solver_steps, handovers=self.handovers,
+                   momentum_given_x=float(self.given[0]), momentum_given_y=float(self.given[1]),
+                   momentum_undelivered_x=float(self.undelivered[0]),
+                   momentum_undelivered_y=float(self.undelivered[1]),
+                   region_nodes=self.flow.region_nodes / max(self.solver_steps, 1),
+                   region_widenings=self.flow.widenings)
+        out.update({f"cpu_{k.replace(' ', '_').replace('-', '')}_s": v
+                    for k, v in self.cpu.items()})
+        return out
 
     def water_momentum(self):
         """Momentum of the water in the domain (kg m/s)."""

@@ -18,26 +18,83 @@ flow's ``node_values`` chooses), so the stage times get their own (node values, 
 
 The integrator arithmetic is ``driftlog.integrators``' own (``euler_row``, ``rk4_stage_row``,
 ``rk4_final_row``): one RK4 for both paths.
+
+In the tracker's own loop (no contact model, motion "floating", no waterlogging) the step
+also *settles* each log: what the tracker did before in separate passes over the arrays after
+every sub-step (tracer velocities set to the flow's, the status from the flow at the new
+position, ``stepping.classify``; the next sub-step's bound, ``stepping.step_bound``; the
+divergence check) is done in the same loop, with the same arithmetic, into a status and a
+bound per log (``settle_summary`` reduces them).  Tracer mode has kernels of its own
+(``rk4_tracer_step``, ``euler_tracer_step``): no force evaluation, and the flow read from
+packed node rows (``pack_tracer_nodes``: coordinates and the pair's u, v, h in one 64-byte
+row per node) instead of the mesh's coordinate arrays and the 20-column node values; the
+samples are the general path's numbers bit for bit.
 """
 
 import numba as nb
+import numpy as np
 
 from driftlog._numba import kernel
-from driftlog.columns import NLIN, NVAR, X, Y
-from driftlog.flow import sample_point, sample_point_columns
-from driftlog.integrators import euler_row, put_row, rk4_final_row, rk4_stage_row, row
+from driftlog.columns import (
+    DRY,
+    DUDY,
+    DVDX,
+    L_PAR,
+    L_PERP,
+    L_ROT,
+    NLIN,
+    NQ,
+    NSTATE,
+    NVAR,
+    OMEGA,
+    OUTSIDE,
+    P_HSTAR,
+    Q_H,
+    Q_U,
+    Q_UY,
+    Q_V,
+    Q_VX,
+    THETA,
+    UB,
+    VB,
+    WET,
+    H,
+    U,
+    V,
+    X,
+    Y,
+)
+from driftlog.flow import _triangle_weights, sample_point, sample_point_columns
+from driftlog.integrators import RK4_C, euler_row, put_row, rk4_final_row, rk4_stage_row, row
+from driftlog.locate import MAX_WALK, _bin_search, _edge_side
+from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED
 from driftlog.physics import O_LEVEL, O_MOTION, O_ROT, TRACER, log_rhs, stage_columns
 
-__all__ = ["euler_mesh_step", "rk4_mesh_step", "FUSED_METHODS"]
+__all__ = ["euler_mesh_step", "rk4_mesh_step", "rk4_tracer_step", "euler_tracer_step",
+           "sample_tracer",
+           "pack_tracer_nodes", "aligned_rows", "settle_summary", "FUSED_METHODS", "NCTL",
+           "PK_N", "PR_N"]
 
 FUSED_METHODS = ("euler", "rk4")
+
+# the step control a settling step reads (``ctl``): length fraction, angle step, drag
+# fraction, and 1.0 where the drag relaxation bound applies (explicit integrator, not tracer)
+C_LF, C_ANG, C_DRAG, C_EXPLICIT = range(4)
+NCTL = 4
 
 
 @nb.njit(cache=True, inline="always")
 def _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a, inv_dt, vals,
-            dry_depth, recovered, loc):
-    """Store the new state s, sample the flow there, and the next step's first stage."""
-    put_row(out, i, s)
+            dry_depth, recovered, loc, settle, ctl, length, status, bound):
+    """Store the new state s, sample the flow there, and the next step's first stage.
+
+    With ``settle`` (the tracker's own loop, no contact model), also what the tracker would
+    otherwise do in separate passes over the arrays, with the same arithmetic: tracer mode's
+    velocities set to the flow's (``Tracker._sync_tracer``), the log's new status from the flow
+    there (``stepping.classify``, motion "floating") into ``status``, and its sub-step bound
+    (``stepping.step_bound``'s terms, from the synced state and ``lin0``) into ``bound``, NaN
+    where the new state is not finite (the tracker then raises its divergence error).
+    """
     if opt[O_LEVEL] == TRACER:
         # what tracer mode reads of the flow at the logs: the depth (status), the velocity and
         # its rotation (the synced state), and the slope when the bed friction test needs it
@@ -50,11 +107,63 @@ def _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a, inv_
     flag[i] = fg
     for k in range(NVAR):
         F[i, k] = fl[k]
+    lam = 0.0
     if want_next:
         d, ln = log_rhs(s, fl, P[i], opt, True)
         put_row(D0, i, d)
         for k in range(NLIN):
             lin0[i, k] = ln[k]
+        lam = max(ln[L_PAR], max(ln[L_PERP], ln[L_ROT]))
+    if not settle:
+        put_row(out, i, s)
+        return
+    ub, vb, om = s[UB], s[VB], s[OMEGA]
+    if opt[O_LEVEL] == TRACER:
+        ub, vb = fl[U], fl[V]
+        om = 0.5 * (fl[DVDX] - fl[DUDY]) if opt[O_ROT] > 0.0 else 0.0
+    out[i, X] = s[X]
+    out[i, Y] = s[Y]
+    out[i, THETA] = s[THETA]
+    out[i, UB] = ub
+    out[i, VB] = vb
+    out[i, OMEGA] = om
+    if fg == OUTSIDE:
+        status[i] = LEFT
+    elif fg == DRY:
+        status[i] = STRANDED
+    elif fl[H] < P[i, P_HSTAR]:
+        status[i] = RESTING
+    else:
+        status[i] = FLOATING
+    b = np.inf
+    sp = np.sqrt(ub ** 2 + vb ** 2)
+    if sp > 0.0:
+        b = min(b, ctl[C_LF] * length[i] / sp)
+    aom = abs(om)
+    if aom > 0.0:
+        b = min(b, ctl[C_ANG] / aom)
+    if ctl[C_EXPLICIT] != 0.0 and ctl[C_DRAG] > 0.0 and lam > 0.0:
+        b = min(b, ctl[C_DRAG] / lam)
+    for k in range(NSTATE):
+        if not np.isfinite(out[i, k]):
+            b = np.nan
+    bound[i] = b
+
+
+@nb.njit(cache=True)
+def settle_summary(status, bound):
+    """(smallest bound, logs no longer floating, logs whose state is not finite)."""
+    dt = np.inf
+    moved = bad = 0
+    for i in range(bound.shape[0]):
+        b = bound[i]
+        if b != b:
+            bad += 1
+        elif b < dt:
+            dt = b
+        if status[i] != FLOATING:
+            moved += 1
+    return dt, moved, bad
 
 
 @nb.njit(cache=True, inline="always")
@@ -76,22 +185,26 @@ def _stage_rhs(s, hint, a, inv_dt, vals, dry_depth, recovered, loc, p, opt):
 
 @kernel
 def euler_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
-                    a_e, inv_e, vals_e, dry_depth, recovered, loc):
+                    a_e, inv_e, vals_e, dry_depth, recovered, loc, settle, ctl, length, status,
+                    bound):
     """Explicit Euler step of every log from states S0 with first stage D0 (eq. 16).
 
     Writes the new states into ``out``; the flow at the new positions (time t0 + dt, node
     values ``vals_e`` with weight ``a_e``) into ``F``, ``flag``, ``face``; with
-    ``want_next``, the derivative and drag linearisation there into ``D0``, ``lin0``.
+    ``want_next``, the derivative and drag linearisation there into ``D0``, ``lin0``; with
+    ``settle``, the statuses and step bounds of ``_finish`` into ``status`` and ``bound``
+    (``ctl``: the step control, C_LF ... C_EXPLICIT; ``length``: the logs' lengths).
     """
     for i in nb.prange(S0.shape[0]):
         s = euler_row(row(S0, i), dt, row(D0, i))
         _finish(i, s, face[i], out, face, F, flag, D0, lin0, P, opt, want_next, a_e, inv_e,
-                vals_e, dry_depth, recovered, loc)
+                vals_e, dry_depth, recovered, loc, settle, ctl, length, status, bound)
 
 
 @kernel
 def rk4_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
-                  a_m, inv_m, vals_m, a_e, inv_e, vals_e, dry_depth, recovered, loc):
+                  a_m, inv_m, vals_m, a_e, inv_e, vals_e, dry_depth, recovered, loc, settle, ctl,
+                  length, status, bound):
     """Classical RK4 step of every log from states S0 with first stage D0.
 
     Stages at t0 + dt/2 (node values ``vals_m``, weight ``a_m``) and t0 + dt (``vals_e``,
@@ -112,5 +225,244 @@ def rk4_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
                         opt)
         s = rk4_final_row(s0, dt, d0, d1, d2, d3)
         _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a_e, inv_e,
-                vals_e, dry_depth, recovered, loc)
+                vals_e, dry_depth, recovered, loc, settle, ctl, length, status, bound)
 
+
+
+# --------------------------------------------------------------------- tracer mode
+# Tracer mode reads little of the flow (u, v; the depth at the step's end; the rotation's two
+# gradient terms with rotation on), but the general sampling finds it in the mesh's node
+# coordinates and the snapshot pair's node rows (20 columns: 2-3 cache lines a node) and the
+# point location in further arrays: about a dozen cache lines per sample.  Packed per node in
+# one row of PK_N columns (coordinates, then each value at the pair's two snapshots), a
+# sample reads the face's nodes and one 64-byte row per node.  The values are copies and the
+# arithmetic is ``sample_point_columns``' (and the walk ``locate._walk``'s), so the samples are
+# the same numbers bit for bit.
+PK_X, PK_Y, PK_H0, PK_H1, PK_U0, PK_U1, PK_V0, PK_V1 = range(8)
+PK_N = 8
+# rotation (recovered gradients): dU/dy and dV/dx at the two snapshots, a row of their own
+PR_UY0, PR_UY1, PR_VX0, PR_VX1 = range(4)
+PR_N = 4
+
+
+def aligned_rows(n, m):
+    """An uninitialised (n, m) float64 array whose rows start on 64-byte boundaries (m = 4, 8)."""
+    buf = np.empty(n * m + 8)
+    off = (-buf.ctypes.data % 64) // 8
+    return buf[off:off + n * m].reshape(n, m)
+
+
+@nb.njit(cache=True)
+def pack_tracer_nodes(vals, node_x, node_y, pk, pr, rot):
+    """Fill the packed node rows ``pk`` (and ``pr`` with ``rot``) from a snapshot pair."""
+    for j in range(pk.shape[0]):
+        pk[j, PK_X] = node_x[j]
+        pk[j, PK_Y] = node_y[j]
+        pk[j, PK_H0] = vals[j, Q_H]
+        pk[j, PK_H1] = vals[j, Q_H + NQ]
+        pk[j, PK_U0] = vals[j, Q_U]
+        pk[j, PK_U1] = vals[j, Q_U + NQ]
+        pk[j, PK_V0] = vals[j, Q_V]
+        pk[j, PK_V1] = vals[j, Q_V + NQ]
+        if rot:
+            pr[j, PR_UY0] = vals[j, Q_UY]
+            pr[j, PR_UY1] = vals[j, Q_UY + NQ]
+            pr[j, PR_VX0] = vals[j, Q_VX]
+            pr[j, PR_VX1] = vals[j, Q_VX + NQ]
+
+
+@nb.njit(cache=True, inline="always")
+def _walk_packed(px, py, f, loc, pk):
+    """``locate._walk`` reading the node coordinates from the packed rows."""
+    face_nodes, face_n, face_nbr = loc.face_nodes, loc.face_n, loc.face_nbr
+    for _ in range(MAX_WALK):
+        n = face_n[f]
+        worst = 0.0
+        kworst = -1
+        for k in range(n):
+            a = face_nodes[f, k]
+            b = face_nodes[f, k + 1] if k + 1 < n else face_nodes[f, 0]
+            c, s = _edge_side(px, py, pk[a, PK_X], pk[a, PK_Y], pk[b, PK_X], pk[b, PK_Y])
+            if c < -1e-12 * s:
+                d = c / np.sqrt(s)
+                if d < worst:
+                    worst = d
+                    kworst = k
+        if kworst < 0:
+            return f
+        g = face_nbr[f, kworst]
+        if g < 0:
+            return -1
+        f = g
+    return -1
+
+
+@nb.njit(cache=True, inline="always")
+def _p1v(pk, c0, n0, n1, n2, a, b, la, lb, lc):
+    """``flow._p1``'s value of the column pair (c0, c0 + 1) of the packed rows."""
+    va = b * pk[n0, c0] + a * pk[n0, c0 + 1]
+    vb = b * pk[n1, c0] + a * pk[n1, c0 + 1]
+    vc = b * pk[n2, c0] + a * pk[n2, c0 + 1]
+    return la * va + lb * vb + lc * vc, va, vb, vc
+
+
+@nb.njit(cache=True, inline="always")
+def sample_tracer(x, y, hint, a, pk, pr, loc, dry_depth, recovered, depth, rot):
+    """Locate and sample what tracer mode reads: (face, flag, h, u, v, dU/dy, dV/dx).
+
+    The same numbers as ``sample_point_columns(..., depth, rot, False, False, False)``: h
+    only with ``depth`` (else 0, the flag then wet where located), the gradient terms only
+    with ``rot``.
+    """
+    f = -1
+    if np.isfinite(x) and np.isfinite(y):
+        if hint >= 0:
+            f = _walk_packed(x, y, hint, loc, pk)
+        if f < 0:
+            f = _bin_search(x, y, loc)
+    if f < 0:
+        return f, OUTSIDE, 0.0, 0.0, 0.0, 0.0, 0.0
+    b = 1.0 - a
+    face_nodes, face_n = loc.face_nodes, loc.face_n
+    n0 = face_nodes[f, 0]
+    k = 1
+    while k < face_n[f] - 2:
+        nk1 = face_nodes[f, k + 1]
+        c = ((pk[nk1, PK_X] - pk[n0, PK_X]) * (y - pk[n0, PK_Y])
+             - (pk[nk1, PK_Y] - pk[n0, PK_Y]) * (x - pk[n0, PK_X]))
+        if c <= 0.0:
+            break
+        k += 1
+    n1 = face_nodes[f, k]
+    n2 = face_nodes[f, k + 1]
+    la, lb, lc, gax, gay, gbx, gby, gcx, gcy = _triangle_weights(
+        x, y, pk[n0, PK_X], pk[n0, PK_Y], pk[n1, PK_X], pk[n1, PK_Y], pk[n2, PK_X],
+        pk[n2, PK_Y])
+    h = uy = vx = 0.0
+    if depth:
+        h = max(_p1v(pk, PK_H0, n0, n1, n2, a, b, la, lb, lc)[0], 0.0)
+    u, ua, ub, uc = _p1v(pk, PK_U0, n0, n1, n2, a, b, la, lb, lc)
+    v, va, vb, vc = _p1v(pk, PK_V0, n0, n1, n2, a, b, la, lb, lc)
+    if rot:
+        if recovered:
+            uy = _p1v(pr, PR_UY0, n0, n1, n2, a, b, la, lb, lc)[0]
+            vx = _p1v(pr, PR_VX0, n0, n1, n2, a, b, la, lb, lc)[0]
+        else:
+            uy = gay * ua + gby * ub + gcy * uc
+            vx = gax * va + gbx * vb + gcx * vc
+    flag = (WET if h > dry_depth else DRY) if depth else WET
+    return f, flag, h, u, v, uy, vx
+
+
+@nb.njit(cache=True, inline="always")
+def _tracer_finish(i, x, y, th, c6, hint, S0, D0, lin0, out, face, F, flag, P, rot, a_e, pk_e,
+                   pr_e, dry_depth, recovered, loc, settle, ctl, length, status, bound):
+    """A tracer's new position (x, y, th): the flow there, the next first stage, the rest.
+
+    ``c6``: the factor of the integrator's update of the velocity columns (their derivative
+    is 0; the general step leaves s + c6 (0 + 2 (0 + 0) + 0) for RK4, s + dt 0 for Euler);
+    with ``settle``, ``_finish``'s status and bound.
+    """
+    f, fg, h, u, v, uy, vx = sample_tracer(x, y, hint, a_e, pk_e, pr_e, loc, dry_depth,
+                                           recovered, True, rot)
+    om = 0.5 * (vx - uy) if rot else 0.0
+    face[i] = f
+    flag[i] = fg
+    for k in range(NVAR):
+        F[i, k] = 0.0
+    F[i, H] = h
+    F[i, U] = u
+    F[i, V] = v
+    F[i, DUDY] = uy
+    F[i, DVDX] = vx
+    # the next step's first stage (physics.log_rhs in tracer mode) and its linearisation
+    D0[i, X] = u
+    D0[i, Y] = v
+    D0[i, THETA] = om
+    D0[i, UB] = 0.0
+    D0[i, VB] = 0.0
+    D0[i, OMEGA] = 0.0
+    for k in range(NLIN):
+        lin0[i, k] = 0.0
+    out[i, X] = x
+    out[i, Y] = y
+    out[i, THETA] = th
+    if not settle:
+        out[i, UB] = S0[i, UB] + c6
+        out[i, VB] = S0[i, VB] + c6
+        out[i, OMEGA] = S0[i, OMEGA] + c6
+        return
+    out[i, UB] = u
+    out[i, VB] = v
+    out[i, OMEGA] = om
+    if fg == OUTSIDE:
+        status[i] = LEFT
+    elif fg == DRY:
+        status[i] = STRANDED
+    elif h < P[i, P_HSTAR]:
+        status[i] = RESTING
+    else:
+        status[i] = FLOATING
+    b = np.inf
+    sp = np.sqrt(u ** 2 + v ** 2)
+    if sp > 0.0:
+        b = min(b, ctl[C_LF] * length[i] / sp)
+    aom = abs(om)
+    if aom > 0.0:
+        b = min(b, ctl[C_ANG] / aom)
+    if not (np.isfinite(x) and np.isfinite(y) and np.isfinite(th) and np.isfinite(u)
+            and np.isfinite(v) and np.isfinite(om)):
+        b = np.nan
+    bound[i] = b
+
+
+@kernel
+def rk4_tracer_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, a_m, pk_m, pr_m, a_e, pk_e,
+                    pr_e, dry_depth, recovered, loc, settle, ctl, length, status, bound):
+    """``rk4_mesh_step`` in tracer mode (``opt`` level tracer, motion "floating"), same numbers.
+
+    The flow on the packed node rows of the snapshot pairs at t0 + dt/2 (``pk_m``, ``pr_m``,
+    weight ``a_m``) and t0 + dt (``pk_e``, ``pr_e``, ``a_e``): ``pack_tracer_nodes``.  A
+    tracer's derivative is the flow's velocity (and rotation rate): the stages need no force
+    evaluation; the columns of ``F`` written are those tracer mode computes (the others 0).
+    """
+    rot = opt[O_ROT] > 0.0
+    for i in nb.prange(S0.shape[0]):
+        hint = face[i]
+        x0, y0, th0 = S0[i, X], S0[i, Y], S0[i, THETA]
+        dx0, dy0, dth0 = D0[i, X], D0[i, Y], D0[i, THETA]
+        # stages 1 and 2 at t0 + dt/2, stage 3 at t0 + dt (the state arithmetic of
+        # integrators.rk4_stage_row: s0 + c dt d)
+        c = RK4_C[1] * dt
+        _, _, _, u1, v1, uy, vx = sample_tracer(x0 + c * dx0, y0 + c * dy0, hint, a_m, pk_m,
+                                                pr_m, loc, dry_depth, recovered, False, rot)
+        w1 = 0.5 * (vx - uy) if rot else 0.0
+        c = RK4_C[2] * dt
+        _, _, _, u2, v2, uy, vx = sample_tracer(x0 + c * u1, y0 + c * v1, hint, a_m, pk_m,
+                                                pr_m, loc, dry_depth, recovered, False, rot)
+        w2 = 0.5 * (vx - uy) if rot else 0.0
+        c = RK4_C[3] * dt
+        _, _, _, u3, v3, uy, vx = sample_tracer(x0 + c * u2, y0 + c * v2, hint, a_e, pk_e,
+                                                pr_e, loc, dry_depth, recovered, False, rot)
+        w3 = 0.5 * (vx - uy) if rot else 0.0
+        # integrators.rk4_final_row
+        c6 = dt / 6.0
+        x = x0 + c6 * (dx0 + 2.0 * (u1 + u2) + u3)
+        y = y0 + c6 * (dy0 + 2.0 * (v1 + v2) + v3)
+        th = th0 + c6 * (dth0 + 2.0 * (w1 + w2) + w3)
+        _tracer_finish(i, x, y, th, c6 * (0.0 + 2.0 * (0.0 + 0.0) + 0.0), hint, S0, D0, lin0,
+                       out, face, F, flag, P, rot, a_e, pk_e, pr_e, dry_depth, recovered, loc,
+                       settle, ctl, length, status, bound)
+
+
+@kernel
+def euler_tracer_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, a_e, pk_e, pr_e,
+                      dry_depth, recovered, loc, settle, ctl, length, status, bound):
+    """``euler_mesh_step`` in tracer mode, same numbers (see ``rk4_tracer_step``)."""
+    rot = opt[O_ROT] > 0.0
+    for i in nb.prange(S0.shape[0]):
+        # integrators.euler_row: s0 + dt d0
+        _tracer_finish(i, S0[i, X] + dt * D0[i, X], S0[i, Y] + dt * D0[i, Y],
+                       S0[i, THETA] + dt * D0[i, THETA], dt * 0.0, face[i], S0, D0, lin0, out,
+                       face, F, flag, P, rot, a_e, pk_e, pr_e, dry_depth, recovered, loc,
+                       settle, ctl, length, status, bound)

@@ -39,7 +39,23 @@ from driftlog.columns import (
     Y,
 )
 from driftlog.errors import ScenarioError
-from driftlog.fused import FUSED_METHODS, euler_mesh_step, rk4_mesh_step
+from driftlog.fused import (
+    C_ANG,
+    C_DRAG,
+    C_EXPLICIT,
+    C_LF,
+    FUSED_METHODS,
+    NCTL,
+    PK_N,
+    PR_N,
+    aligned_rows,
+    euler_mesh_step,
+    euler_tracer_step,
+    pack_tracer_nodes,
+    rk4_mesh_step,
+    rk4_tracer_step,
+    settle_summary,
+)
 from driftlog.integrators import RK4_C, make_integrator
 from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, WAITING, flotation_depth
 from driftlog.physics import (
@@ -167,6 +183,11 @@ class Tracker:
         self.stats = dict(substeps=0, rhs_evaluations=0, min_dt=np.inf, max_dt=0.0,
                           rejected=0, wall_seconds=0.0)
         self._recorded_left = np.zeros(len(logs), dtype=bool)
+        self._settle_next = False
+        # tracer mode's own kernels, and the fused step settling the logs (False: the fused
+        # step alone and the tracker's passes, as before; for before/after measurements)
+        self._tracer_kernels = self._settling = True
+        self._packs = []  # tracer mode's packed node rows of the latest snapshot pairs
         self._next_release = -np.inf
         self._resumed = False
         self._set_active(np.empty(0, dtype=np.int64))
@@ -200,6 +221,9 @@ class Tracker:
         self.D0, self.lin0 = self.integrator.prepare(n)
         self._nolin = np.empty((n, NLIN))
         self._d0_valid = False
+        self._st = np.empty(n, np.int8)
+        self._bound = np.empty(n)
+        self._settled = None
         if kept is not None:
             # logs that stay floating keep their flow sample and first stage: the same numbers
             # as sampling them again from their faces, without the pass
@@ -261,10 +285,12 @@ class Tracker:
         np.copyto(self.flag, flag)
         self._F_valid = valid
         self._d0_valid = False
+        self._settled = None
 
     def invalidate_flow(self):
         """The positions were moved from outside (a contact model): sample the flow again."""
         self._F_valid = False
+        self._settled = None
 
     @property
     def min_step(self):
@@ -276,32 +302,78 @@ class Tracker:
 
         ``have_d0``: the first stage (``D0``, ``lin0``) was just computed for this very state
         by ``max_step`` (the tracker's own loop; a contact model may change velocities between).
+        The tracker's own loop (``_settle_next``) asks the fused step for the logs' new
+        statuses and step bounds too (``_can_settle``), which ``_update_status`` and
+        ``max_step`` then read.
         """
         fused = self.fused and self.state.shape[0] > 0
+        self._settled = None
+        settle = self._settle_next and fused and self._can_settle()
+        self._settle_next = False
         if self.state.shape[0]:
             if not have_d0:
                 self._rhs(self.state, self.t, self.D0, self.lin0)
             if fused:
-                self._fused_step(dt)
+                self._fused_step(dt, settle)
             else:
                 self.integrator.step(self.state, self.t, dt, self._rhs, self._next, have_d0=True)
             self.state, self._next = self._next, self.state
         self.t += dt
         # the fused step sampled the flow at the new state and computed its first stage
         self._F_valid = self._d0_valid = fused
-        if self.state.shape[0]:
+        if settle:
+            # statuses, bounds and tracer velocities came with the step (same arithmetic)
+            b, moved, bad = settle_summary(self._st, self._bound)
+            self._settled = (self.state, self.t, b, moved, bad)
+        elif self.state.shape[0]:
             self._sample_current()
             if self.physics.level == "tracer":
                 self._sync_tracer()
 
-    def _fused_step(self, dt):
+    def _can_settle(self):
+        """The fused step may also classify the logs and bound the next sub-step.
+
+        Only where those passes read nothing the step does not have: no contact model (it may
+        move the logs after the step), motion "floating" (the bed friction test is a force
+        evaluation of its own) and no waterlogging (the densities change after the step).
+        """
+        ph = self.physics
+        return (self._settling and self.contact is None and ph.motion == "floating"
+                and ph.waterlogging == "off")
+
+    def _settled_now(self):
+        """What the last settling step found, if it still describes the current arrays."""
+        s = self._settled
+        if s is not None and s[0] is self.state and s[1] == self.t and self._d0_valid:
+            return s
+        return None
+
+    def _fused_step(self, dt, settle=False):
         """One integrator step of every floating log in one kernel (``driftlog.fused``)."""
         kern, t0 = self._kernel, self.t
-        tail = (kern.dry_depth, kern.recovered, kern.locator)
+        so = self.step_options
+        ctl = np.empty(NCTL)
+        ctl[C_LF], ctl[C_ANG], ctl[C_DRAG] = so.length_fraction, so.angle_step, so.drag_fraction
+        ctl[C_EXPLICIT] = float(not self.integrator.stiff_stable
+                                and self.physics.level != "tracer")
+        tail = (kern.dry_depth, kern.recovered, kern.locator, settle, ctl, self.length,
+                self._st, self._bound)
         head = (self.state, self.D0, self.lin0, self._next, self.face, self.F, self.flag,
                 self.P, self.opt, dt, True)
         # node values in the order the general path asks for them (the flow caches one pair)
-        if self.integrator.name == "rk4":
+        tracer = (self._tracer_kernels and self.physics.level == "tracer"
+                  and self.physics.motion == "floating")
+        if tracer and self.integrator.name == "rk4":
+            # tracer mode's own kernels: the flow on packed node rows, no force evaluation
+            vals_m, a_m, _ = kern.node_values(t0 + RK4_C[1] * dt)  # stages 1 and 2
+            vals_e, a_e, _ = kern.node_values(t0 + RK4_C[3] * dt)
+            rk4_tracer_step(*head[:-1], a_m, *self._packed(vals_m), a_e,
+                            *self._packed(vals_e), *tail)
+            self.stats["rhs_evaluations"] += 3
+        elif tracer:
+            vals_e, a_e, _ = kern.node_values(t0 + dt)
+            euler_tracer_step(*head[:-1], a_e, *self._packed(vals_e), *tail)
+        elif self.integrator.name == "rk4":
             vals_m, a_m, inv_m = kern.node_values(t0 + RK4_C[1] * dt)  # stages 1 and 2
             vals_e, a_e, inv_e = kern.node_values(t0 + RK4_C[3] * dt)
             rk4_mesh_step(*head, a_m, inv_m, vals_m, a_e, inv_e, vals_e, *tail)
@@ -309,6 +381,28 @@ class Tracker:
         else:
             vals_e, a_e, inv_e = kern.node_values(t0 + dt)
             euler_mesh_step(*head, a_e, inv_e, vals_e, *tail)
+
+    def _packed(self, vals):
+        """The packed node rows (``fused.pack_tracer_nodes``) of the snapshot pair ``vals``.
+
+        Those of the two latest pairs are kept (a step's stages may use two) where the flow
+        is a plain ``MeshFlowField``, whose ``node_values`` gives a new array whenever the pair
+        changes; another flow's (a coupled run's, updated in place) are packed at every call.
+        """
+        from driftlog.flow import MeshFlowField
+
+        fresh = getattr(self._kernel.node_values, "__func__", None) is MeshFlowField.node_values
+        for v, pk, pr in self._packs if fresh else ():
+            if v is vals:
+                return pk, pr
+        loc = self._kernel.locator
+        rot = self.physics.rotation and self._kernel.recovered
+        n = vals.shape[0]
+        pk = aligned_rows(n, PK_N)
+        pr = aligned_rows(n if rot else 1, PR_N)
+        pack_tracer_nodes(vals, loc.node_x, loc.node_y, pk, pr, rot)
+        self._packs = [(vals, pk, pr)] + self._packs[:1]
+        return pk, pr
 
     def _sync_tracer(self):
         self.state[:, UB] = self.F[:, U]
@@ -321,10 +415,13 @@ class Tracker:
         so = self.step_options
         dt = so.max_step if so.max_step else np.inf
         if self.state.shape[0]:
+            settled = self._settled_now() if self.contact is None else None
             if self._d0_valid and self.contact is None:
                 self.stats["rhs_evaluations"] += 1  # computed by the fused step, same state
             else:
                 self._rhs(self.state, self.t, self.D0, self.lin0)
+            if settled is not None:
+                return min(dt, settled[2])  # the fused step's bounds of these very logs
             explicit = not self.integrator.stiff_stable and self.physics.level != "tracer"
             dt = min(dt, step_bound(self.state, self.length, self.lin0, so.length_fraction,
                                      so.angle_step, so.drag_fraction, explicit))
@@ -383,10 +480,15 @@ class Tracker:
         """
         L = self.logs
         changed = scattered = False
+        settled = self._settled_now()
         if self.act.size:
-            self._sample_current()
-            st = np.full(self.act.size, FLOATING, np.int8)
-            if self._classify(self.F, self.flag, self.act, st, self.state, self.P):
+            if settled is not None:
+                st, moved = self._st, settled[3]  # classified by the fused step
+            else:
+                self._sample_current()
+                st = np.full(self.act.size, FLOATING, np.int8)
+                moved = self._classify(self.F, self.flag, self.act, st, self.state, self.P)
+            if moved:
                 self._scatter()
                 scattered = changed = True
                 L.status[self.act] = st
@@ -541,8 +643,10 @@ class Tracker:
             if self.contact is not None and self.act.size:
                 self.contact.substep(self, dt)
             else:
+                self._settle_next = True
                 self.advance(dt, have_d0=True)
-            if not np.all(np.isfinite(self.state)):
+            settled = self._settled_now()
+            if (settled[4] if settled is not None else not np.all(np.isfinite(self.state))):
                 bad = self.ids[~np.isfinite(self.state).all(axis=1)]
                 raise IntegrationError(
                     f"the {self.integrator.name} integration diverged at "

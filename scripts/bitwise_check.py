@@ -107,12 +107,12 @@ def run_cases(tmp: Path, only=None) -> dict:
 
 def _draining_channel():
     """Sheared, meandering mesh flow over a bank that dries (tests/test_fused.py's scene)."""
-    import importlib.util
+    sys.path.insert(0, str(REPO / "tests"))
+    from conftest import draining_channel
 
-    spec = importlib.util.spec_from_file_location("_test_fused", REPO / "tests" / "test_fused.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.draining_channel()
+    from driftlog.mesh import Mesh
+
+    return draining_channel(Mesh.regular_grid(30, 10, 1.0), np.arange(0.0, 21.0, 4.0))
 
 
 def _tracker_run(flow, level, rotation, method, fused, contact=None, n=120, t_end=20.0,

@@ -141,9 +141,11 @@ def test_second_order_corrector_keeps_depths_positive_without_clip(basin):
 
     With the step from the predictor's waves only, the corrector computed depths down to
     -5.8e-6 m here (clipped to zero: 2e-8 of the volume created); now a step whose corrector
-    would exceed its positivity bound is redone at that bound."""
+    would exceed its positivity bound is redone at that bound.  At cfl 0.95 (near the bound,
+    so that the case needs it: at the default 0.8 no step has been redone here since the
+    depth-ratio blending of eq. (80); 17 before it)."""
     bed = bump(basin, 0.4) + 0.05 * basin.face_x
-    s = ShallowWaterSolver(basin, bed=bed, order=2)
+    s = ShallowWaterSolver(basin, bed=bed, order=2, cfl=0.95)
     s.set_state(np.where(basin.face_x < 1.0, np.maximum(0.6 - bed, 0.0), 0.0))
     euler = s._k_euler
     lowest = [np.inf]
@@ -207,12 +209,14 @@ def test_second_order_thin_water_has_physical_speeds_and_the_first_order_step():
     was 76 m/s), and the step is the first order's CFL step: 707 steps at cfl 0.8 against
     593 at 0.9 (ratio 1.19, the cfl's 1.125 and the bound's h_e / h_i share; was 2,179 with
     N max_e and no thin-layer treatment).  No negative depth at any step (checked in
-    _thacker); volume to round-off."""
+    _thacker); volume to round-off.  The error is 0.23x the first order's (1.35e-3 m against
+    6.0e-3; 1.04e-3 before the depth-ratio blending of eq. (80), which puts the faces beside
+    the shoreline's film at first order: its price on this exact solution)."""
     s1, _, l1_first, _, _ = _thacker(1)
     s, fastest, l1, speed, wave = _thacker(2)
     assert fastest < wave, (fastest, wave)
     assert s.steps < 1.25 * s1.steps, (s.steps, s1.steps)
-    assert l1 < 0.2 * l1_first
+    assert l1 < 0.25 * l1_first
     assert abs(s.volume_error()) < 1e-14 * s.initial_volume
 
 
@@ -269,6 +273,34 @@ def test_thin_fraction_is_checked():
         ShallowWaterSolver(mesh, order=2, thin_fraction=-0.1)
     with pytest.raises(ScenarioError, match="solver.thin_fraction"):
         ShallowWaterSolver(mesh, order=1, thin_fraction=0.03)
+
+
+def test_second_order_blends_to_first_order_beside_a_much_shallower_or_deeper_face():
+    """docs/model.md eq. (80) (ANUGA DE1's depth-ratio blending): a lake beside a steep bank
+    whose faces carry a 1 cm film.  A face with a neighbour under a tenth of its depth (the
+    lake's faces on the bank's foot) or over ten times it (the film's faces next to the lake)
+    reconstructs nothing (here 10 faces; the scheme before (80) gave them gradients up to 3.0,
+    the bank's slope, and an implied bed eta_e - h_e up to 9 cm off the face's; on Malpasset's
+    steep valley sides the depth reconstruction there piled the flood up near the dam, P1
+    +10 m at 600 s, +8.5 m with (80)).  Faces whose neighbours hold 30 % to 3.3x their depth
+    keep their full limited gradients."""
+    mesh = channel_mesh(4.0, 1.0, 0.1)
+    x = mesh.face_x
+    z = np.where(x > 2.0, 3.0 * (x - 2.0), 0.0)
+    h = np.where(z < 0.3, 0.3 - z, 0.01)
+    s = ShallowWaterSolver(mesh, bed=z, order=2)
+    s.set_state(h)
+    s._rates(s._h, s._hu, s._hv, 0.0)  # fills the gradients (internal numbering = mesh's)
+    nb = mesh.face_neighbours
+    hj = np.where(nb >= 0, h[np.maximum(nb, 0)], np.nan)
+    ratio = np.minimum(np.nanmin(hj, 1) / h, h / np.nanmax(hj, 1))
+    ratio = np.minimum(ratio, 1.0)
+    grad = s._grad
+    blended = ratio <= 0.1
+    assert blended.sum() >= 5
+    assert np.all(grad[blended] == 0.0)
+    full = (ratio >= 0.3) & (h > 0.1)
+    assert np.any(np.abs(grad[full, 2:4]).max(1) > 0.1)  # the lake's own slope is kept
 
 
 def test_thacker_closed_forms_solve_the_shallow_water_equations():

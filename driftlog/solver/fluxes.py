@@ -1,8 +1,9 @@
 """The finite-volume flux pass: per-edge Godunov fluxes, then a per-face gather.
 
 ``edge_fluxes`` runs over edges (``prange``: each edge writes only its own slots, so there is
-no race) and stores, multiplied by the edge length, the mass flux, the momentum flux seen by
-each side and the largest wave speed.  With the hydrostatic reconstruction (Audusse, Bouchut,
+no race; one kernel per order, ``edge_fluxes_1`` and ``edge_fluxes_2``) and stores,
+multiplied by the edge length, the mass flux, the momentum flux seen by each side and the
+largest wave speed.  With the hydrostatic reconstruction (Audusse, Bouchut,
 Bristeau, Klein & Perthame 2004) the two sides see different momentum fluxes: each side adds
 ``g/2 (h_side^2 - h_side*^2)``, the bed-slope source in flux form, so that a lake at rest is
 an exact discrete steady state and depths stay non-negative under the CFL condition below.
@@ -26,7 +27,7 @@ from driftlog._numba import kernel
 from driftlog.solver.boundaries import boundary_flux
 from driftlog.solver.riemann import riemann_flux
 
-__all__ = ["edge_fluxes", "face_residuals", "face_sides"]
+__all__ = ["edge_fluxes", "edge_fluxes_1", "edge_fluxes_2", "face_residuals", "face_sides"]
 
 
 def face_sides(face_edges, edge_faces):
@@ -37,23 +38,36 @@ def face_sides(face_edges, edge_faces):
 
 
 @nb.njit(cache=True, inline="always")
-def _side_state(f, dx, dy, h, hu, hv, z, hdry, order, grad):
-    """(h, u, v, z) of face f at the point (dx, dy) from its centroid."""
+def _cell_state(f, h, hu, hv, z, hdry):
+    """(h, u, v, z) of face f at its centroid: the first order's state at any point."""
     hf = h[f]
     if hf > hdry:
-        u = hu[f] / hf
-        v = hv[f] / hf
-    else:
-        u = 0.0
-        v = 0.0
-    if order == 1:
-        return hf, u, v, z[f]
+        return hf, hu[f] / hf, hv[f] / hf, z[f]
+    return hf, 0.0, 0.0, z[f]
+
+
+@nb.njit(cache=True, inline="always")
+def _reconstructed_state(f, dx, dy, h, hu, hv, z, hdry, grad):
+    """(h, u, v, z) of face f at the point (dx, dy) from its centroid, from its gradients."""
+    hf = h[f]
     he = hf + grad[f, 2] * dx + grad[f, 3] * dy
     eta = hf + z[f] + grad[f, 0] * dx + grad[f, 1] * dy
     if he <= hdry:
         return he, 0.0, 0.0, eta - he
     return (he, (hu[f] + grad[f, 4] * dx + grad[f, 5] * dy) / he,
             (hv[f] + grad[f, 6] * dx + grad[f, 7] * dy) / he, eta - he)
+
+
+@nb.njit(cache=True, inline="always")
+def _side_state(f, dx, dy, h, hu, hv, z, hdry, order, grad):
+    """(h, u, v, z) of face f at the point (dx, dy) from its centroid.
+
+    The kernels call ``_cell_state`` (order 1) or ``_reconstructed_state`` (order 2)
+    directly: with the order a run-time argument the flux kernel took twice the time.
+    """
+    if order == 1:
+        return _cell_state(f, h, hu, hv, z, hdry)
+    return _reconstructed_state(f, dx, dy, h, hu, hv, z, hdry, grad)
 
 
 @nb.njit(cache=True, inline="always")
@@ -64,7 +78,6 @@ def _share(h_side, h_face):
     return h_side / h_face
 
 
-@kernel
 def edge_fluxes(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad, order,
                 riemann, g, hdry, slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed,
                 speed1):
@@ -77,7 +90,23 @@ def edge_fluxes(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, gra
     others keep their values.
     ``fx0, fy0`` is the momentum flux leaving face ``edge_faces[e, 0]``, ``fx1, fy1`` the one
     entering face ``edge_faces[e, 1]`` (they differ by the bed source terms).
+
+    Runs the kernel of the order, ``edge_fluxes_1`` or ``edge_fluxes_2`` (the solver calls
+    those directly): one kernel taking the order as an argument took twice their time.
     """
+    if order == 1:
+        edge_fluxes_1(edges, edge_faces, nx, ny, length, h, hu, hv, z, riemann, g, hdry, slot,
+                      bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed)
+    else:
+        edge_fluxes_2(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad,
+                      riemann, g, hdry, slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed,
+                      speed1)
+
+
+@kernel
+def edge_fluxes_2(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad, riemann,
+                  g, hdry, slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1):
+    """``edge_fluxes`` at second order: the states of the faces' gradients at the edges."""
     half_g = 0.5 * g
     for i in nb.prange(edges.shape[0]):
         e = edges[i]
@@ -86,7 +115,8 @@ def edge_fluxes(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, gra
         n1 = nx[e]
         n2 = ny[e]
         ln = length[e]
-        hA, uA, vA, zA = _side_state(a, off0[e, 0], off0[e, 1], h, hu, hv, z, hdry, order, grad)
+        hA, uA, vA, zA = _reconstructed_state(a, off0[e, 0], off0[e, 1], h, hu, hv, z, hdry,
+                                              grad)
         unA = uA * n1 + vA * n2
         utA = -uA * n2 + vA * n1
         if b < 0:
@@ -99,9 +129,55 @@ def edge_fluxes(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, gra
             fy0[e] = ln * (fnA * n2 + ft * n1)
             fx1[e] = 0.0
             fy1[e] = 0.0
-            speed[e] = ln * sp if order == 1 else ln * sp * _share(hA, h[a])
+            speed[e] = ln * sp * _share(hA, h[a])
             continue
-        hB, uB, vB, zB = _side_state(b, off1[e, 0], off1[e, 1], h, hu, hv, z, hdry, order, grad)
+        hB, uB, vB, zB = _reconstructed_state(b, off1[e, 0], off1[e, 1], h, hu, hv, z, hdry,
+                                              grad)
+        unB = uB * n1 + vB * n2
+        utB = -uB * n2 + vB * n1
+        zs = max(zA, zB)
+        hAs = max(0.0, hA + zA - zs)
+        hBs = max(0.0, hB + zB - zs)
+        fh, fn, ft, sp = riemann_flux(riemann, hAs, unA, utA, hBs, unB, utB, g)
+        fnA = fn + half_g * (hA * hA - hAs * hAs) + half_g * (hA + h[a]) * (zA - z[a])
+        fnB = fn + half_g * (hB * hB - hBs * hBs) + half_g * (hB + h[b]) * (zB - z[b])
+        fmass[e] = ln * fh
+        fx0[e] = ln * (fnA * n1 - ft * n2)
+        fy0[e] = ln * (fnA * n2 + ft * n1)
+        fx1[e] = ln * (fnB * n1 - ft * n2)
+        fy1[e] = ln * (fnB * n2 + ft * n1)
+        speed[e] = ln * sp * _share(hA, h[a])
+        speed1[e] = ln * sp * _share(hB, h[b])
+
+
+@kernel
+def edge_fluxes_1(edges, edge_faces, nx, ny, length, h, hu, hv, z, riemann, g, hdry, slot, bkind,
+                  bvalue, fmass, fx0, fy0, fx1, fy1, speed):
+    """``edge_fluxes`` at first order (no gradients, offsets nor ``speed1``)."""
+    half_g = 0.5 * g
+    for i in nb.prange(edges.shape[0]):
+        e = edges[i]
+        a = edge_faces[e, 0]
+        b = edge_faces[e, 1]
+        n1 = nx[e]
+        n2 = ny[e]
+        ln = length[e]
+        hA, uA, vA, zA = _cell_state(a, h, hu, hv, z, hdry)
+        unA = uA * n1 + vA * n2
+        utA = -uA * n2 + vA * n1
+        if b < 0:
+            s = slot[e]
+            fh, fn, ft, sp = boundary_flux(bkind[s], bvalue[s], hA, zA, unA, utA, g, hdry,
+                                           riemann)
+            fnA = fn + half_g * (hA + h[a]) * (zA - z[a])
+            fmass[e] = ln * fh
+            fx0[e] = ln * (fnA * n1 - ft * n2)
+            fy0[e] = ln * (fnA * n2 + ft * n1)
+            fx1[e] = 0.0
+            fy1[e] = 0.0
+            speed[e] = ln * sp
+            continue
+        hB, uB, vB, zB = _cell_state(b, h, hu, hv, z, hdry)
         unB = uB * n1 + vB * n2
         utB = -uB * n2 + vB * n1
         zs = max(zA, zB)
@@ -110,19 +186,12 @@ def edge_fluxes(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, gra
         fh, fn, ft, sp = riemann_flux(riemann, hAs, unA, utA, hBs, unB, utB, g)
         fnA = fn + half_g * (hA * hA - hAs * hAs)
         fnB = fn + half_g * (hB * hB - hBs * hBs)
-        if order == 2:
-            fnA += half_g * (hA + h[a]) * (zA - z[a])
-            fnB += half_g * (hB + h[b]) * (zB - z[b])
         fmass[e] = ln * fh
         fx0[e] = ln * (fnA * n1 - ft * n2)
         fy0[e] = ln * (fnA * n2 + ft * n1)
         fx1[e] = ln * (fnB * n1 - ft * n2)
         fy1[e] = ln * (fnB * n2 + ft * n1)
-        if order == 1:
-            speed[e] = ln * sp
-        else:
-            speed[e] = ln * sp * _share(hA, h[a])
-            speed1[e] = ln * sp * _share(hB, h[b])
+        speed[e] = ln * sp
 
 
 @kernel
@@ -141,17 +210,24 @@ def face_residuals(faces, face_edges, face_n, face_side, area, fmass, fx0, fy0, 
         ry = 0.0
         rs = 0.0
         for k in range(face_n[f]):
+            # without branches (a face is side 0 or 1 of its edges at random: a branch on it
+            # was mispredicted half the time); a - b is a + (-1 * b) exactly (IEEE 754)
             e = face_edges[f, k]
-            if face_side[f, k]:
-                rh -= fmass[e]
-                rx -= fx0[e]
-                ry -= fy0[e]
+            out = face_side[f, k] != 0
+            sign = -1.0 if out else 1.0
+            x0 = fx0[e]
+            x1 = fx1[e]
+            y0 = fy0[e]
+            y1 = fy1[e]
+            rh += sign * fmass[e]
+            rx += sign * (x0 if out else x1)
+            ry += sign * (y0 if out else y1)
+            if order == 1:
                 rs += speed[e]
             else:
-                rh += fmass[e]
-                rx += fx1[e]
-                ry += fy1[e]
-                rs += speed[e] if order == 1 else speed1[e]
+                s0 = speed[e]
+                s1 = speed1[e]
+                rs += s0 if out else s1
         inv = 1.0 / area[f]
         dh[f] = rh * inv
         dhu[f] = rx * inv

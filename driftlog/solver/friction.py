@@ -26,6 +26,8 @@ def manning_factor(dt, gn2, h, qx, qy):
     if gn2 == 0.0:
         return 1.0
     q = (qx * qx + qy * qy) ** 0.5
+    if q == 0.0:  # still water: exactly 1, without the power (most of the stage's time)
+        return 1.0
     return 1.0 / (1.0 + dt * gn2 * q / h ** (7.0 / 3.0))
 
 

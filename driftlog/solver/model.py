@@ -19,7 +19,7 @@ import numpy as np
 from driftlog.errors import ScenarioError
 from driftlog.solver.boundaries import DEPTH, DISCHARGE, LEVEL, WALL, BoundarySet
 from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes
-from driftlog.solver.fluxes import edge_fluxes, face_residuals, face_sides
+from driftlog.solver.fluxes import edge_fluxes_1, edge_fluxes_2, face_residuals, face_sides
 from driftlog.solver.friction import euler_stage, heun_average, thin_layer
 from driftlog.solver.layout import ORDERINGS, active_set, edge_order, face_order, mark_active
 from driftlog.solver.reconstruction import NGRAD, limited_gradients, lsq_geometry
@@ -157,7 +157,8 @@ class ShallowWaterSolver:
         self.parallel = par
         pick = (lambda k: k.parallel) if par else (lambda k: k.serial)
         self._k_grad, self._k_edges, self._k_faces, self._k_euler, self._k_heun, \
-            self._k_mark, self._k_thin = map(pick, (limited_gradients, edge_fluxes,
+            self._k_mark, self._k_thin = map(pick, (limited_gradients,
+                                                    edge_fluxes_1 if order == 1 else edge_fluxes_2,
                                                     face_residuals, euler_stage, heun_average,
                                                     mark_active, thin_layer))
         if renumber is None:
@@ -375,9 +376,14 @@ class ShallowWaterSolver:
             m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._gnbr, offset, minv, eoff,
                       m._grad)
         fm, fx0, fy0, fx1, fy1, sp, sp1 = m._flux
-        m._k_edges(edges, m._ef, m._nx, m._ny, m._len, m._off0, m._off1, h, hu, hv, m._z,
-                   m._grad, m.order, RIEMANN[m.riemann], m.gravity, m.dry_depth, bs.slot,
-                   bs.kind, bs.value, fm, fx0, fy0, fx1, fy1, sp, sp1)
+        if m.order == 1:
+            m._k_edges(edges, m._ef, m._nx, m._ny, m._len, h, hu, hv, m._z, RIEMANN[m.riemann],
+                       m.gravity, m.dry_depth, bs.slot, bs.kind, bs.value, fm, fx0, fy0, fx1,
+                       fy1, sp)
+        else:
+            m._k_edges(edges, m._ef, m._nx, m._ny, m._len, m._off0, m._off1, h, hu, hv, m._z,
+                       m._grad, RIEMANN[m.riemann], m.gravity, m.dry_depth, bs.slot,
+                       bs.kind, bs.value, fm, fx0, fy0, fx1, fy1, sp, sp1)
         m._k_faces(faces, m._fe, m._fn, m._side, m._area, fm, fx0, fy0, fx1, fy1, sp, sp1,
                    m.order, dh, dhu, dhv, rate)
         return float(rate.max())

@@ -1,0 +1,295 @@
+"""Kernels of the two-way coupling (``driftlog.coupling``): per solver step, over flat arrays.
+
+- ``mark_region``: the nodes of the faces within a distance of the logs (a box around each,
+  through the locator's bin grid), the only nodes whose values the logs can sample in a step;
+- ``node_rows``: the node columns (value and recovered gradients) of chosen nodes from the
+  solver's face state, the same sums in the same order as ``MeshFlowField._load``'s sparse
+  products, so the values are those of the whole-mesh projection bit for bit;
+- ``shift_rows``: a new step's interval starts where the last one ended: the end columns of
+  the region's nodes become its start columns, nodes that left the region are poisoned (NaN);
+- ``scatter_reaction``: the logs' reaction spread over points along their axes and added to
+  the water of the faces under them (``driftlog.solver.momentum.add_face_momentum``'s
+  arithmetic); a log whose two ends lie well inside its centre's face has every point there,
+  without locating them;
+- ``account_advance`` and ``account_contacts``: the momentum the water gave each floating log
+  over a free sub-step, and the entrained water's share of the contacts' velocity changes.
+"""
+
+import numba as nb
+import numpy as np
+
+from driftlog.columns import NQ, Q_ETA, Q_EX, Q_EY, Q_H, Q_U, Q_UX, Q_UY, Q_V, Q_VX, Q_VY, UB, VB
+from driftlog.locate import _edge_side, locate_one
+
+__all__ = ["mark_region", "node_rows", "shift_rows", "poison_rows", "scatter_reaction",
+           "account_advance", "account_contacts"]
+
+
+@nb.njit(cache=True)
+def mark_region(x, y, margin, loc, bin_mark, face_mark, node_mark, stamp, old_stamp, rows,
+                fresh):
+    """Nodes of every face that may hold a point within ``margin`` of a point (x[i], y[i]).
+
+    A face is taken when it is listed in a bin of the locator's grid that overlaps the box
+    [x - margin, x + margin] x [y - margin, y + margin] of a point (every face that holds a
+    point of the box is listed in the bin of that point).  Each node is written once into
+    ``rows`` (its count returned) and marked ``stamp`` in ``node_mark``; ``fresh[k]`` says
+    whether ``rows[k]`` was not marked ``old_stamp`` before (not in the previous region).
+    """
+    nbx, nby = loc.nbx, loc.nby
+    x0, y0, idx, idy = loc.x0, loc.y0, loc.inv_dx, loc.inv_dy
+    bin_start, bin_faces = loc.bin_start, loc.bin_faces
+    face_nodes, face_n = loc.face_nodes, loc.face_n
+    count = 0
+    for p in range(x.shape[0]):
+        px, py = x[p], y[p]
+        if not (np.isfinite(px) and np.isfinite(py)):
+            continue
+        i0 = max(int(np.floor((px - margin - x0) * idx)), 0)
+        i1 = min(int(np.floor((px + margin - x0) * idx)), nbx - 1)
+        j0 = max(int(np.floor((py - margin - y0) * idy)), 0)
+        j1 = min(int(np.floor((py + margin - y0) * idy)), nby - 1)
+        for j in range(j0, j1 + 1):
+            for i in range(i0, i1 + 1):
+                b = j * nbx + i
+                if bin_mark[b] == stamp:
+                    continue
+                bin_mark[b] = stamp
+                for k in range(bin_start[b], bin_start[b + 1]):
+                    f = bin_faces[k]
+                    if face_mark[f] == stamp:
+                        continue
+                    face_mark[f] = stamp
+                    for q in range(face_n[f]):
+                        n = face_nodes[f, q]
+                        if node_mark[n] != stamp:
+                            fresh[count] = node_mark[n] != old_stamp
+                            node_mark[n] = stamp
+                            rows[count] = n
+                            count += 1
+    return count
+
+
+@nb.njit(cache=True)
+def node_rows(rows, count, col, vp, vx, vy, indptr, face, state_face, h, hu, hv, bed, dry_depth,
+              recovered, vals):
+    """Node columns of nodes ``rows[:count]`` into ``vals[:, col:col + NQ]``.
+
+    ``vp``, ``vx``, ``vy``: the data of the value and gradient operators (one sparsity
+    pattern: ``indptr``, ``face`` the mesh's face of each entry, ``state_face`` its index in
+    the state arrays ``h``, ``hu``, ``hv``); ``bed`` in the mesh's numbering.  Velocity 0 on
+    faces not deeper than ``dry_depth``.  Each sum starts from 0 and adds the entries in their
+    order, as scipy's sparse product does: the same numbers as the whole-mesh projection.
+    Returns the largest node speed sqrt(u^2 + v^2) among them (m/s).
+    """
+    vmax = 0.0
+    for k in range(count):
+        r = rows[k]
+        sh = su = sv = se = 0.0
+        xu = xv = xe = yu = yv = ye = 0.0
+        for e in range(indptr[r], indptr[r + 1]):
+            s = state_face[e]
+            d = h[s]
+            if d > dry_depth:
+                u = hu[s] / d
+                v = hv[s] / d
+            else:
+                u = 0.0
+                v = 0.0
+            eta = d + bed[face[e]]
+            w = vp[e]
+            sh += w * d
+            su += w * u
+            sv += w * v
+            se += w * eta
+            if recovered:
+                w = vx[e]
+                xu += w * u
+                xv += w * v
+                xe += w * eta
+                w = vy[e]
+                yu += w * u
+                yv += w * v
+                ye += w * eta
+        vals[r, col + Q_H] = sh if sh >= 0.0 else 0.0  # np.maximum(h, 0)
+        vals[r, col + Q_U] = su
+        vals[r, col + Q_V] = sv
+        vals[r, col + Q_ETA] = se
+        vals[r, col + Q_UX] = xu
+        vals[r, col + Q_UY] = yu
+        vals[r, col + Q_VX] = xv
+        vals[r, col + Q_VY] = yv
+        vals[r, col + Q_EX] = xe
+        vals[r, col + Q_EY] = ye
+        vmax = max(vmax, np.sqrt(su * su + sv * sv))
+    return vmax
+
+
+@nb.njit(cache=True)
+def shift_rows(rows, count, fresh, vals):
+    """The end columns of the region's nodes that were in it before become start columns.
+
+    Returns the nodes that were not (``fresh``), to be computed from the state, packed at the
+    start of a new array.
+    """
+    todo = np.empty(count, np.int64)
+    m = 0
+    for k in range(count):
+        r = rows[k]
+        if fresh[k]:
+            todo[m] = r
+            m += 1
+        else:
+            for q in range(NQ):
+                vals[r, q] = vals[r, q + NQ]
+    return todo[:m]
+
+
+@nb.njit(cache=True)
+def poison_rows(rows, count, node_mark, stamp, vals):
+    """NaN in every column of nodes ``rows[:count]`` not marked ``stamp`` (out of the region).
+
+    A log that samples them gets NaN values, hence a non-finite state or flow sample, which
+    the coupled tracker detects (and then computes the whole mesh): never a stale value.
+    """
+    for k in range(count):
+        r = rows[k]
+        if node_mark[r] != stamp:
+            for q in range(2 * NQ):
+                vals[r, q] = np.nan
+
+
+@nb.njit(cache=True)
+def _well_inside(px, py, f, loc):
+    """Whether (px, py) is inside face f by a margin far above round-off on every edge.
+
+    Two such points have every point between them inside f (a convex face; the sides are
+    linear along a segment) with room to spare: ``locate_one`` from f returns f for each.
+    """
+    face_nodes = loc.face_nodes
+    n = loc.face_n[f]
+    for k in range(n):
+        a = face_nodes[f, k]
+        b = face_nodes[f, k + 1] if k + 1 < n else face_nodes[f, 0]
+        c, s = _edge_side(px, py, loc.node_x[a], loc.node_y[a], loc.node_x[b], loc.node_y[b])
+        if not c > 1e-9 * s:
+            return False
+    return True
+
+
+@nb.njit(cache=True)
+def scatter_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h, state_face,
+                     area, density, dry_depth, hu, hv, sx, sy, touched):
+    """Give the water the opposite of the momentum ``got`` (n, 2) of each log (kg m/s).
+
+    Each log's share is spread evenly over ``points`` points along its axis (centre (x, y),
+    direction (cos_t, sin_t)) and added to the water of the face under each point; a point
+    outside the mesh or on a face not deeper than ``dry_depth`` gives its share to the log's
+    own face (located from ``hint``).  The sums per face are made in the order of the logs and
+    points (as ``np.bincount``), then each face's unit discharges change by P / (rho A)
+    (``driftlog.solver.momentum.add_face_momentum``); ``sx``, ``sy`` are zero on entry and on
+    return (buffers over the faces), ``touched`` a buffer of at least n x points faces.
+    ``h``, ``hu``, ``hv`` are the solver's state arrays, ``state_face`` the index there of each
+    mesh face.  Returns (given x, given y, undelivered x, undelivered y) (kg m/s): the
+    momentum the water received, and what found no wet face (a log outside the mesh, or all
+    its points' faces dry).
+    """
+    nt = 0
+    ux = uy = 0.0
+    for i in range(got.shape[0]):
+        gx, gy = got[i, 0], got[i, 1]
+        if gx == 0.0 and gy == 0.0:
+            continue
+        hi = hint[i]
+        centre = locate_one(x[i], y[i], hi if 0 <= hi < area.shape[0] else -1, loc)
+        mx = -gx / points
+        my = -gy / points
+        # both ends well inside the log's face: every point is in it (no walk to make)
+        within = False
+        if centre >= 0:
+            s = (0.5 / points - 0.5) * length[i]
+            e = ((points - 0.5) / points - 0.5) * length[i]
+            within = (_well_inside(x[i] + s * cos_t[i], y[i] + s * sin_t[i], centre, loc)
+                      and _well_inside(x[i] + e * cos_t[i], y[i] + e * sin_t[i], centre, loc))
+        for k in range(points):
+            if within:
+                f = centre
+            else:
+                s = ((k + 0.5) / points - 0.5) * length[i]
+                f = locate_one(x[i] + s * cos_t[i], y[i] + s * sin_t[i], centre, loc)
+            if f < 0 or h[state_face[max(f, 0)]] <= dry_depth:
+                f = centre
+            if f < 0:
+                ux += mx
+                uy += my
+                continue
+            if sx[f] == 0.0 and sy[f] == 0.0:
+                touched[nt] = f
+                nt += 1
+            sx[f] += mx
+            sy[f] += my
+    gx = gy = 0.0
+    for k in range(nt):
+        f = touched[k]
+        px, py = sx[f], sy[f]
+        sx[f] = 0.0
+        sy[f] = 0.0
+        if px == 0.0 and py == 0.0:
+            continue  # the shares cancelled (or a face listed twice): nothing to give
+        s = state_face[f]
+        if h[s] <= dry_depth:
+            ux += px
+            uy += py
+            continue
+        scale = 1.0 / (density * area[f])
+        hu[s] += px * scale
+        hv[s] += py * scale
+        gx += px
+        gy += py
+    return gx, gy, ux, uy
+
+
+@nb.njit(cache=True)
+def account_advance(act, state, u0, v0, mass, added_mass, received, last_u, stamp, advances):
+    """After a free sub-step: each floating log received m_eff (U_b - U_b0) from the water.
+
+    ``act`` the logs' indices, ``state`` their compact states, (u0, v0) their velocities
+    before, ``mass`` their compact masses, ``added_mass`` over all logs.
+    """
+    for i in range(act.shape[0]):
+        j = act[i]
+        m = mass[i] + added_mass[j]
+        received[j, 0] += m * (state[i, UB] - u0[i])
+        received[j, 1] += m * (state[i, VB] - v0[i])
+        last_u[j, 0] = state[i, UB]
+        last_u[j, 1] = state[i, VB]
+        stamp[j] = advances
+
+
+@nb.njit(cache=True)
+def account_contacts(act, state, last_u, stamp, advances, added_mass, to_contacts):
+    """The entrained water's share m_a dU_b of velocity changes made since the last sub-step.
+
+    For the floating logs whose last free sub-step was the latest one (``stamp``), summed in
+    their order into ``to_contacts`` (subtracted), and their ``last_u`` brought up to date.
+    """
+    sx = sy = 0.0
+    any_ = False
+    for i in range(act.shape[0]):
+        j = act[i]
+        if stamp[j] != advances:
+            continue
+        ma = added_mass[j]
+        dx = ma * (state[i, UB] - last_u[j, 0])
+        dy = ma * (state[i, VB] - last_u[j, 1])
+        if any_:
+            sx += dx
+            sy += dy
+        else:
+            sx, sy = dx, dy
+            any_ = True
+        last_u[j, 0] = state[i, UB]
+        last_u[j, 1] = state[i, VB]
+    if any_:
+        to_contacts[0] -= sx
+        to_contacts[1] -= sy
