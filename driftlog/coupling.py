@@ -163,6 +163,16 @@ class SolverFlow(MeshFlowField):
         self.speed = self._compute(self._rows, self._count, NQ)
         self.region_nodes += self._count
 
+    def mesh_kernel(self):
+        """``MeshFlowField.mesh_kernel``: the fused kernels sample the same P1 node values.
+
+        A point outside the region reads NaN there too; ``CoupledTracker`` sees the non-finite
+        state, calls ``widen`` and redoes the sub-step from its kept start state, as
+        ``sample_into`` does for a sample (tests/test_coupling_region.py: identical logs and
+        water on the fused and the general paths with a region around one log only).
+        """
+        return super().mesh_kernel()
+
     def sample_into(self, x, y, t, face, out, flag):
         """``MeshFlowField.sample_into``; over the whole mesh if a point left the region."""
         hint = face.copy() if self.partial else None

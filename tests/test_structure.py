@@ -33,7 +33,7 @@ LAYERS = [
                       "driftlog.seas", "driftlog.floodsetup", "driftlog.malpasset"]),
     ("tracker", ["driftlog.logs", "driftlog.physics", "driftlog.integrators", "driftlog.fused",
                  "driftlog.contact", "driftlog.tracker", "driftlog.stepping", "driftlog.clocks",
-                 "driftlog.clock_kernel", "driftlog.coupling_kernels"]),
+                 "driftlog.clock_kernel", "driftlog.island_kernel", "driftlog.coupling_kernels"]),
     ("trajectories", ["driftlog.trajectory"]),
     ("analysis", ["driftlog.ensemble.summary", "driftlog.ensemble.aggregate"]),
     ("top", ["driftlog", "driftlog.__main__", "driftlog.api", "driftlog.sources",
