@@ -67,6 +67,38 @@ def fixed_array(cells):
     return rows
 
 
+def _coupled_and_alone(scen, done, reuse, stored_wall):
+    """The coupled run (or, with ``reuse``, the one stored in ``done``) and the same flow
+    solved without logs to the run's end: (result, wall s, reference solver, coupled flow).
+
+    ``stored_wall()``: the earlier call's wall time from its results file, or nan."""
+    import netCDF4
+
+    from driftlog.api import track
+    from driftlog.flowfile import open_flow
+    from driftlog.solver.config import build_solver
+
+    if reuse and done.exists():  # the coupled run of an earlier call: only the rest again
+        res, wall = _stored_run(done), stored_wall()
+    else:
+        t0 = time.perf_counter()
+        res = track(scen, output=done)
+        wall = time.perf_counter() - t0
+    ref = build_solver(scen["solver"])
+    ref.advance_to(scen["time"]["end"])
+    with netCDF4.Dataset(res.path) as ds:
+        flow = open_flow(Path(ds.getncattr("coupled_flow")))
+    return res, wall, ref, flow
+
+
+def _stored_wall(name, pick):
+    """A function giving the wall time ``pick`` finds in RESULTS/name, or nan."""
+    def read():
+        prev = RESULTS / name
+        return pick(json.loads(prev.read_text())["rows"]) if prev.exists() else float("nan")
+    return read
+
+
 def _stored_run(path):
     """A coupled run's trajectory file as ``track`` returns it: path and the logs' last states."""
     from types import SimpleNamespace
@@ -97,28 +129,14 @@ def bridge_jam(out_dir, reuse=False):
     """(b): the coupled bridge_jam case and the same flow without logs; profile figure."""
     import netCDF4
 
-    from driftlog.api import as_scenario, track
-    from driftlog.flowfile import open_flow
-    from driftlog.solver.config import build_solver
+    from driftlog.api import as_scenario
 
     scen = as_scenario(str(JAM))
     done = out_dir / "bridge_jam_coupled.nc"
-    if reuse and done.exists():  # the coupled run of an earlier call: only the rest again
-        res, wall = _stored_run(done), float("nan")
-        prev = RESULTS / "coupling_validation.json"
-        if prev.exists():
-            wall = next((r["wall_s"] for r in json.loads(prev.read_text())["rows"]
-                         if r["case"].startswith("(b)")), wall)
-    else:
-        t0 = time.perf_counter()
-        res = track(scen, output=done)
-        wall = time.perf_counter() - t0
+    res, wall, ref, flow = _coupled_and_alone(scen, done, reuse, _stored_wall(
+        "coupling_validation.json", lambda rows: next(
+            (r["wall_s"] for r in rows if r["case"].startswith("(b)")), float("nan"))))
     t1 = scen["time"]["end"]
-    ref = build_solver(scen["solver"])
-    ref.advance_to(t1)
-    with netCDF4.Dataset(res.path) as ds:
-        flow_path = Path(ds.getncattr("coupled_flow"))
-    flow = open_flow(flow_path)
     snap = flow.snapshot(flow.times.size - 1)
     mesh = flow.mesh
     fx, fy = mesh.face_x, mesh.face_y
@@ -221,29 +239,14 @@ def packed_jam(cells, half_step=None):
 
 def river_piers(out_dir, reuse=False):
     """(d): the coupled river_piers raft; the level upstream of bridge A with and without it."""
-    import netCDF4
 
-    from driftlog.api import as_scenario, track
-    from driftlog.flowfile import open_flow
-    from driftlog.solver.config import build_solver
+    from driftlog.api import as_scenario
 
     scen = as_scenario(str(PIERS))
     done = out_dir / "river_piers_coupled.nc"
-    wall = float("nan")
-    if reuse and done.exists():
-        res = _stored_run(done)
-        prev = RESULTS / "coupling_river_piers.json"
-        if prev.exists():
-            wall = json.loads(prev.read_text())["rows"][0].get("wall_s", wall)
-    else:
-        t0 = time.perf_counter()
-        res = track(scen, output=done)
-        wall = time.perf_counter() - t0
+    res, wall, ref, flow = _coupled_and_alone(scen, done, reuse, _stored_wall(
+        "coupling_river_piers.json", lambda rows: rows[0].get("wall_s", float("nan"))))
     t1 = scen["time"]["end"]
-    ref = build_solver(scen["solver"])
-    ref.advance_to(t1)
-    with netCDF4.Dataset(res.path) as ds:
-        flow = open_flow(Path(ds.getncattr("coupled_flow")))
     snap = flow.snapshot(flow.times.size - 1)
     fx, fy = flow.mesh.face_x, flow.mesh.face_y
     eta_ref = ref.h + ref.bed
