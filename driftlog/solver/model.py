@@ -22,7 +22,7 @@ from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes
 from driftlog.solver.fluxes import edge_fluxes_1, edge_fluxes_2, face_residuals, face_sides
 from driftlog.solver.friction import euler_stage, heun_average, thin_layer
 from driftlog.solver.layout import ORDERINGS, active_set, edge_order, face_order, mark_active
-from driftlog.solver.reconstruction import NGRAD, limited_gradients, lsq_geometry
+from driftlog.solver.reconstruction import NSTATE, limited_gradients, lsq_geometry
 from driftlog.solver.riemann import RIEMANN
 
 __all__ = ["ShallowWaterSolver", "GRAVITY", "DEFAULT_CFL"]
@@ -211,15 +211,9 @@ class ShallowWaterSolver:
         self._fn = faces_(mesh.face_n)
         self._side = face_sides(self._fe, self._ef)
         self._nbr = np.ascontiguousarray(new_face(mesh.face_neighbours[perm]))
-        a = mesh.edge_faces[:, 0]
-        b = np.where(mesh.edge_faces[:, 1] >= 0, mesh.edge_faces[:, 1], a)
-        self._off0 = edges_(np.column_stack([mesh.edge_x - mesh.face_x[a],
-                                             mesh.edge_y - mesh.face_y[a]]))
-        self._off1 = edges_(np.column_stack([mesh.edge_x - mesh.face_x[b],
-                                             mesh.edge_y - mesh.face_y[b]]))
+        self._half_g = 0.5 * self.gravity
         if self.order == 2:
             self._lsq = tuple(faces_(g) for g in lsq_geometry(mesh))
-            self._grad = np.zeros((nf, NGRAD))
             nbr = self._nbr
             # the gradients' neighbours: -1 an open boundary edge (no state beyond: its edge
             # value may go one range further), -2 a wall (its mirror state bounds the range)
@@ -230,8 +224,22 @@ class ShallowWaterSolver:
             self._gnbr = np.ascontiguousarray(np.where(wall, -2, nbr))
             zj = self._z[np.where(nbr >= 0, nbr, np.arange(nf)[:, None])]
             self._thin_eps = self.thin_fraction * np.abs(zj - self._z[:, None]).max(1)
+            # the reconstructed states of the two sides of each edge (written by the gradient
+            # kernel once per stage, read by the edge kernel): row 2 e + s of _est, s = 0 for
+            # the face edge e's normal points out of; _rows[f, k] the row of face f at its k-th
+            self._est = np.zeros((2 * ne, NSTATE))
+            self._rows = np.ascontiguousarray(np.where(
+                self._fe >= 0, 2 * self._fe + 1 - self._side.astype(np.int64), 0))
+            # every face starts with a dry face's edge states (faces outside the active set
+            # keep them)
+            limited_gradients.serial(np.arange(nf, dtype=np.int64), np.zeros(nf), np.zeros(nf),
+                                     np.zeros(nf), self._z, self.dry_depth, self._half_g, self._fn,
+                                     self._gnbr, *self._lsq, self._rows, self._est)
+            self._eoff = self._lsq[2]
         else:
-            self._grad = np.zeros((1, NGRAD))
+            self._est = np.zeros((0, NSTATE))  # no edge states at first order
+            self._rows = np.zeros((0, 1), dtype=np.int64)
+            self._eoff = np.zeros((0, 1, 2))
         self._flux = [np.zeros(ne) for _ in range(7 if self.order == 2 else 6)]
         if self.order == 1:
             self._flux.append(self._flux[5])  # speed1: unused at first order
@@ -366,24 +374,25 @@ class ShallowWaterSolver:
         if m.active_set:
             faces, edges = active_set(m._k_mark, h, m._always, m._fn, m._nbr, m._ef, m._mark,
                                       m._all_faces, m._all_edges, m._faces_buf, m._edges_buf,
-                                      dh, dhu, dhv, rate, m._grad)
+                                      dh, dhu, dhv, rate, m._z, m.dry_depth, m._half_g, m._eoff,
+                                      m._rows, m._est)
         else:
             faces, edges = m._all_faces, m._all_edges
         m.active_faces = faces.shape[0]
         m.face_updates += faces.shape[0]
         if m.order == 2:
             offset, minv, eoff = m._lsq
-            m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._gnbr, offset, minv, eoff,
-                      m._grad)
+            m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._half_g, m._fn, m._gnbr, offset,
+                      minv, eoff, m._rows, m._est)
         fm, fx0, fy0, fx1, fy1, sp, sp1 = m._flux
         if m.order == 1:
             m._k_edges(edges, m._ef, m._nx, m._ny, m._len, h, hu, hv, m._z, RIEMANN[m.riemann],
                        m.gravity, m.dry_depth, bs.slot, bs.kind, bs.value, fm, fx0, fy0, fx1,
                        fy1, sp)
         else:
-            m._k_edges(edges, m._ef, m._nx, m._ny, m._len, m._off0, m._off1, h, hu, hv, m._z,
-                       m._grad, RIEMANN[m.riemann], m.gravity, m.dry_depth, bs.slot,
-                       bs.kind, bs.value, fm, fx0, fy0, fx1, fy1, sp, sp1)
+            m._k_edges(edges, m._ef, m._nx, m._ny, m._len, m._est,
+                       RIEMANN[m.riemann], m.gravity, m.dry_depth, bs.slot, bs.kind, bs.value,
+                       fm, fx0, fy0, fx1, fy1, sp, sp1)
         m._k_faces(faces, m._fe, m._fn, m._side, m._area, fm, fx0, fy0, fx1, fy1, sp, sp1,
                    m.order, dh, dhu, dhv, rate)
         return float(rate.max())

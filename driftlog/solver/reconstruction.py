@@ -19,6 +19,13 @@ towards first order by the depth ratio to its neighbours (ANUGA DE1's rule, docs
 (80)): a face beside a much shallower or much deeper neighbour (a nearly dry bank, a thin film
 beside a deep channel) reconstructs nothing, which stops the flood piling up on Malpasset's
 steep valley sides.
+
+The kernel does not store the gradients: it stores what the edge-flux kernel needs of each
+face at each of its edges (depth, velocity, bed, the centred bed source and the face's share
+of the positivity bound, ``EDGE_STATE``), once per stage, in the rows of the two sides of each
+edge side by side.  The edge kernel then reads two rows per edge and divides nothing (before,
+it recomputed each side's state from the gradients, the velocity divisions that the check
+here had already made, at every edge of every face: the same numbers, twice the work).
 """
 
 from __future__ import annotations
@@ -28,9 +35,12 @@ import numpy as np
 
 from driftlog._numba import kernel
 
-__all__ = ["lsq_geometry", "limited_gradients", "NGRAD"]
+__all__ = ["lsq_geometry", "limited_gradients", "first_order_states", "EDGE_STATE", "NSTATE"]
 
-NGRAD = 8  # d(eta)/dx, d(eta)/dy, dh/dx, dh/dy, d(hu)/dx, d(hu)/dy, d(hv)/dx, d(hv)/dy
+# what ``limited_gradients`` stores for each side of each edge (``est[2 e + s, :]``, s = 0 for
+# the face the edge's normal points out of, 1 for the other)
+EDGE_STATE = ("h", "u", "v", "z", "bed_source", "share")
+NSTATE = len(EDGE_STATE)
 # depth-ratio blending (eq. (80)), ANUGA DE1's thresholds: the gradients are scaled by
 # (r - DEPTH_RATIO_FIRST) / (DEPTH_RATIO_FULL - DEPTH_RATIO_FIRST) clipped to [0, 1], r the
 # smaller of h_min / h_i and h_i / h_max over the face and its neighbours
@@ -72,41 +82,89 @@ def lsq_geometry(mesh):
 def _bj(phi, g_x, g_y, ex, ey, qc, qmin, qmax, ext):
     """Barth-Jespersen factor so far ``phi``, tightened by one edge (offset ex, ey)."""
     dq = g_x * ex + g_y * ey
-    # selects, not branches: the sign of dq is a coin toss from edge to edge, and the
-    # mispredicted branches took a third of the gradient kernel's time (same numbers)
+    # the bound has the sign of dq (qmax + ext >= qc >= qmin - ext), so the ratio is >= 0, and
+    # >= 1 >= phi unless |bound| < |dq|: only then can the edge tighten phi, and only then is
+    # the division made (the same phi; dq = 0 never tightens)
     flat = dq == 0.0
     bound = (qmax + ext - qc) if dq > 0.0 else (qmin - ext - qc)
     r = bound / (1.0 if flat else dq)
     return phi if flat else min(phi, r)
 
 
-@kernel
-def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset,
-                      grad):
-    """Fill ``grad`` (n_faces, 8) with the limited gradients of eta, h, hu, hv on ``faces``.
+@nb.njit(cache=True, inline="always")
+def _slot(est, r, he, ue, ve, ze, hf, zf, half_g):
+    """Store a face's state at one of its edges in row ``r`` of ``est`` (``EDGE_STATE``)."""
+    est[r, 0] = he
+    est[r, 1] = ue
+    est[r, 2] = ve
+    est[r, 3] = ze
+    # the centred source of the face's own linear bed (docs/model.md section 3.3)
+    est[r, 4] = half_g * (he + hf) * (ze - zf)
+    # max(1, h_e / h): the edge's share of the face's positivity bound (eq. (11))
+    est[r, 5] = 1.0 if (hf <= 0.0 or he <= hf) else he / hf
 
+
+@nb.njit(cache=True, inline="always")
+def first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdry, half_g):
+    """Edge states of face f with zero depth and discharge gradients, level gradient (g0, g1).
+
+    The values of the general formulas with those gradients (h_e = h + 0 dx + 0 dy = h,
+    u_e = (hu + 0 dx + 0 dy) / h_e) without their divisions: hu / h once per face (the
+    numerator differs from hu only by the sign of a zero, and then so does the quotient).
+    """
+    c0 = hi + zi
+    u0 = v0 = 0.0
+    wet = hi > hdry
+    if wet:
+        u0 = c2 / hi
+        v0 = c3 / hi
+    for k in range(n):
+        ex = edge_offset[f, k, 0]
+        ey = edge_offset[f, k, 1]
+        he = hi + 0.0 * ex + 0.0 * ey
+        eta = c0 + g0 * ex + g1 * ey
+        ue = ve = 0.0
+        if wet:
+            ue = u0 if c2 != 0.0 else c2 + 0.0 * ex + 0.0 * ey
+            ve = v0 if c3 != 0.0 else c3 + 0.0 * ex + 0.0 * ey
+        _slot(est, rows[f, k], he, ue, ve, eta - he, hi, zi, half_g)
+
+
+@kernel
+def limited_gradients(faces, h, hu, hv, z, hdry, half_g, face_n, neighbours, offset, minv,
+                      edge_offset, rows, est):
+    """The reconstructed states of ``faces`` at their edges, from limited gradients.
+
+    Fills row ``rows[f, k]`` of ``est`` (2 n_edges, ``NSTATE``) for face f's k-th edge e
+    (row 2 e for the face the edge's normal points out of, 2 e + 1 for the other: the edge
+    kernel reads its two sides side by side) with the ``EDGE_STATE`` fields: depth h_e,
+    velocity (u_e, v_e) = (hu_e, hv_e) / h_e (0 where h_e <= ``hdry``), bed
+    z_e = eta_e - h_e, the centred bed source g/2 (h_e + h)(z_e - z) and max(1, h_e / h), so
+    that the edge-flux kernel reads them and computes nothing twice.
     ``faces``: the active set's faces (``driftlog.solver.layout``); other rows keep theirs.
     One pass over the neighbours gathers the four least-squares sums, their ranges and the
-    velocities' range; one pass over the edges limits the four gradients.
+    velocities' range; one pass over the edges limits the four gradients; one more computes
+    the edge states (and checks the edge velocities).
     """
     for i in nb.prange(faces.shape[0]):
         f = faces[i]
-        for k in range(NGRAD):
-            grad[f, k] = 0.0
         hi = h[f]
-        if hi <= hdry or (minv[f, 0] == 0.0 and minv[f, 2] == 0.0):
-            continue
+        zi = z[f]
+        c2 = hu[f]
+        c3 = hv[f]
         n = face_n[f]
+        if hi <= hdry or (minv[f, 0] == 0.0 and minv[f, 2] == 0.0):
+            first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry, half_g)
+            continue
         front = False
         for k in range(n):
             j = neighbours[f, k]
             if j >= 0 and h[j] <= hdry:
                 front = True
         if front:
+            first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry, half_g)
             continue
-        c0 = hi + z[f]
-        c2 = hu[f]
-        c3 = hv[f]
+        c0 = hi + zi
         rx0 = ry0 = rx1 = ry1 = rx2 = ry2 = rx3 = ry3 = 0.0
         mn0 = mx0 = c0
         mn1 = mx1 = hi
@@ -178,16 +236,21 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
             p3 = _bj(p3, gx3, gy3, ex, ey, c3, mn3, mx3, mx3 - mn3 if bnd else 0.0)
         # depth-ratio blending towards first order (docs/model.md eq. (80)): a neighbour far
         # shallower or far deeper than the face marks a wet/dry front or a steep bank
-        beta = min(DEPTH_RATIO_SLOPE * (mn1 / hi - DEPTH_RATIO_FIRST),
-                   DEPTH_RATIO_SLOPE * (hi / mx1 - DEPTH_RATIO_FIRST), 1.0)
+        # (both ratios above 0.31 make both terms > 1 whatever the round-off: beta = 1 without
+        # the divisions, the usual case)
+        beta = 1.0
+        if mn1 < 0.31 * hi or hi < 0.31 * mx1:
+            beta = min(DEPTH_RATIO_SLOPE * (mn1 / hi - DEPTH_RATIO_FIRST),
+                       DEPTH_RATIO_SLOPE * (hi / mx1 - DEPTH_RATIO_FIRST), 1.0)
         if beta <= 0.0:
+            first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry, half_g)
             continue
         p0 = max(p0, 0.0) * beta
         p1 = max(p1, 0.0) * beta
         p2 = max(p2, 0.0) * beta
         p3 = max(p3, 0.0) * beta
-        grad[f, 0] = p0 * gx0
-        grad[f, 1] = p0 * gy0
+        g0 = p0 * gx0
+        g1 = p0 * gy0
         gx1 *= p1
         gy1 *= p1
         gx2 *= p2
@@ -217,10 +280,6 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
             if ue < umin or ue > umax or ve < vmin or ve > vmax:
                 ok = False
                 break
-        if ok:  # else depth and discharges at first order here
-            grad[f, 2] = gx1
-            grad[f, 3] = gy1
-            grad[f, 4] = gx2
-            grad[f, 5] = gy2
-            grad[f, 6] = gx3
-            grad[f, 7] = gy3
+            _slot(est, rows[f, k], he, ue, ve, (c0 + g0 * ex + g1 * ey) - he, hi, zi, half_g)
+        if not ok:  # depth and discharges at first order here, the level's gradient kept
+            first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdry, half_g)
