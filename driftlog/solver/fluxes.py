@@ -48,6 +48,14 @@ def _cell_state(f, h, hu, hv, z, hdry):
     return hf, 0.0, 0.0, z[f]
 
 
+@nb.njit(cache=True, inline="always")
+def _share(h_side, h_face):
+    """max(1, h_side / h_face): an edge's outflow is at most speed * h_side (1 when dry)."""
+    if h_face <= 0.0 or h_side <= h_face:
+        return 1.0
+    return h_side / h_face
+
+
 def edge_fluxes(edges, edge_faces, nx, ny, length, h, hu, hv, z, order, riemann, g, hdry, slot,
                 bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1, edge_state=None):
     """Fluxes of the edges ``edges`` times their length; ``speed``: length x largest wave speed.
@@ -70,13 +78,13 @@ def edge_fluxes(edges, edge_faces, nx, ny, length, h, hu, hv, z, order, riemann,
         edge_fluxes_1(edges, edge_faces, nx, ny, length, h, hu, hv, z, riemann, g, hdry, slot,
                       bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed)
     else:
-        edge_fluxes_2(edges, edge_faces, nx, ny, length, edge_state, riemann, g, hdry, slot,
-                      bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1)
+        edge_fluxes_2(edges, edge_faces, nx, ny, length, h, z, edge_state, riemann, g, hdry,
+                      slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1)
 
 
 @kernel
-def edge_fluxes_2(edges, edge_faces, nx, ny, length, est, riemann, g, hdry, slot, bkind, bvalue,
-                  fmass, fx0, fy0, fx1, fy1, speed, speed1):
+def edge_fluxes_2(edges, edge_faces, nx, ny, length, h, z, est, riemann, g, hdry, slot, bkind,
+                  bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1):
     """``edge_fluxes`` at second order: the faces' reconstructed states at the edges, ``est``.
 
     ``est[2 e + s]``: depth, velocity, bed, centred bed source and positivity share of the
@@ -86,6 +94,7 @@ def edge_fluxes_2(edges, edge_faces, nx, ny, length, est, riemann, g, hdry, slot
     half_g = 0.5 * g
     for i in nb.prange(edges.shape[0]):
         e = edges[i]
+        a = edge_faces[e, 0]
         b = edge_faces[e, 1]
         n1 = nx[e]
         n2 = ny[e]
@@ -101,13 +110,13 @@ def edge_fluxes_2(edges, edge_faces, nx, ny, length, est, riemann, g, hdry, slot
             s = slot[e]
             fh, fn, ft, sp = boundary_flux(bkind[s], bvalue[s], hA, zA, unA, utA, g, hdry,
                                            riemann)
-            fnA = fn + est[ka, 4]
+            fnA = fn + half_g * (hA + h[a]) * (zA - z[a])
             fmass[e] = ln * fh
             fx0[e] = ln * (fnA * n1 - ft * n2)
             fy0[e] = ln * (fnA * n2 + ft * n1)
             fx1[e] = 0.0
             fy1[e] = 0.0
-            speed[e] = ln * sp * est[ka, 5]
+            speed[e] = ln * sp * _share(hA, h[a])
             continue
         kb = ka + 1
         hB = est[kb, 0]
@@ -120,15 +129,15 @@ def edge_fluxes_2(edges, edge_faces, nx, ny, length, est, riemann, g, hdry, slot
         hAs = max(0.0, hA + zA - zs)
         hBs = max(0.0, hB + zB - zs)
         fh, fn, ft, sp = riemann_flux(riemann, hAs, unA, utA, hBs, unB, utB, g)
-        fnA = fn + half_g * (hA * hA - hAs * hAs) + est[ka, 4]
-        fnB = fn + half_g * (hB * hB - hBs * hBs) + est[kb, 4]
+        fnA = fn + half_g * (hA * hA - hAs * hAs) + half_g * (hA + h[a]) * (zA - z[a])
+        fnB = fn + half_g * (hB * hB - hBs * hBs) + half_g * (hB + h[b]) * (zB - z[b])
         fmass[e] = ln * fh
         fx0[e] = ln * (fnA * n1 - ft * n2)
         fy0[e] = ln * (fnA * n2 + ft * n1)
         fx1[e] = ln * (fnB * n1 - ft * n2)
         fy1[e] = ln * (fnB * n2 + ft * n1)
-        speed[e] = ln * sp * est[ka, 5]
-        speed1[e] = ln * sp * est[kb, 5]
+        speed[e] = ln * sp * _share(hA, h[a])
+        speed1[e] = ln * sp * _share(hB, h[b])
 
 
 @kernel

@@ -390,16 +390,16 @@ class ShallowWaterSolver:
                        m.gravity, m.dry_depth, bs.slot, bs.kind, bs.value, fm, fx0, fy0, fx1,
                        fy1, sp)
         else:
-            m._k_edges(edges, m._ef, m._nx, m._ny, m._len, m._est,
+            m._k_edges(edges, m._ef, m._nx, m._ny, m._len, h, m._z, m._est,
                        RIEMANN[m.riemann], m.gravity, m.dry_depth, bs.slot, bs.kind, bs.value,
                        fm, fx0, fy0, fx1, fy1, sp, sp1)
         m._k_faces(faces, m._fe, m._fn, m._side, m._area, fm, fx0, fy0, fx1, fy1, sp, sp1,
                    m.order, dh, dhu, dhv, rate)
         return float(rate.max())
 
-    def _thin_layer(self):
+    def _thin_layer(self, h, hu, hv):
         if self.thin_fraction > 0:
-            self._k_thin(self._h, self._hu, self._hv, self._thin_eps)
+            self._k_thin(h, hu, hv, self._thin_eps)
 
     def step(self, dt_max=np.inf) -> float:
         """Advance one time step, at most ``dt_max`` s; returns the step taken."""
@@ -417,28 +417,29 @@ class ShallowWaterSolver:
             self._k_euler(self._h, self._hu, self._hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
                           self._thin, self._h, self._hu, self._hv)
         else:
-            h0, hu0, hv0 = self._save
-            h0[:] = self._h
-            hu0[:] = self._hu
-            hv0[:] = self._hv
+            # the predictor and corrector stages go to work arrays; the state (h, hu, hv)
+            # stays U^n until the Heun average, (U'' + U^n) / 2 written onto it (a + b is
+            # b + a exactly: the average of the saved state and U'' as before, without copies)
+            h1, hu1, hv1 = self._save
+            h, hu, hv = self._h, self._hu, self._hv
             while True:
                 self._bflux_sum[:] = 0.5 * fm[bedges]
-                self._k_euler(h0, hu0, hv0, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
-                          self._thin, self._h, self._hu, self._hv)
-                self._thin_layer()
-                rmax1 = self._rates(self._h, self._hu, self._hv, self.t + dt)
+                self._k_euler(h, hu, hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
+                              self._thin, h1, hu1, hv1)
+                self._thin_layer(h1, hu1, hv1)
+                rmax1 = self._rates(h1, hu1, hv1, self.t + dt)
                 if dt * rmax1 <= 1.0:
                     break
                 # the corrector's own positivity bound is tighter than the predictor's (the
                 # predicted state's waves are faster): redo the step at that bound
                 self.rejected_steps += 1
                 dt = self.cfl / rmax1
-                self._rates(h0, hu0, hv0, self.t)
+                self._rates(h, hu, hv, self.t)
             self._bflux_sum += 0.5 * fm[bedges]
-            self._k_euler(self._h, self._hu, self._hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
-                          self._thin, self._h, self._hu, self._hv)
-            self._k_heun(h0, hu0, hv0, self._thin, self._h, self._hu, self._hv)
-            self._thin_layer()
+            self._k_euler(h1, hu1, hv1, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
+                          self._thin, h1, hu1, hv1)
+            self._k_heun(h1, hu1, hv1, self._thin, h, hu, hv)
+            self._thin_layer(h, hu, hv)
         vol = self._bflux_sum * dt  # m3 out (>0) or in (<0) per boundary edge
         bs = self.boundaries
         n = len(self.mesh.tag_names)

@@ -39,7 +39,7 @@ __all__ = ["lsq_geometry", "limited_gradients", "first_order_states", "EDGE_STAT
 
 # what ``limited_gradients`` stores for each side of each edge (``est[2 e + s, :]``, s = 0 for
 # the face the edge's normal points out of, 1 for the other)
-EDGE_STATE = ("h", "u", "v", "z", "bed_source", "share")
+EDGE_STATE = ("h", "u", "v", "z")
 NSTATE = len(EDGE_STATE)
 # depth-ratio blending (eq. (80)), ANUGA DE1's thresholds: the gradients are scaled by
 # (r - DEPTH_RATIO_FIRST) / (DEPTH_RATIO_FULL - DEPTH_RATIO_FIRST) clipped to [0, 1], r the
@@ -98,10 +98,6 @@ def _slot(est, r, he, ue, ve, ze, hf, zf, half_g):
     est[r, 1] = ue
     est[r, 2] = ve
     est[r, 3] = ze
-    # the centred source of the face's own linear bed (docs/model.md section 3.3)
-    est[r, 4] = half_g * (he + hf) * (ze - zf)
-    # max(1, h_e / h): the edge's share of the face's positivity bound (eq. (11))
-    est[r, 5] = 1.0 if (hf <= 0.0 or he <= hf) else he / hf
 
 
 @nb.njit(cache=True, inline="always")
