@@ -83,8 +83,9 @@ def measure(mesh, order, threads, steps, ordering="rcm", repeat=1):
 
 # the solver's kernel attributes, in the order a step calls them
 KERNELS = {"_k_mark": "active set", "_k_grad": "gradients + limiter", "_k_edges": "edge fluxes",
-           "_k_faces": "face residuals", "_k_euler": "Euler stage", "_k_thin": "thin layer",
-           "_k_heun": "Heun average"}
+           "_k_faces": "face residuals", "_k_euler": "Euler stage",
+           "_k_pred": "predictor (Euler + thin layer)",
+           "_k_corr": "corrector (Euler + Heun + thin layer)"}
 
 
 class _Timed:

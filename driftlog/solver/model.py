@@ -20,7 +20,7 @@ from driftlog.errors import ScenarioError
 from driftlog.solver.boundaries import DEPTH, DISCHARGE, LEVEL, WALL, BoundarySet
 from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes
 from driftlog.solver.fluxes import edge_fluxes_1, edge_fluxes_2, face_residuals, face_sides
-from driftlog.solver.friction import euler_stage, heun_average, thin_layer
+from driftlog.solver.friction import corrector_stage, euler_stage, predictor_stage
 from driftlog.solver.layout import ORDERINGS, active_set, edge_order, face_order, mark_active
 from driftlog.solver.reconstruction import NSTATE, limited_gradients, lsq_geometry
 from driftlog.solver.riemann import RIEMANN
@@ -156,11 +156,11 @@ class ShallowWaterSolver:
         par = nf >= PARALLEL_FACES if parallel is None else bool(parallel)
         self.parallel = par
         pick = (lambda k: k.parallel) if par else (lambda k: k.serial)
-        self._k_grad, self._k_edges, self._k_faces, self._k_euler, self._k_heun, \
-            self._k_mark, self._k_thin = map(pick, (limited_gradients,
+        self._k_grad, self._k_edges, self._k_faces, self._k_euler, self._k_pred, \
+            self._k_corr, self._k_mark = map(pick, (limited_gradients,
                                                     edge_fluxes_1 if order == 1 else edge_fluxes_2,
-                                                    face_residuals, euler_stage, heun_average,
-                                                    mark_active, thin_layer))
+                                                    face_residuals, euler_stage, predictor_stage,
+                                                    corrector_stage, mark_active))
         if renumber is None:
             renumber = "rcm" if nf >= RENUMBER_FACES else "none"
         if renumber not in ORDERINGS:
@@ -397,10 +397,6 @@ class ShallowWaterSolver:
                    m.order, dh, dhu, dhv, rate)
         return float(rate.max())
 
-    def _thin_layer(self, h, hu, hv):
-        if self.thin_fraction > 0:
-            self._k_thin(h, hu, hv, self._thin_eps)
-
     def step(self, dt_max=np.inf) -> float:
         """Advance one time step, at most ``dt_max`` s; returns the step taken."""
         rmax = self._rates(self._h, self._hu, self._hv, self.t)
@@ -422,11 +418,12 @@ class ShallowWaterSolver:
             # b + a exactly: the average of the saved state and U'' as before, without copies)
             h1, hu1, hv1 = self._save
             h, hu, hv = self._h, self._hu, self._hv
+            eps = self._thin_eps
             while True:
                 self._bflux_sum[:] = 0.5 * fm[bedges]
-                self._k_euler(h, hu, hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
-                              self._thin, h1, hu1, hv1)
-                self._thin_layer(h1, hu1, hv1)
+                # Euler stage and thin layer (68)-(69) in one pass
+                self._k_pred(h, hu, hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth, self._thin,
+                             eps, h1, hu1, hv1)
                 rmax1 = self._rates(h1, hu1, hv1, self.t + dt)
                 if dt * rmax1 <= 1.0:
                     break
@@ -436,10 +433,9 @@ class ShallowWaterSolver:
                 dt = self.cfl / rmax1
                 self._rates(h, hu, hv, self.t)
             self._bflux_sum += 0.5 * fm[bedges]
-            self._k_euler(h1, hu1, hv1, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
-                          self._thin, h1, hu1, hv1)
-            self._k_heun(h1, hu1, hv1, self._thin, h, hu, hv)
-            self._thin_layer(h, hu, hv)
+            # Euler stage from U', Heun average with U^n and thin layer in one pass
+            self._k_corr(h1, hu1, hv1, dh, dhu, dhv, dt, self._gn2, self.dry_depth, self._thin,
+                         eps, h, hu, hv)
         vol = self._bflux_sum * dt  # m3 out (>0) or in (<0) per boundary edge
         bs = self.boundaries
         n = len(self.mesh.tag_names)
