@@ -87,9 +87,8 @@ def edge_fluxes_2(edges, edge_faces, nx, ny, length, h, z, est, riemann, g, hdry
                   bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1):
     """``edge_fluxes`` at second order: the faces' reconstructed states at the edges, ``est``.
 
-    ``est[2 e + s]``: depth, velocity, bed, centred bed source and positivity share of the
-    face on side s of edge e at the edge, computed once per stage by
-    ``reconstruction.limited_gradients``.
+    ``est[2 e + s]``: depth, velocity and bed of the face on side s of edge e at the edge,
+    computed once per stage by ``reconstruction.limited_gradients``.
     """
     half_g = 0.5 * g
     for i in nb.prange(edges.shape[0]):

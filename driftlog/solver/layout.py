@@ -100,8 +100,8 @@ def edge_order(edge_faces_new):
 
 
 @kernel
-def mark_active(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdry, half_g,
-                edge_offset, rows, est):
+def mark_active(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdry, edge_offset,
+                rows, est):
     """Mark the faces a stage can change; zero the residuals of the faces that leave.
 
     ``state[f]``: bit 0 set when face f is active now, bit 1 when it was before this call.  A
@@ -131,7 +131,7 @@ def mark_active(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdr
                 rate[f] = 0.0
                 if f < rows.shape[0]:  # no rows at first order
                     first_order_states(est, rows, f, face_n[f], h[f], z[f], 0.0, 0.0, 0.0, 0.0,
-                                       edge_offset, hdry, half_g)
+                                       edge_offset, hdry)
     return n
 
 
@@ -153,7 +153,7 @@ def _compact(state, edge_faces, faces, edges):
 
 
 def active_set(mark, h, always, face_n, neighbours, edge_faces, state, all_faces, all_edges, faces,
-               edges, dh, dhu, dhv, rate, z, hdry, half_g, edge_offset, rows, est):
+               edges, dh, dhu, dhv, rate, z, hdry, edge_offset, rows, est):
     """The active faces and edges of state ``h``: (faces, edges), views of index arrays.
 
     ``mark``: ``mark_active.serial`` or ``.parallel``.  ``all_faces``/``all_edges``
@@ -161,8 +161,8 @@ def active_set(mark, h, always, face_n, neighbours, edge_faces, state, all_faces
     the lists are written into ``faces``/``edges`` (work arrays of full length), in
     increasing order.
     """
-    n = mark(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdry, half_g,
-             edge_offset, rows, est)
+    n = mark(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdry, edge_offset,
+             rows, est)
     if n == h.shape[0]:
         return all_faces, all_edges
     nf, ne = _compact(state, edge_faces, faces, edges)

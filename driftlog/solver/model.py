@@ -211,7 +211,6 @@ class ShallowWaterSolver:
         self._fn = faces_(mesh.face_n)
         self._side = face_sides(self._fe, self._ef)
         self._nbr = np.ascontiguousarray(new_face(mesh.face_neighbours[perm]))
-        self._half_g = 0.5 * self.gravity
         if self.order == 2:
             self._lsq = tuple(faces_(g) for g in lsq_geometry(mesh))
             nbr = self._nbr
@@ -233,8 +232,8 @@ class ShallowWaterSolver:
             # every face starts with a dry face's edge states (faces outside the active set
             # keep them)
             limited_gradients.serial(np.arange(nf, dtype=np.int64), np.zeros(nf), np.zeros(nf),
-                                     np.zeros(nf), self._z, self.dry_depth, self._half_g, self._fn,
-                                     self._gnbr, *self._lsq, self._rows, self._est)
+                                     np.zeros(nf), self._z, self.dry_depth, self._fn, self._gnbr,
+                                     *self._lsq, self._rows, self._est)
             self._eoff = self._lsq[2]
         else:
             self._est = np.zeros((0, NSTATE))  # no edge states at first order
@@ -374,16 +373,16 @@ class ShallowWaterSolver:
         if m.active_set:
             faces, edges = active_set(m._k_mark, h, m._always, m._fn, m._nbr, m._ef, m._mark,
                                       m._all_faces, m._all_edges, m._faces_buf, m._edges_buf,
-                                      dh, dhu, dhv, rate, m._z, m.dry_depth, m._half_g, m._eoff,
-                                      m._rows, m._est)
+                                      dh, dhu, dhv, rate, m._z, m.dry_depth, m._eoff, m._rows,
+                                      m._est)
         else:
             faces, edges = m._all_faces, m._all_edges
         m.active_faces = faces.shape[0]
         m.face_updates += faces.shape[0]
         if m.order == 2:
             offset, minv, eoff = m._lsq
-            m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._half_g, m._fn, m._gnbr, offset,
-                      minv, eoff, m._rows, m._est)
+            m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._gnbr, offset, minv, eoff,
+                      m._rows, m._est)
         fm, fx0, fy0, fx1, fy1, sp, sp1 = m._flux
         if m.order == 1:
             m._k_edges(edges, m._ef, m._nx, m._ny, m._len, h, hu, hv, m._z, RIEMANN[m.riemann],

@@ -21,11 +21,11 @@ beside a deep channel) reconstructs nothing, which stops the flood piling up on 
 steep valley sides.
 
 The kernel does not store the gradients: it stores what the edge-flux kernel needs of each
-face at each of its edges (depth, velocity, bed, the centred bed source and the face's share
-of the positivity bound, ``EDGE_STATE``), once per stage, in the rows of the two sides of each
-edge side by side.  The edge kernel then reads two rows per edge and divides nothing (before,
-it recomputed each side's state from the gradients, the velocity divisions that the check
-here had already made, at every edge of every face: the same numbers, twice the work).
+face at each of its edges (depth, velocity and bed, ``EDGE_STATE``), once per stage, in the
+rows of the two sides of each edge side by side.  The edge kernel then reads two rows per edge
+and makes no velocity division (before, it recomputed each side's state from the gradients,
+the velocity divisions that the check here had already made, at every edge of every face: the
+same numbers, twice the work).
 """
 
 from __future__ import annotations
@@ -92,7 +92,7 @@ def _bj(phi, g_x, g_y, ex, ey, qc, qmin, qmax, ext):
 
 
 @nb.njit(cache=True, inline="always")
-def _slot(est, r, he, ue, ve, ze, hf, zf, half_g):
+def _slot(est, r, he, ue, ve, ze):
     """Store a face's state at one of its edges in row ``r`` of ``est`` (``EDGE_STATE``)."""
     est[r, 0] = he
     est[r, 1] = ue
@@ -101,7 +101,7 @@ def _slot(est, r, he, ue, ve, ze, hf, zf, half_g):
 
 
 @nb.njit(cache=True, inline="always")
-def first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdry, half_g):
+def first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdry):
     """Edge states of face f with zero depth and discharge gradients, level gradient (g0, g1).
 
     The values of the general formulas with those gradients (h_e = h + 0 dx + 0 dy = h,
@@ -123,20 +123,19 @@ def first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdr
         if wet:
             ue = u0 if c2 != 0.0 else c2 + 0.0 * ex + 0.0 * ey
             ve = v0 if c3 != 0.0 else c3 + 0.0 * ex + 0.0 * ey
-        _slot(est, rows[f, k], he, ue, ve, eta - he, hi, zi, half_g)
+        _slot(est, rows[f, k], he, ue, ve, eta - he)
 
 
 @kernel
-def limited_gradients(faces, h, hu, hv, z, hdry, half_g, face_n, neighbours, offset, minv,
-                      edge_offset, rows, est):
+def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset,
+                      rows, est):
     """The reconstructed states of ``faces`` at their edges, from limited gradients.
 
     Fills row ``rows[f, k]`` of ``est`` (2 n_edges, ``NSTATE``) for face f's k-th edge e
     (row 2 e for the face the edge's normal points out of, 2 e + 1 for the other: the edge
     kernel reads its two sides side by side) with the ``EDGE_STATE`` fields: depth h_e,
-    velocity (u_e, v_e) = (hu_e, hv_e) / h_e (0 where h_e <= ``hdry``), bed
-    z_e = eta_e - h_e, the centred bed source g/2 (h_e + h)(z_e - z) and max(1, h_e / h), so
-    that the edge-flux kernel reads them and computes nothing twice.
+    velocity (u_e, v_e) = (hu_e, hv_e) / h_e (0 where h_e <= ``hdry``) and bed
+    z_e = eta_e - h_e, so that the edge-flux kernel reads them and computes nothing twice.
     ``faces``: the active set's faces (``driftlog.solver.layout``); other rows keep theirs.
     One pass over the neighbours gathers the four least-squares sums, their ranges and the
     velocities' range; one pass over the edges limits the four gradients; one more computes
@@ -150,7 +149,7 @@ def limited_gradients(faces, h, hu, hv, z, hdry, half_g, face_n, neighbours, off
         c3 = hv[f]
         n = face_n[f]
         if hi <= hdry or (minv[f, 0] == 0.0 and minv[f, 2] == 0.0):
-            first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry, half_g)
+            first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry)
             continue
         front = False
         for k in range(n):
@@ -158,7 +157,7 @@ def limited_gradients(faces, h, hu, hv, z, hdry, half_g, face_n, neighbours, off
             if j >= 0 and h[j] <= hdry:
                 front = True
         if front:
-            first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry, half_g)
+            first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry)
             continue
         c0 = hi + zi
         rx0 = ry0 = rx1 = ry1 = rx2 = ry2 = rx3 = ry3 = 0.0
@@ -239,7 +238,7 @@ def limited_gradients(faces, h, hu, hv, z, hdry, half_g, face_n, neighbours, off
             beta = min(DEPTH_RATIO_SLOPE * (mn1 / hi - DEPTH_RATIO_FIRST),
                        DEPTH_RATIO_SLOPE * (hi / mx1 - DEPTH_RATIO_FIRST), 1.0)
         if beta <= 0.0:
-            first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry, half_g)
+            first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry)
             continue
         p0 = max(p0, 0.0) * beta
         p1 = max(p1, 0.0) * beta
@@ -276,6 +275,6 @@ def limited_gradients(faces, h, hu, hv, z, hdry, half_g, face_n, neighbours, off
             if ue < umin or ue > umax or ve < vmin or ve > vmax:
                 ok = False
                 break
-            _slot(est, rows[f, k], he, ue, ve, (c0 + g0 * ex + g1 * ey) - he, hi, zi, half_g)
+            _slot(est, rows[f, k], he, ue, ve, (c0 + g0 * ex + g1 * ey) - he)
         if not ok:  # depth and discharges at first order here, the level's gradient kept
-            first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdry, half_g)
+            first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdry)
