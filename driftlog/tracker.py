@@ -55,6 +55,8 @@ from driftlog.fused import (
     rk4_mesh_step,
     rk4_tracer_step,
     settle_summary,
+    subset_positions,
+    take_rows,
 )
 from driftlog.integrators import RK4_C, make_integrator
 from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, WAITING, flotation_depth
@@ -201,15 +203,17 @@ class Tracker:
         kept = self._kept_stage(idx)
         self.act = idx
         L = self.logs
-        self.state = np.ascontiguousarray(L.state[self.act])
-        self.face = L.face[self.act].copy()
-        self.P = np.ascontiguousarray(self.P_all[self.act])
-        self.ids = L.id[self.act]
-        self.length = L.length[self.act]
-        self.radius = L.radius[self.act]
-        self.mass = L.mass[self.act]
-        self.inertia = L.inertia[self.act]
         n = self.act.size
+        self.state = np.empty((n, NSTATE))
+        take_rows(idx, L.state, self.state)
+        self.P = np.empty((n, self.P_all.shape[1]))
+        take_rows(idx, self.P_all, self.P)
+        self.face = L.face[idx]
+        self.ids = L.id[idx]
+        self.length = L.length[idx]
+        self.radius = L.radius[idx]
+        self.mass = L.mass[idx]
+        self.inertia = L.inertia[idx]
         self.F = np.zeros((n, NVAR))
         self.flag = np.zeros(n, np.int8)
         self._F_valid = False
@@ -227,19 +231,25 @@ class Tracker:
         if kept is not None:
             # logs that stay floating keep their flow sample and first stage: the same numbers
             # as sampling them again from their faces, without the pass
-            self.F[:], self.flag[:], self.D0[:], self.lin0[:] = kept
+            pos = kept[0]
+            for src, out in zip(kept[1:4], (self.F, self.D0, self.lin0), strict=True):
+                take_rows(pos, src, out)
+            self.flag[:] = kept[-1][pos]
             self._F_valid = self._d0_valid = True
 
     def _kept_stage(self, idx):
-        """Rows of F, flag, D0, lin0 for the logs ``idx`` when all were already floating."""
+        """Where the logs ``idx`` stand in the compact arrays, and the rows there.
+
+        The positions, then F, D0, lin0 and flag; None unless all were already floating.
+        """
         old = getattr(self, "act", None)
         if not (self.fused and self._d0_valid and self._F_valid and old is not None
                 and old.size and idx.size):
             return None
-        pos = np.minimum(np.searchsorted(old, idx), old.size - 1)
-        if not np.array_equal(old[pos], idx):
+        pos = np.empty(idx.size, np.int64)
+        if not subset_positions(old, idx, pos):
             return None
-        return self.F[pos], self.flag[pos], self.D0[pos], self.lin0[pos]
+        return pos, self.F, self.D0, self.lin0, self.flag
 
     def _scatter(self):
         """Write the compact state back into the full arrays."""
