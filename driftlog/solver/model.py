@@ -221,6 +221,7 @@ class ShallowWaterSolver:
             ekind[bs.edges] = bs.kind
             wall = (nbr < 0) & (self._fe >= 0) & (ekind[np.maximum(self._fe, 0)] == WALL)
             self._gnbr = np.ascontiguousarray(np.where(wall, -2, nbr))
+            self._open_edge = np.ascontiguousarray((self._gnbr == -1).any(1))
             zj = self._z[np.where(nbr >= 0, nbr, np.arange(nf)[:, None])]
             self._thin_eps = self.thin_fraction * np.abs(zj - self._z[:, None]).max(1)
             # the reconstructed states of the two sides of each edge (written by the gradient
@@ -233,7 +234,7 @@ class ShallowWaterSolver:
             # keep them)
             limited_gradients.serial(np.arange(nf, dtype=np.int64), np.zeros(nf), np.zeros(nf),
                                      np.zeros(nf), self._z, self.dry_depth, self._fn, self._gnbr,
-                                     *self._lsq, self._rows, self._est)
+                                     *self._lsq, self._rows, self._est, self._open_edge)
             self._eoff = self._lsq[2]
         else:
             self._est = np.zeros((0, NSTATE))  # no edge states at first order
@@ -382,7 +383,7 @@ class ShallowWaterSolver:
         if m.order == 2:
             offset, minv, eoff = m._lsq
             m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._gnbr, offset, minv, eoff,
-                      m._rows, m._est)
+                      m._rows, m._est, m._open_edge)
         fm, fx0, fy0, fx1, fy1, sp, sp1 = m._flux
         if m.order == 1:
             m._k_edges(edges, m._ef, m._nx, m._ny, m._len, h, hu, hv, m._z, RIEMANN[m.riemann],

@@ -92,6 +92,21 @@ def _bj(phi, g_x, g_y, ex, ey, qc, qmin, qmax, ext):
 
 
 @nb.njit(cache=True, inline="always")
+def _bj2(dmax, dmin, qc, qmin, qmax):
+    """Barth-Jespersen factor of a face with no open-boundary edge, from its extreme dq.
+
+    Every edge's bound is then qmax - qc where dq > 0 and qmin - qc where dq < 0, so the
+    smallest ratio of each sign is the one of the largest |dq| (a correctly rounded division
+    is monotone): ``_bj`` over the edges gives the same factor with two divisions, not one
+    per edge.  ``dmax`` >= 0 and ``dmin`` <= 0 are the largest and smallest dq (0: none).
+    """
+    rp = (qmax + 0.0 - qc) / (dmax if dmax > 0.0 else 1.0)
+    rm = (qmin - 0.0 - qc) / (dmin if dmin < 0.0 else 1.0)
+    p = min(1.0, rp) if dmax > 0.0 else 1.0
+    return min(p, rm) if dmin < 0.0 else p
+
+
+@nb.njit(cache=True, inline="always")
 def _slot(est, r, he, ue, ve, ze):
     """Store a face's state at one of its edges in row ``r`` of ``est`` (``EDGE_STATE``)."""
     est[r, 0] = he
@@ -128,7 +143,7 @@ def first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdr
 
 @kernel
 def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset,
-                      rows, est):
+                      rows, est, open_edge):
     """The reconstructed states of ``faces`` at their edges, from limited gradients.
 
     Fills row ``rows[f, k]`` of ``est`` (2 n_edges, ``NSTATE``) for face f's k-th edge e
@@ -137,6 +152,8 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
     velocity (u_e, v_e) = (hu_e, hv_e) / h_e (0 where h_e <= ``hdry``) and bed
     z_e = eta_e - h_e, so that the edge-flux kernel reads them and computes nothing twice.
     ``faces``: the active set's faces (``driftlog.solver.layout``); other rows keep theirs.
+    ``open_edge[f]``: face f has an open-boundary edge (a -1 in ``neighbours``), where the
+    limiter's bound is widened edge by edge.
     One pass over the neighbours gathers the four least-squares sums, their ranges and the
     velocities' range; one pass over the edges limits the four gradients; one more computes
     the edge states (and checks the edge velocities).
@@ -220,15 +237,37 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         # MacDonald's channel its second order); a wall (-2) is not widened: its mirror state
         # holds the level and the speed, and widening there let Ritter's dry front on
         # triangles grow noisy under refinement
-        p0 = p1 = p2 = p3 = 1.0
-        for k in range(n):
-            ex = edge_offset[f, k, 0]
-            ey = edge_offset[f, k, 1]
-            bnd = neighbours[f, k] == -1
-            p0 = _bj(p0, gx0, gy0, ex, ey, c0, mn0, mx0, mx0 - mn0 if bnd else 0.0)
-            p1 = _bj(p1, gx1, gy1, ex, ey, hi, mn1, mx1, mx1 - mn1 if bnd else 0.0)
-            p2 = _bj(p2, gx2, gy2, ex, ey, c2, mn2, mx2, mx2 - mn2 if bnd else 0.0)
-            p3 = _bj(p3, gx3, gy3, ex, ey, c3, mn3, mx3, mx3 - mn3 if bnd else 0.0)
+        if open_edge[f]:
+            p0 = p1 = p2 = p3 = 1.0
+            for k in range(n):
+                ex = edge_offset[f, k, 0]
+                ey = edge_offset[f, k, 1]
+                bnd = neighbours[f, k] == -1
+                p0 = _bj(p0, gx0, gy0, ex, ey, c0, mn0, mx0, mx0 - mn0 if bnd else 0.0)
+                p1 = _bj(p1, gx1, gy1, ex, ey, hi, mn1, mx1, mx1 - mn1 if bnd else 0.0)
+                p2 = _bj(p2, gx2, gy2, ex, ey, c2, mn2, mx2, mx2 - mn2 if bnd else 0.0)
+                p3 = _bj(p3, gx3, gy3, ex, ey, c3, mn3, mx3, mx3 - mn3 if bnd else 0.0)
+        else:  # the edges' extreme increments, then two divisions per quantity (_bj2)
+            a0 = a1 = a2 = a3 = b0 = b1 = b2 = b3 = 0.0
+            for k in range(n):
+                ex = edge_offset[f, k, 0]
+                ey = edge_offset[f, k, 1]
+                d = gx0 * ex + gy0 * ey
+                a0 = max(a0, d)
+                b0 = min(b0, d)
+                d = gx1 * ex + gy1 * ey
+                a1 = max(a1, d)
+                b1 = min(b1, d)
+                d = gx2 * ex + gy2 * ey
+                a2 = max(a2, d)
+                b2 = min(b2, d)
+                d = gx3 * ex + gy3 * ey
+                a3 = max(a3, d)
+                b3 = min(b3, d)
+            p0 = _bj2(a0, b0, c0, mn0, mx0)
+            p1 = _bj2(a1, b1, hi, mn1, mx1)
+            p2 = _bj2(a2, b2, c2, mn2, mx2)
+            p3 = _bj2(a3, b3, c3, mn3, mx3)
         # depth-ratio blending towards first order (docs/model.md eq. (80)): a neighbour far
         # shallower or far deeper than the face marks a wet/dry front or a steep bank
         # (both ratios above 0.31 make both terms > 1 whatever the round-off: beta = 1 without
