@@ -59,7 +59,7 @@ from driftlog.fused import (
     take_rows,
 )
 from driftlog.integrators import RK4_C, make_integrator
-from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, WAITING, flotation_depth
+from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, WAITING, flotation_depths
 from driftlog.physics import (
     PhysicsOptions,
     log_parameters,
@@ -156,6 +156,10 @@ class Tracker:
                 f"per-log clocks run in the fused mesh kernels: they need a mesh flow sampled P1 "
                 f"(this flow: {getattr(flow, 'name', type(flow).__name__)}) and "
                 f"integrator.method euler or rk4 (here {method!r}); use clock = 'global'")
+        if not self.step_options.land_on_snapshots and self.clock != "global":
+            raise ScenarioError("integrator.land_on_snapshots", False,
+                                "needs clock = 'global' (per-log clocks meet at every "
+                                "snapshot); set land_on_snapshots = true or clock = 'global'")
         self.t = float(t_start)
         t0f, t1f = flow.time_span
         self.t_end = float(t_end if t_end is not None else t1f)
@@ -478,8 +482,9 @@ class Tracker:
         L.density[idx] = density
         L.mass[idx] = L.density[idx] * L.volume[idx]
         L.inertia[idx] = L.mass[idx] * (L.length[idx] ** 2 / 12.0 + L.radius[idx] ** 2 / 4.0)
-        L.float_depth[idx] = [flotation_depth(r, d, L.water_density)
-                              for r, d in zip(L.radius[idx], L.density[idx], strict=True)]
+        L.float_depth[idx] = flotation_depths(np.ascontiguousarray(L.radius[idx], float),
+                                              np.ascontiguousarray(L.density[idx], float),
+                                              float(L.water_density))
         self.P_all[:] = log_parameters(L.length, L.radius, L.density, L.float_depth)
 
     def _update_status(self, pool=None):
@@ -598,6 +603,8 @@ class Tracker:
         if hydro.size <= 1:
             n = int(np.ceil((t1 - t0) / self.hydro_step - 1e-9))
             hydro = t0 + self.hydro_step * np.arange(n + 1)
+        elif not self.step_options.land_on_snapshots:
+            hydro = hydro[:0]  # each stage samples the pair of snapshots around its own time
         n_out = int(np.floor((t1 - t0) / self.output_interval + 1e-9))
         outs = t0 + self.output_interval * np.arange(n_out + 1)
         self._outputs = np.unique(np.append(outs, t1))
