@@ -199,7 +199,7 @@ def main(argv=None):
                     notes=f"Started on {start}. Best of {args.repeat} runs of the steps, CPU "
                           "(process) time of each kernel call; an order-2 step runs the "
                           "gradients, fluxes and residuals twice (Heun); other: the Python "
-                          "between the kernels (boundary volumes, the CFL max, copies).")
+                          "between the kernels (boundary volumes, the CFL max).")
         return
     orderings = args.orderings.split(",")
     sizes = [(1e4, 300), (1e5, 40)] + ([] if args.quick else [(1e6, 8)])
