@@ -11,7 +11,7 @@ CPU second of the process (``time.process_time``: the machine is shared, wall ti
 other people's jobs), i.e. per core.
 
     python benchmarks/tracking_benchmark.py [--quick | --breakdown | --targets | --forces |
-                                             --before-after] [--label NAME]
+                                             --before-after | --threads] [--label NAME]
 
 writes benchmarks/results/tracking.csv and .md, and tracking_breakdown.csv and .md (where
 an RK4 log-step's time goes); ``--targets`` only the issue's two targets at 1e5 logs on one
@@ -191,6 +191,52 @@ def targets(n=100_000, steps=20, repeat=3, label=""):
     return rows
 
 
+def thread_scaling(n=100_000, steps=20, repeat=3):
+    """Two threads against one on ``n`` logs (issue 15: >= 1.7x on an idle machine).
+
+    Full-physics RK4 and tracer RK4, fused kernels, best wall time of ``repeat`` runs on 1
+    and on 2 threads, alternately, with the load average before and after (only a quiet
+    machine gives a meaningful wall-time ratio).
+    """
+    import os
+
+    mesh = malpasset_mesh()
+    flow = vortex_flow(mesh)
+    x, y = points(mesh, n, np.random.default_rng(3))
+    rows = []
+    for level in ("full", "tracer"):
+        best = {}
+        load0 = os.getloadavg()[0]
+        for threads in (1, 2):
+            numba.set_num_threads(threads)
+            one(flow, x[:2049], y[:2049], level, "rk4", 2)  # compile / load the cache
+        for _ in range(repeat):
+            for threads in (1, 2):
+                numba.set_num_threads(threads)
+                sub, wall, cpu, _used = one(flow, x, y, level, "rk4", steps)
+                if threads not in best or wall < best[threads][1]:
+                    best[threads] = (sub, wall, cpu)
+        load1 = os.getloadavg()[0]
+        for threads in (1, 2):
+            sub, wall, cpu = best[threads]
+            rows.append(dict(logs=n, level=level, integrator="rk4", threads=threads,
+                             substeps=sub, seconds=wall, cpu_seconds=cpu,
+                             log_steps_per_s=n * sub / wall,
+                             speedup=best[1][1] / wall, load=f"{load0:.1f}-{load1:.1f}"))
+            print(rows[-1], flush=True)
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    write_table("tracking_threads", rows, ["logs", "level", "integrator", "threads",
+                                           "substeps", "seconds", "cpu_seconds",
+                                           "log_steps_per_s", "speedup", "load"],
+                f"Two threads against one ({n:.0e} logs, fused RK4, best wall time of "
+                f"{repeat} runs)",
+                "speedup: wall time on 1 thread / wall time on this many threads; load: the "
+                "machine's 1-minute load average before and after (2 cores).  Flow: free "
+                "vortex on the Malpasset mesh.  Re-create: "
+                "`python benchmarks/tracking_benchmark.py --threads`.")
+    return rows
+
+
 def before_after(combos=(("tracer", "rk4"), ("full", "rk4"), ("tracer", "euler")),
                  n=100_000, steps=20, repeat=3):
     """The fused step with and without settling and tracer kernels, in one process.
@@ -332,9 +378,13 @@ if __name__ == "__main__":
                    help="only the cost of one force evaluation (1 thread)")
     p.add_argument("--before-after", action="store_true",
                    help="the fused step with and without settling / tracer kernels (1 thread)")
+    p.add_argument("--threads", action="store_true",
+                   help="only 2 threads against 1 on 1e5 logs (full and tracer RK4)")
     p.add_argument("--label", default="", help="name of the code measured (--targets, --forces)")
     a = p.parse_args()
-    if a.forces:
+    if a.threads:
+        thread_scaling()
+    elif a.forces:
         forces(label=a.label)
     elif a.before_after:
         before_after()

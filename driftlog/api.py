@@ -212,6 +212,8 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         flow = coupling.flow
     if flow is None:
         flow = flow_from_scenario(scen, progress=progress)
+    if writer is None and scen["time"]["end"] is None:  # the run ends with the flow: its size
+        estimate_run(scen, out, flow)
     logs = logs_from_scenario(scen)
     check_start(scen, flow, logs, warn=writer is None)  # outside the mesh, in an obstacle
     if writer is None and not resume and coupling is None:  # every snapshot the run reads

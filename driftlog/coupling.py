@@ -243,6 +243,9 @@ class CoupledTracker(Tracker):
         if getattr(self.step_options, "clock", "global") != "global":
             raise ScenarioError("integrator.clock", self.step_options.clock, "[coupling] takes "
                                 "the global clock: every log lands on each hydrodynamic step")
+        if not getattr(self.step_options, "land_on_snapshots", True):
+            raise ScenarioError("integrator.land_on_snapshots", False, "[coupling] lands "
+                                "every log on each hydrodynamic step: set it to true")
         if self.physics.fluid_volume != "body":
             raise ScenarioError("physics.fluid_volume", self.physics.fluid_volume, "[coupling] "
                                 "needs fluid_volume = 'body' (a constant added mass)")

@@ -154,16 +154,31 @@ def describe(path) -> str:
         return "\n".join([f"{p}: mesh file (no flow)", "  " + _mesh_line(mesh),
                           f"  bed at nodes: {_range(z, 'm') if z is not None else 'none'}"])
     if fk.kind == "scenario":
+        from driftlog.cli.common import ensemble_section
         from driftlog.scenario import load_scenario
 
-        scen = load_scenario(p)
+        ens = None
+        if ensemble_section(p) is not None:  # its base merged
+            from driftlog.ensemble.spec import load_ensemble
+
+            ens = load_ensemble(p)
+            scen = ens.scenario
+        else:
+            scen = load_scenario(p)
         nlogs = len(scen["logs"])
         tm = scen["time"]
         return "\n".join([
-            f"{p}: scenario file (valid)", f"  title: {scen['title']}",
+            f"{p}: " + ("ensemble file" if ens is not None else "scenario file") + " (valid)",
+            f"  title: {scen['title']}",
+            *([f"  ensemble: {ens.members} members ({ens.section['sampling']}, seed "
+               f"{ens.seed}) varying " + (", ".join(q.path for q in ens.parameters) or "nothing")
+               + (f"; base scenario {ens.section['base']}" if ens.section.get("base") else "")
+               + f"; run with `driftlog ensemble {p}`"] if ens is not None else []),
             f"  flow: source {scen['flow']['source']!r}"
             + (f", {scen['flow']['path']}" if scen["flow"]["path"] else ""),
-            f"  time: {tm['start']:g} to {tm['end']:g} s, output every "
+            f"  time: {tm['start']:g} to "
+            + (f"{tm['end']:g} s" if tm["end"] is not None else "the end of the flow")
+            + ", output every "
             f"{tm['output_interval']:g} s",
             f"  {nlogs} log groups, {len(scen['obstacles'])} obstacles, physics "
             f"{scen['physics']['level']}, integrator {scen['integrator']['method']}, contacts "

@@ -355,4 +355,8 @@ INTEGRATOR_SECTION = Section("integrator", [
         "sub-step any needs (the paper's Algorithm 1); per_log: each log with its own sub-steps, "
         "logs meeting at outputs, snapshots, releases and contacts (mesh flows, euler or rk4)",
         choices=("global", "per_log")),
+    Key("land_on_snapshots", "bool", True, "true: every sub-step ends at each snapshot of the "
+        "flow (the paper: logs advance inside a hydrodynamic step); false: sub-steps run "
+        "across snapshots, each stage reading the flow at its own time (linear between "
+        "snapshots, as OceanTracker and Parcels step); global clock, not coupled"),
 ], doc="time integration (docs/model.md sections 11-12)")

@@ -8,9 +8,12 @@ mesh; and logs against obstacles at the start, by this rule:
 
 - **error**: a log's centre lies inside an obstacle (a circle pier or a polygon) while contacts
   are on; the contact model has no side to push it out to.
-- **warning**: a log's body (its capsule) overlaps an obstacle or a wall while its centre is
-  outside it; the contact model separates them on the first step, with an impulse that does
-  not come from the flow.
+- **error**: a log's axis enters an obstacle or crosses a wall (an overlap deeper than the
+  log's radius) while contacts are on; the contact model separates bodies whose axes are
+  apart, and such a log would stay pinned where it starts.
+- **warning**: a log's body (its capsule) overlaps an obstacle or a wall, less deep than its
+  radius; the contact model separates them on the first step, with an impulse that does not
+  come from the flow.
 - **warning**: obstacles are given but ``[contact] enabled = false``: the logs pass through them.
 
 Warnings are ``DriftlogWarning`` (the CLI prints ``driftlog: warning: ...``); errors are
@@ -27,7 +30,8 @@ import numpy as np
 from driftlog.columns import THETA, X, Y
 from driftlog.errors import DriftlogWarning, ScenarioError
 
-__all__ = ["check_start", "check_scenario", "check_flow_values", "count_logs", "estimate_run"]
+__all__ = ["check_start", "check_scenario", "check_flow_values", "count_logs", "estimate_run",
+           "run_end"]
 
 
 def _log_capsules(logs):
@@ -36,47 +40,42 @@ def _log_capsules(logs):
     return np.column_stack([x - hx, y - hy, x + hx, y + hy, logs.radius])
 
 
-def _segment_distance(px, py, caps):
-    """Distance from points (n,) to segments caps (n, 4), pairwise: (n,)."""
-    ax, ay, bx, by = (caps[:, k] for k in range(4))
-    dx, dy = bx - ax, by - ay
-    ll = dx * dx + dy * dy
-    t = np.clip(((px - ax) * dx + (py - ay) * dy) / np.where(ll > 0, ll, 1.0), 0.0, 1.0)
-    return np.hypot(px - (ax + t * dx), py - (ay + t * dy))
-
-
 _PAIRS = 1 << 20  # (log, obstacle) pairs measured at a time: bounded memory
 
 
-def _capsule_gaps(logs, caps):
-    """Smallest gap between each log capsule and the obstacle capsules near it (n,).
+def _capsule_gaps(logs, caps, deepest=False):
+    """Smallest signed gap between each log capsule and the obstacle capsules near it (n,).
 
-    Each log axis is sampled at 9 points: exact for circles and at the axis ends; a segment
-    crossing the axis between two samples is found as an overlap all the same (its distance
-    to the nearest sample is below L/16).  Only the pairs whose boxes touch are measured (the
-    contact broad phase's static grid): a log far from every obstacle gets +inf, as its gap is
-    positive anyway; time and memory grow with the logs, not logs x obstacles.
+    Exact (``contact.geometry.capsule_gap``, the contact model's own measure: a log whose axis
+    crosses a wall segment gets the depth of the crossing, minus both radii).  Only the pairs
+    whose boxes touch are measured (the contact broad phase's static grid): a log far from
+    every obstacle gets +inf, as its gap is positive anyway; time and memory grow with the
+    logs, not logs x obstacles.  ``deepest``: also the row of ``caps`` giving each gap (-1
+    where none is near).
     """
+    from driftlog.columns import GAP, NRES
     from driftlog.contact.broadphase import StaticGrid
+    from driftlog.contact.geometry import capsule_pair_gaps
 
     lc = _log_capsules(logs)
     best = np.full(len(logs), np.inf)
+    which = np.full(len(logs), -1, np.int64)
     if caps.shape[0] == 0 or len(logs) == 0:
-        return best
+        return (best, which) if deepest else best
     ex = 0.5 * np.abs(lc[:, 2] - lc[:, 0]) + lc[:, 4]
     ey = 0.5 * np.abs(lc[:, 3] - lc[:, 1]) + lc[:, 4]
     cx, cy = 0.5 * (lc[:, 0] + lc[:, 2]), 0.5 * (lc[:, 1] + lc[:, 3])
     pairs = StaticGrid(caps, 2.0 * max(float(ex.max()), float(ey.max()))).query(cx, cy, ex, ey)
     for p0 in range(0, pairs.shape[0], _PAIRS):
         i, k = pairs[p0:p0 + _PAIRS, 0], pairs[p0:p0 + _PAIRS, 1]
-        c, li = caps[k], lc[i]
-        gap = np.full(i.size, np.inf)
-        for s in np.linspace(0.0, 1.0, 9):
-            px = li[:, 0] + s * (li[:, 2] - li[:, 0])
-            py = li[:, 1] + s * (li[:, 3] - li[:, 1])
-            gap = np.minimum(gap, _segment_distance(px, py, c) - c[:, 4] - li[:, 4])
+        res = np.empty((i.size, NRES))
+        capsule_pair_gaps(np.ascontiguousarray(lc[i]), np.ascontiguousarray(caps[k]), res)
+        gap = res[:, GAP]
         np.minimum.at(best, i, gap)
-    return best
+        if deepest:
+            hit = gap == best[i]
+            which[i[hit]] = k[hit]
+    return (best, which) if deepest else best
 
 
 def _inside_obstacle(scen, x, y):
@@ -144,7 +143,24 @@ def check_start(scen, flow, logs, mesh=None, warn=True):
 
         obs = Obstacles.from_tables(scen["obstacles"],
                                     walls=mesh if scen["contact"]["walls"] else None)
-        gap = _capsule_gaps(logs, obs.capsules)
+        gap, cap = _capsule_gaps(logs, obs.capsules, deepest=True)
+        # an overlap as deep as the log's radius or deeper: its axis enters the obstacle or
+        # crosses a wall segment (whose own depth may be nil where the log crosses at a
+        # vertex between two segments, hence <=); the contact model separates bodies whose
+        # axes are apart, not these (such a log stays pinned where it starts)
+        across = np.flatnonzero(gap <= -logs.radius)
+        if across.size:
+            i = int(across[0])
+            k = int(obs.owner[cap[i]])
+            what = ("the mesh's boundary (a wall)" if obs.kinds[k] == "walls"
+                    else f"obstacle {obs.names[k]!r}")
+            raise ScenarioError(f"logs[{logs.group[i]}]", f"x = {logs.state[i, X]:.6g}, "
+                                f"y = {logs.state[i, Y]:.6g}, theta = "
+                                f"{logs.state[i, THETA]:.6g}",
+                                f"log {i} (length {logs.length[i]:.6g} m) starts with its axis "
+                                f"across {what} ({across.size} logs in all); the contact "
+                                "model cannot push it out; release every log with its whole "
+                                "length inside the flow domain and clear of the obstacles")
         over = np.flatnonzero(gap < 0)
         if over.size:
             i = int(over[np.argmin(gap[over])])
@@ -173,7 +189,8 @@ def check_flow_values(flow, t0, t1):
     if times.size == 0 or not hasattr(flow, "read_snapshot"):
         return 0
     lo = max(int(np.searchsorted(times, t0, side="right")) - 1, 0)
-    hi = min(int(np.searchsorted(times, t1, side="left")), times.size - 1)
+    hi = times.size - 1 if t1 is None else min(int(np.searchsorted(times, t1, side="left")),
+                                               times.size - 1)
     for i in range(lo, hi + 1):
         flow.read_snapshot(i)
     return hi - lo + 1
@@ -223,6 +240,10 @@ def check_scenario(scen, logs, output=None, read_flow=True):
 
         flow = flow_from_scenario(scen)
         done.append(f"flow {getattr(flow, 'name', src)} readable")
+        if scen["time"]["end"] is None:  # the run ends with the flow: its size known now
+            n, nobs, mem = estimate_run(scen, out, flow)
+            done[0] = (f"output {out} writable; {n} logs, {nobs:.3g} observations to the "
+                       f"flow's end ({run_end(scen, flow):g} s), about {mem / 2**20:.3g} MiB")
     if flow is not None and read_flow:
         k = check_flow_values(flow, scen["time"]["start"], scen["time"]["end"])
         if k:
@@ -245,15 +266,35 @@ def count_logs(scen) -> int:
     return n
 
 
-def estimate_run(scen, output=None):
+def run_end(scen, flow=None):
+    """The end of the debris run (s): ``[time] end``, else the end of the flow.
+
+    The flow's end is the solver's ``end`` for a solver or coupled flow, else the last time of
+    ``flow`` once it is open; None when it is not known yet (a flow file not opened, an
+    analytic flow, which needs ``[time] end``).
+    """
+    tm = scen["time"]
+    if tm["end"] is not None:
+        return float(tm["end"])
+    if scen["flow"]["source"] == "solver" or scen["coupling"]["enabled"]:
+        return scen["solver"]["end"]
+    if flow is not None:
+        t1 = float(flow.time_span[1])
+        return t1 if np.isfinite(t1) else None
+    return None
+
+
+def estimate_run(scen, output=None, flow=None):
     """Refuse (``SizeError``) a run too large for this machine, before anything is allocated.
 
     Memory: about 2 kB per log for the tracker (state, integrator stages, flow samples,
     contacts) and the buffered records (``flush_interval`` records of 85 bytes per log, at most
     ``trajectory.MAX_BUFFERED_OBS`` observations), and the final rewrite of the trajectory
     file, 16 bytes per observation (one variable at a time, with its sort order).  Disk: 85
-    bytes per observation, twice (the ``.partial`` file and the final file).  Returns (logs,
-    observations, bytes of memory).
+    bytes per observation, twice (the ``.partial`` file and the final file).  Without
+    ``[time] end`` the run ends with the flow (``run_end``): before the flow is open (``flow``
+    None) only the logs' own memory is counted, and the caller estimates again once it is.
+    Returns (logs, observations, bytes of memory).
     """
     import shutil
 
@@ -261,7 +302,8 @@ def estimate_run(scen, output=None):
 
     n = count_logs(scen)
     tm = scen["time"]
-    records = int((tm["end"] - tm["start"]) / tm["output_interval"]) + 2
+    end = run_end(scen, flow)
+    records = 2 if end is None else int(max(end - tm["start"], 0.0) / tm["output_interval"]) + 2
     nobs = float(n) * records
     from driftlog.trajectory import MAX_BUFFERED_OBS
 

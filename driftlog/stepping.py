@@ -36,7 +36,8 @@ class StepOptions:
 
     ``clock``: "global" (Algorithm 1: every floating log takes the smallest sub-step any
     needs) or "per_log" (each log its own sub-steps between synchronisation times,
-    ``driftlog.clocks``; docs/model.md section 11.1).
+    ``driftlog.clocks``; docs/model.md section 11.1).  ``land_on_snapshots``: sub-steps end
+    at every snapshot time of the flow (the paper); False lets them run across (section 11).
     """
 
     length_fraction: float = 1.0
@@ -45,12 +46,14 @@ class StepOptions:
     max_step: float | None = None
     min_step: float = 1e-9
     clock: str = "global"
+    land_on_snapshots: bool = True
 
     @classmethod
     def from_scenario(cls, section):
         """From a validated [integrator] section."""
         return cls(section["length_fraction"], section["angle_step"], section["drag_fraction"],
-                   section["max_step"], section["min_step"], section.get("clock", "global"))
+                   section["max_step"], section["min_step"], section.get("clock", "global"),
+                   section.get("land_on_snapshots", True))
 
 
 @nb.njit(cache=True)

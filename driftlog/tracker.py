@@ -55,9 +55,11 @@ from driftlog.fused import (
     rk4_mesh_step,
     rk4_tracer_step,
     settle_summary,
+    subset_positions,
+    take_rows,
 )
 from driftlog.integrators import RK4_C, make_integrator
-from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, WAITING, flotation_depth
+from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED, WAITING, flotation_depths
 from driftlog.physics import (
     PhysicsOptions,
     log_parameters,
@@ -154,6 +156,10 @@ class Tracker:
                 f"per-log clocks run in the fused mesh kernels: they need a mesh flow sampled P1 "
                 f"(this flow: {getattr(flow, 'name', type(flow).__name__)}) and "
                 f"integrator.method euler or rk4 (here {method!r}); use clock = 'global'")
+        if not self.step_options.land_on_snapshots and self.clock != "global":
+            raise ScenarioError("integrator.land_on_snapshots", False,
+                                "needs clock = 'global' (per-log clocks meet at every "
+                                "snapshot); set land_on_snapshots = true or clock = 'global'")
         self.t = float(t_start)
         t0f, t1f = flow.time_span
         self.t_end = float(t_end if t_end is not None else t1f)
@@ -201,15 +207,17 @@ class Tracker:
         kept = self._kept_stage(idx)
         self.act = idx
         L = self.logs
-        self.state = np.ascontiguousarray(L.state[self.act])
-        self.face = L.face[self.act].copy()
-        self.P = np.ascontiguousarray(self.P_all[self.act])
-        self.ids = L.id[self.act]
-        self.length = L.length[self.act]
-        self.radius = L.radius[self.act]
-        self.mass = L.mass[self.act]
-        self.inertia = L.inertia[self.act]
         n = self.act.size
+        self.state = np.empty((n, NSTATE))
+        take_rows(idx, L.state, self.state)
+        self.P = np.empty((n, self.P_all.shape[1]))
+        take_rows(idx, self.P_all, self.P)
+        self.face = L.face[idx]
+        self.ids = L.id[idx]
+        self.length = L.length[idx]
+        self.radius = L.radius[idx]
+        self.mass = L.mass[idx]
+        self.inertia = L.inertia[idx]
         self.F = np.zeros((n, NVAR))
         self.flag = np.zeros(n, np.int8)
         self._F_valid = False
@@ -227,19 +235,25 @@ class Tracker:
         if kept is not None:
             # logs that stay floating keep their flow sample and first stage: the same numbers
             # as sampling them again from their faces, without the pass
-            self.F[:], self.flag[:], self.D0[:], self.lin0[:] = kept
+            pos = kept[0]
+            for src, out in zip(kept[1:4], (self.F, self.D0, self.lin0), strict=True):
+                take_rows(pos, src, out)
+            self.flag[:] = kept[-1][pos]
             self._F_valid = self._d0_valid = True
 
     def _kept_stage(self, idx):
-        """Rows of F, flag, D0, lin0 for the logs ``idx`` when all were already floating."""
+        """Where the logs ``idx`` stand in the compact arrays, and the rows there.
+
+        The positions, then F, D0, lin0 and flag; None unless all were already floating.
+        """
         old = getattr(self, "act", None)
         if not (self.fused and self._d0_valid and self._F_valid and old is not None
                 and old.size and idx.size):
             return None
-        pos = np.minimum(np.searchsorted(old, idx), old.size - 1)
-        if not np.array_equal(old[pos], idx):
+        pos = np.empty(idx.size, np.int64)
+        if not subset_positions(old, idx, pos):
             return None
-        return self.F[pos], self.flag[pos], self.D0[pos], self.lin0[pos]
+        return pos, self.F, self.D0, self.lin0, self.flag
 
     def _scatter(self):
         """Write the compact state back into the full arrays."""
@@ -468,8 +482,9 @@ class Tracker:
         L.density[idx] = density
         L.mass[idx] = L.density[idx] * L.volume[idx]
         L.inertia[idx] = L.mass[idx] * (L.length[idx] ** 2 / 12.0 + L.radius[idx] ** 2 / 4.0)
-        L.float_depth[idx] = [flotation_depth(r, d, L.water_density)
-                              for r, d in zip(L.radius[idx], L.density[idx], strict=True)]
+        L.float_depth[idx] = flotation_depths(np.ascontiguousarray(L.radius[idx], float),
+                                              np.ascontiguousarray(L.density[idx], float),
+                                              float(L.water_density))
         self.P_all[:] = log_parameters(L.length, L.radius, L.density, L.float_depth)
 
     def _update_status(self, pool=None):
@@ -588,6 +603,8 @@ class Tracker:
         if hydro.size <= 1:
             n = int(np.ceil((t1 - t0) / self.hydro_step - 1e-9))
             hydro = t0 + self.hydro_step * np.arange(n + 1)
+        elif not self.step_options.land_on_snapshots:
+            hydro = hydro[:0]  # each stage samples the pair of snapshots around its own time
         n_out = int(np.floor((t1 - t0) / self.output_interval + 1e-9))
         outs = t0 + self.output_interval * np.arange(n_out + 1)
         self._outputs = np.unique(np.append(outs, t1))

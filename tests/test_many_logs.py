@@ -6,7 +6,7 @@
   the same as with one flush at the end;
 - the start check of logs against walls and obstacles measures only the pairs whose boxes
   touch (was: every log against every wall capsule, (n, 2048) arrays at a time): the same
-  overlaps and gaps as the brute-force check.
+  overlaps and gaps as the brute-force check (the contact model's exact gap, every pair).
 """
 
 import netCDF4
@@ -54,6 +54,18 @@ def test_buffer_bounded_and_file_unchanged(tmp_path, monkeypatch):
         assert np.all(np.diff(t[s:s + r]) > 0), i
 
 
+def _exact_gaps(logs, caps):
+    """Every log against every capsule, the contact model's exact signed gap."""
+    from driftlog.columns import GAP, NRES
+    from driftlog.contact.geometry import capsule_pair_gaps
+
+    lc = _log_capsules(logs)
+    n, m = len(logs), caps.shape[0]
+    res = np.empty((n * m, NRES))
+    capsule_pair_gaps(np.repeat(lc, m, axis=0), np.tile(caps, (n, 1)), res)
+    return res[:, GAP].reshape(n, m).min(axis=1)
+
+
 def _brute_gaps(logs, caps):
     """Every log against every capsule, 9 samples on each log axis (the check before)."""
     lc = _log_capsules(logs)
@@ -82,7 +94,9 @@ def test_start_overlaps_found_pairwise(monkeypatch):
     import driftlog.preflight as pf
 
     monkeypatch.setattr(pf, "_PAIRS", 257)  # several blocks of pairs
-    gap, ref = _capsule_gaps(logs, caps), _brute_gaps(logs, caps)
+    gap, ref = _capsule_gaps(logs, caps), _exact_gaps(logs, caps)
+    # the exact gap is at most the distance from 9 samples of the axis (an upper bound)
+    assert np.all(ref <= _brute_gaps(logs, caps) + 1e-12)
     assert np.sum(ref < 0) > 100 and np.sum(ref >= 0) > 100
     np.testing.assert_array_equal(gap < 0, ref < 0)
     # overlaps: the same depth (the deepest capsule's box touches the log's); elsewhere only

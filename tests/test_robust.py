@@ -375,6 +375,81 @@ def test_scenario_check_runs_the_checks_of_track(tmp_path, capsys):
     assert "valid: the run will start" in out.out
 
 
+def test_log_across_a_wall_or_through_a_pier_is_an_error(tmp_path, capsys):
+    """A log whose axis crosses a wall (or passes through a pier) cannot be pushed out by the
+    contact model (it stayed pinned at its release point, 'floating', for the whole run): an
+    error from check and track alike; a shallower overlap stays a warning."""
+    flow = _flow_file(tmp_path / "f.nc")
+    on = "[contact]\nenabled = true\n"
+    pier = on + "walls = false\n[[obstacles]]\nname = 'pier'\ntype = 'circle'\n"
+    cases = {  # mesh 0..10 x 0..4; logs 0.5 m long, 0.05 m in radius
+        "wall": (dict(x=(5.3, 3.0), y=(0.1, 2.0)), on, "across the mesh's boundary (a wall)"),
+        "wall_at_a_node": (dict(x=(5.0, 3.0), y=(0.1, 2.0)), on,
+                           "across the mesh's boundary (a wall)"),
+        # the log's centre 0.22 m from the pier's, its axis 0.1 m: through the pier
+        "pier": (dict(x=(2.0, 3.0), y=(2.0, 2.0)),
+                 pier + "center = [2.2, 2.1]\nradius = 0.15\n", "across obstacle 'pier'"),
+    }
+    for case, (xy, extra, what) in cases.items():
+        s = _scenario_on_file(tmp_path, flow, **xy, extra=extra)
+        text = s.read_text().replace("[physics]", "theta = [1.5707963, 0.0]\n[physics]")
+        if case == "pier":
+            text = text.replace("theta = [1.5707963, 0.0]", "theta = [0.0, 0.0]")
+        s.write_text(text)
+        check = _err(capsys, ["scenario", "check", s])
+        assert what in check and "logs[0]" in check and "log 0" in check, (case, check)
+        assert _err(capsys, ["track", s]) == check, case
+    # 0.03 m into the wall, less than the radius: a warning, and the run starts
+    s = _scenario_on_file(tmp_path, flow, x=(5.0, 3.0), y=(0.27, 2.0), extra=on)
+    s.write_text(s.read_text().replace("[physics]", "theta = [1.5707963, 0.0]\n[physics]"))
+    assert main(["scenario", "check", str(s)]) == 0
+    assert "1 logs overlap an obstacle or a wall" in capsys.readouterr().err
+
+
+def test_scenario_without_end_runs_to_the_flow_end(tmp_path, capsys):
+    """[time] end left out ("default: end of the flow"): check, info and track took it as a
+    number (three tracebacks); now the run ends with the flow, and its size is estimated
+    once the flow is open."""
+    import xarray as xr
+
+    flow = _flow_file(tmp_path / "f.nc")  # snapshots at 0, 10, 20 s
+    s = _scenario_on_file(tmp_path, flow)
+    s.write_text(s.read_text().replace("end = 5.0\n", ""))
+    assert main(["scenario", "check", str(s)]) == 0
+    out = capsys.readouterr().out
+    assert "observations to the flow's end (20 s)" in out
+    assert main(["info", str(s)]) == 0
+    assert "time: 0 to the end of the flow" in capsys.readouterr().out
+    assert main(["track", str(s), "--quiet"]) == 0
+    with xr.open_dataset(tmp_path / "out.nc", decode_times=False) as ds:
+        assert float(ds["time"].max()) == 20.0
+
+
+def test_ensemble_file_to_a_one_scenario_command(tmp_path, capsys):
+    """An ensemble file (its [ensemble] base merged by `driftlog ensemble`) given to track or
+    run: one error naming the file and the command to use; check and info read it whole."""
+    flow = _flow_file(tmp_path / "f.nc")
+    _scenario_on_file(tmp_path, flow).rename(tmp_path / "base.toml")
+    e = tmp_path / "ens.toml"
+    e.write_text(textwrap.dedent("""
+        [ensemble]
+        base = "base.toml"
+        members = 4
+        [ensemble.vary]
+        "logs.length" = { uniform = [0.3, 0.6] }
+        """))
+    for cmd in ("track", "run"):
+        err = _err(capsys, [cmd, e])
+        assert f"{e} is an ensemble file" in err and f"driftlog ensemble {e}" in err, err
+    assert main(["scenario", "check", str(e)]) == 0
+    out = capsys.readouterr().out
+    assert "valid: the run will start" in out and "ensemble of 4 members" in out
+    assert "logs.length" in out
+    assert main(["info", str(e)]) == 0
+    out = capsys.readouterr().out
+    assert "ensemble file (valid)" in out and "4 members" in out and "1 log groups" in out
+
+
 # ----------------------------------------------------------------- class 10: nothing lost
 KILL_SCENARIO = """
 [flow]

@@ -300,3 +300,71 @@ def test_auto_physics_judges_logs_by_the_water_that_lifts_them():
                                          hu[:1].repeat(2, 0), np.zeros((2, n)))
     level, _, why = choose_physics(dry_only, logs, section, False, t_end=1.0)
     assert level == "full" and "no log is in water" in why
+
+
+def _timed_uniform_flow(u_of_t, times):
+    """A uniform flow u(t_k) along x at snapshots t_k on a 2 km x 200 m mesh (1 m deep)."""
+    mesh = Mesh.regular_grid(20, 2, 100.0)
+    n = mesh.n_faces
+    u = np.array([u_of_t(t) for t in times])
+    h = np.ones((len(times), n))
+    return MeshFlowField.from_arrays(mesh, np.zeros(n), times, h, h * u[:, None],
+                                     np.zeros((len(times), n)))
+
+
+def _tracer_x(flow, dt, end, land, level="tracer", fused=True):
+    logs = Logs(np.array([100.0]), np.array([100.0]), 0.0, 0.5, 0.05, 500.0)
+    tr = Tracker(flow, logs, PhysicsOptions(level=level, rotation=False), "rk4",
+                 StepOptions(max_step=dt, length_fraction=1e9, angle_step=1e9,
+                             land_on_snapshots=land),
+                 t_end=end, output_interval=end, fused=fused)
+    tr.run()
+    return logs.state[0, 0], tr.stats["substeps"]
+
+
+def test_steps_across_snapshots():
+    """land_on_snapshots = false: sub-steps run across snapshots, each RK4 stage reading the
+    pair of snapshots around its own time.  On a uniform flow u(t) RK4 is Simpson's rule on
+    the interpolant, step by step: on a flow linear in time (exact under linear interpolation)
+    it is exact with steps of three snapshot intervals; on one whose interpolant has a kink
+    at every snapshot it is Simpson's rule with the stages on both sides of the kinks (a
+    stage read from the wrong pair of snapshots would not be), and landing on the snapshots
+    is exact."""
+    times = np.arange(0.0, 91.0, 10.0)
+    lin = _timed_uniform_flow(lambda t: 0.5 + 0.01 * t, times)
+    exact = 100.0 + 0.5 * 90.0 + 0.005 * 90.0 ** 2
+    x, steps = _tracer_x(lin, 30.0, 90.0, land=False)
+    assert steps == 3 and abs(x - exact) < 1e-10
+    x, steps = _tracer_x(lin, 30.0, 90.0, land=True)
+    assert steps == 9 and abs(x - exact) < 1e-10
+    # kinks: u(t_k) = 1 + sin(2 pi t_k / 60); the exact path of the interpolant, trapezoids
+    uk = 1.0 + np.sin(2.0 * np.pi * times / 60.0)
+    kinked = _timed_uniform_flow(lambda t: 1.0 + np.sin(2.0 * np.pi * t / 60.0), times)
+    exact = 100.0 + np.sum(0.5 * (uk[1:] + uk[:-1]) * 10.0)
+    x, _ = _tracer_x(kinked, 10.0, 90.0, land=True)
+    assert abs(x - exact) < 1e-10
+    for dt in (18.0, 25.0, 7.0):
+        t = np.arange(0.0, 90.0, dt)
+        h = np.minimum(dt, 90.0 - t)
+
+        def ui(tt):
+            return np.interp(tt, times, uk)
+
+        simpson = 100.0 + np.sum(h / 6.0 * (ui(t) + 4.0 * ui(t + h / 2) + ui(t + h)))
+        x, steps = _tracer_x(kinked, dt, 90.0, land=False)
+        assert steps == t.size and abs(x - simpson) < 1e-10, (dt, x, simpson)
+        assert abs(x - exact) > 1e-3  # the kinks inside the steps are felt
+    # full physics (a log relaxing to the flow by drag): the fused kernel and the general
+    # stage-by-stage path, which samples each stage by its own time too
+    a, n = _tracer_x(kinked, 2.5, 90.0, land=False, level="full")
+    b, m = _tracer_x(kinked, 2.5, 90.0, land=False, level="full", fused=False)
+    c, _ = _tracer_x(kinked, 2.5, 90.0, land=True, level="full")
+    assert n == m and abs(a - b) < 1e-9 and 1e-6 < abs(a - c) < 0.1, (a, b, c)
+
+
+def test_steps_across_snapshots_need_the_global_clock():
+    flow = _timed_uniform_flow(lambda t: 1.0, np.arange(0.0, 31.0, 10.0))
+    logs = Logs(np.array([100.0]), np.array([100.0]), 0.0, 0.5, 0.05, 500.0)
+    with pytest.raises(ScenarioError, match="land_on_snapshots"):
+        Tracker(flow, logs, PhysicsOptions(level="tracer"), "rk4",
+                StepOptions(max_step=5.0, clock="per_log", land_on_snapshots=False), t_end=30.0)

@@ -73,6 +73,28 @@ def scenario_path(name):
     return find_case(name), name
 
 
+def ensemble_section(path):
+    """The ``[ensemble]`` table of the TOML file ``path`` (an ensemble file), else None."""
+    from driftlog.schema import read_toml
+
+    raw, _, _ = read_toml(path)
+    ens = raw.get("ensemble")
+    return ens if isinstance(ens, dict) else None
+
+
+def refuse_ensemble(path, command):
+    """An ensemble file given to a command that runs one scenario: one clear error."""
+    ens = ensemble_section(path)
+    if ens is not None:
+        from driftlog.errors import DriftlogError
+
+        base = f" over the base scenario {ens['base']}" if ens.get("base") else ""
+        raise DriftlogError(f"{path} is an ensemble file (an [ensemble] section{base}): run it "
+                            f"with `driftlog ensemble {path}`; `driftlog {command}` runs one "
+                            "scenario" + (f" (e.g. the base, {ens['base']})"
+                                          if ens.get("base") else ""))
+
+
 def add_set(p):
     """The --set SECTION.KEY=VALUE option of the commands that read a scenario."""
     p.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",

@@ -10,9 +10,11 @@ from driftlog.cli.common import (
     add_set,
     case_overrides,
     command,
+    ensemble_section,
     flow_file,
     in_cases,
     overrides,
+    refuse_ensemble,
     scenario_path,
     sub_parser,
 )
@@ -44,7 +46,14 @@ def cmd_scenario(args):
     from driftlog.preflight import check_scenario
 
     path, name = scenario_path(args.file)
-    scen = load_scenario(path, case_overrides(path, name) or None)
+    ens = None
+    if ensemble_section(path) is not None:  # the base merged, every member's keys checked
+        from driftlog.ensemble.spec import load_ensemble
+
+        ens = load_ensemble(path)
+        scen = ens.scenario
+    else:
+        scen = load_scenario(path, case_overrides(path, name) or None)
     output = Path("driftlog-runs") / name / Path(scen["output"]["path"]).name \
         if in_cases(path) else None  # where driftlog track writes
     from driftlog.api import logs_from_scenario
@@ -56,6 +65,10 @@ def cmd_scenario(args):
         print(f"driftlog: warning: {n}", file=sys.stderr)
     print(f"{path}: valid: the run will start ({len(scen['logs'])} log groups, flow source "
           f"{scen['flow']['source']!r})")
+    if ens is not None:
+        print(f"  ensemble of {ens.members} members ({ens.section['sampling']}) varying "
+              + (", ".join(p.path for p in ens.parameters) or "nothing")
+              + f"; run it with `driftlog ensemble {path}`")
     for d in done:
         print(f"  {d}")
     return 0
@@ -100,6 +113,7 @@ def cmd_run(args):
     from driftlog.plots import animate, plot_trajectories
 
     path, name = scenario_path(args.scenario)
+    refuse_ensemble(path, "run")
     from driftlog.files import check_output_dir
 
     out = check_output_dir(Path(args.out or Path("driftlog-runs") / name), "run folder")
@@ -144,6 +158,7 @@ def cmd_track(args):
     from driftlog.api import as_scenario, track
 
     path, name = scenario_path(args.scenario)
+    refuse_ensemble(path, "track")
     scen = as_scenario(path, case_overrides(path, name, overrides(args.set)))
     output = args.output
     if output is None and in_cases(path):
