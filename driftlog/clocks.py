@@ -266,8 +266,8 @@ def contact_advance(tr, stop, max_tries=3):
     there, as the global clock does after each sub-step).
     """
     C = tr.contact
-    kernel = (C.method == "event" and C.time_of_impact == "conservative"
-              and C.backend.name == "native")
+    kernel = C.backend.name == "native" and (
+        C.method == "moreau" or (C.method == "event" and C.time_of_impact == "conservative"))
     while stop - tr.t > tr.time_tol and tr.act.size:
         end = _window_end(tr, stop)
         if kernel:
@@ -356,36 +356,25 @@ def contact_window(tr, stop, max_tries=3):
     2. Logs whose boxes (grown by the radius, the path's bulge between sub-step ends and the
        tolerance) overlap another log's, or an obstacle's, are the contact set; the connected
        components of the overlap graph are its islands.  The others keep their free motion.
-    3. Every island restarts from the window's start and runs the event-driven contact steps
-       among its own logs (``island_kernel.island_advance``): impulses, conservative
-       advancement, rejected steps, as ``ContactModel``; its next contact ends only its step.
+    3. Every island restarts from the window's start and runs the contact steps among its own
+       logs, on its own clock, all islands in one kernel: event-driven
+       (``island_kernel.island_advance``: impulses, conservative advancement, rejected
+       steps) or Moreau-Jean (``moreau_kernel.moreau_islands``), as ``ContactModel``; its next
+       contact ends only its step.  ``ContactModel.island_kernel = False`` runs the same
+       islands through the Python contact model instead, one after another
+       (``_reference_islands``: the reference the kernels are tested against).
     4. Closure: if an island's actual sweep reaches a free log's box or another island's, those
        join and the window is computed again; after ``max_tries``, the whole contact set and
        the logs it reaches are one island.
     """
+    import driftlog.island_kernel as ik
+    import driftlog.moreau_kernel as mk
     from driftlog.contact.model import ContactJamError
-    from driftlog.island_kernel import (
-        DIVERGED as I_DIV,
-    )
-    from driftlog.island_kernel import (
-        HIT_FULL,
-        JAM,
-        NSTAT,
-        ST_ADVANCES,
-        ST_EVENTS,
-        ST_LOG_STEPS,
-        ST_MAX_CONTACTS,
-        ST_REJECTED,
-        ST_SEPARATIONS,
-        ST_STEPS,
-        island_advance,
-    )
-    from driftlog.island_kernel import (
-        TOO_SMALL as I_SMALL,
-    )
     from driftlog.stepping import IntegrationError, StepTooSmallError
 
     C, so, kern = tr.contact, tr.step_options, tr._kernel
+    moreau = C.method == "moreau"
+    in_kernel = getattr(C, "island_kernel", True)
     t0 = tr.t
     tr._sample_current()
     n = tr.act.size
@@ -425,7 +414,9 @@ def contact_window(tr, stop, max_tries=3):
     tracer = tr.physics.level == "tracer"
     explicit = not tr.integrator.stiff_stable and not tracer
     cap_hits = HIT_BUFFER
+    act_room = 8
     one_pool = False
+    kept = (len(C._hits), C.obstacle_impulse.copy())
     for attempt in range(max_tries + 1):
         labels = (np.where(pool_mask, 0, np.arange(1, n + 1)) if one_pool
                   else island_labels(n, np.ascontiguousarray(edges[:, 0]),
@@ -445,27 +436,38 @@ def contact_window(tr, stop, max_tries=3):
             hits = [np.empty(cap_hits) for _ in range(6)]
             hits[1], hits[2] = np.empty(cap_hits, np.int64), np.empty(cap_hits, np.int64)
             nhit = np.zeros(1, np.int64)
-            active_out = np.empty(max(16, 8 * pool.size + active_in.size), np.int64)
+            active_out = np.empty(max(16, act_room * pool.size + active_in.size), np.int64)
             nactive = np.zeros(1, np.int64)
-            stats = np.zeros(NSTAT, np.int64)
-            dt_lim = np.array([np.inf, 0.0])
+            stats = np.zeros(mk.NSTAT if moreau else ik.NSTAT, np.int64)
+            dt_lim = np.array([np.inf, 0.0, np.inf])
             code = np.zeros(start.size - 1, np.int64)
             t_code = np.zeros(start.size - 1)
-            island_advance(
-                S, F, flag, face, D0, lin0, tr.P, tr.opt, length, radius, mass, inertia, ids,
-                members, start, caps, owner, ocaps, ostart, t0, stop, tr.time_tol, method,
-                so.length_fraction, so.angle_step, so.drag_fraction, explicit,
-                so.max_step if so.max_step else np.inf, so.min_step, tracer,
-                bool(tr.physics.rotation), thr, friction, vals_c, T0c, gap_c, vals_n, T0n,
-                gap_n, t_split, kern.dry_depth, kern.recovered, kern.locator, C.tolerance,
-                C.restitution, C.rest_speed, C.near, C.max_events, active_in, frame[0],
-                frame[1], sw, obst, hits[0], hits[1], hits[2], hits[3], hits[4], hits[5],
-                nhit, active_out, nactive, stats, dt_lim, code, t_code)
-            if not np.any(code == HIT_FULL):
+            head = (S, F, flag, face, D0, lin0, tr.P, tr.opt, length, radius, mass, inertia, ids,
+                    members, start, caps, owner, ocaps, ostart, t0, stop, tr.time_tol, method,
+                    so.length_fraction, so.angle_step, so.drag_fraction, explicit,
+                    so.max_step if so.max_step else np.inf, so.min_step, tracer,
+                    bool(tr.physics.rotation), thr, friction, vals_c, T0c, gap_c, vals_n, T0n,
+                    gap_n, t_split, kern.dry_depth, kern.recovered, kern.locator)
+            tail = (frame[0], frame[1], sw, obst, hits[0], hits[1], hits[2], hits[3], hits[4],
+                    hits[5], nhit, active_out, nactive, stats, dt_lim, code, t_code)
+            if not in_kernel:
+                _reference_islands(tr, members, start, S, face, F, flag, sw, frame, t0, stop,
+                                   active_in, code, t_code, active_out, nactive)
+            elif moreau:
+                mk.moreau_islands(*head, C.tolerance, C.restitution, C.iterations,
+                                  C.motion_share, bool(C.island_stop), active_in, *tail)
+            else:
+                ik.island_advance(*head, C.tolerance, C.restitution, C.rest_speed, C.near,
+                                  C.max_events, active_in, *tail)
+            if not np.any(code == ik.HIT_FULL):
                 break
+            if not in_kernel:
+                del C._hits[kept[0]:]
+                C.obstacle_impulse[:] = kept[1]
             cap_hits *= 4
-        for kind, exc in ((I_SMALL, StepTooSmallError), (I_DIV, IntegrationError),
-                          (JAM, ContactJamError)):
+            act_room *= 4
+        for kind, exc in ((ik.TOO_SMALL, StepTooSmallError), (ik.DIVERGED, IntegrationError),
+                          (ik.JAM, ContactJamError)):
             bad = np.flatnonzero(code == kind)
             if bad.size:
                 q = bad[0]
@@ -481,6 +483,9 @@ def contact_window(tr, stop, max_tries=3):
             break
         # a deflected path reaches a free log or another island: compute the window again
         tr.stats["clock_retries"] = tr.stats.get("clock_retries", 0) + 1
+        if not in_kernel:  # the Python model's hits and impulses of this try
+            del C._hits[kept[0]:]
+            C.obstacle_impulse[:] = kept[1]
         pool_mask[cross.ravel()] = True
         pool_mask[new_lo[:, 0]] = True
         edges = np.vstack([edges, cross])
@@ -504,24 +509,109 @@ def contact_window(tr, stop, max_tries=3):
     keys = active_out[:int(nactive[0])]
     C._active = np.unique(np.concatenate([keys, active_in[~np.isin(
         active_in // (1 << 32), ids[pool])]]))
-    cs = C.stats
-    cs["substeps"] += int(stats[ST_STEPS])
-    cs["advances"] += int(stats[ST_ADVANCES])
-    cs["rejected"] += int(stats[ST_REJECTED])
-    cs["events"] += int(stats[ST_EVENTS])
-    cs["separations"] += int(stats[ST_SEPARATIONS])
-    cs["max_contacts"] = max(cs["max_contacts"], int(stats[ST_MAX_CONTACTS]))
-    st = tr.stats
-    st["substeps"] += int(stats[ST_STEPS])
-    st["log_substeps"] = st.get("log_substeps", 0) + int(stats[ST_LOG_STEPS])
-    st["rhs_evaluations"] += int(stats[ST_LOG_STEPS]) * (4 if method else 1)
-    if stats[ST_STEPS]:
-        st["min_dt"] = min(st["min_dt"], float(dt_lim[0]))
-        st["max_dt"] = max(st["max_dt"], float(dt_lim[1]))
+    cs, st = C.stats, tr.stats
+    if in_kernel and moreau:
+        cs["substeps"] += int(stats[mk.ST_STEPS])
+        cs["advances"] += int(stats[mk.ST_ADVANCES])
+        cs["pgs_iterations"] += int(stats[mk.ST_PGS])
+        cs["pgs_max_iterations"] = max(cs["pgs_max_iterations"], int(stats[mk.ST_PGS_MAX]))
+        cs["max_contacts"] = max(cs["max_contacts"], int(stats[mk.ST_MAX_CONTACTS]))
+        cs["min_gap"] = min(cs["min_gap"], float(dt_lim[2]))
+        steps, log_steps = int(stats[mk.ST_STEPS]), int(stats[mk.ST_LOG_STEPS])
+    elif in_kernel:
+        cs["substeps"] += int(stats[ik.ST_STEPS])
+        cs["advances"] += int(stats[ik.ST_ADVANCES])
+        cs["rejected"] += int(stats[ik.ST_REJECTED])
+        cs["events"] += int(stats[ik.ST_EVENTS])
+        cs["separations"] += int(stats[ik.ST_SEPARATIONS])
+        cs["max_contacts"] = max(cs["max_contacts"], int(stats[ik.ST_MAX_CONTACTS]))
+        steps, log_steps = int(stats[ik.ST_STEPS]), int(stats[ik.ST_LOG_STEPS])
+    else:
+        steps = log_steps = 0  # counted by _reference_islands
+    if in_kernel:
+        st["substeps"] += steps
+        st["log_substeps"] = st.get("log_substeps", 0) + log_steps
+        st["rhs_evaluations"] += log_steps * (4 if method else 1)
+        if steps:
+            st["min_dt"] = min(st["min_dt"], float(dt_lim[0]))
+            st["max_dt"] = max(st["max_dt"], float(dt_lim[1]))
     st["contact_set"] = max(st.get("contact_set", 0), int(pool.size))
     st["islands"] = st.get("islands", 0) + int(start.size - 1)
     st["largest_island"] = max(st.get("largest_island", 0), int(np.diff(start).max()))
     st["windows"] = st.get("windows", 0) + 1
+
+
+def _reference_islands(tr, members, start, S, face, F, flag, sw, frame, t0, stop, active_in,
+                       code, t_code, active_out, nactive):
+    """The islands of a contact window through the Python contact model, one after another.
+
+    What the island kernels compute (``contact_window``, ``ContactModel.island_kernel =
+    False``), with the contact model's own steps: each island from the window's start on its
+    own clock (``ContactModel.substep`` on the island's logs alone), its swept boxes ``sw``,
+    its end states, flow and statuses' samples written into S, face, F, flag (the compact rows
+    of ``tr.act``), the pair keys in contact at the end into ``active_out``; the model's hits
+    and obstacle impulses go straight into it.  The tracker is left at ``tr.act``.
+    """
+    from driftlog.island_kernel import DIVERGED, HIT_FULL, TOO_SMALL
+
+    L, C, so = tr.logs, tr.contact, tr.step_options
+    act0 = tr.act.copy()
+    status0 = L.status[act0].copy()
+    L.state[act0], L.face[act0] = S, face
+    fx, fy = frame
+    for q in range(start.size - 1):
+        g = members[start[q]:start[q + 1]]
+        tr.t = t0
+        _island_start(C, (0, active_in))
+        C._cache = None
+        tr._d0_valid = tr._F_valid = False
+        tr._set_active(act0[g])
+        tr.F[:], tr.flag[:] = F[g], flag[g]
+        tr._F_valid = True
+        while tr.t < stop and tr.act.size:
+            t_before = tr.t
+            dt = min(tr.max_step(), stop - tr.t)
+            if dt < so.min_step and stop - tr.t > so.min_step:
+                code[q], t_code[q] = TOO_SMALL, tr.t
+                break
+            C.substep(tr, dt)
+            if not np.all(np.isfinite(tr.state)):
+                code[q], t_code[q] = DIVERGED, tr.t
+                break
+            if stop - tr.t <= tr.time_tol:
+                tr.t = stop
+            st = tr.stats
+            st["substeps"] += 1
+            st["log_substeps"] = st.get("log_substeps", 0) + tr.act.size
+            st["min_dt"] = min(st["min_dt"], tr.t - t_before)
+            st["max_dt"] = max(st["max_dt"], tr.t - t_before)
+            tr._sample_current()
+            rows = np.searchsorted(act0, tr.act)
+            S[rows], face[rows], F[rows], flag[rows] = tr.state, tr.face, tr.F, tr.flag
+            # the axis ends in the frame moving at (fx, fy) from t0
+            tau = tr.t - t0
+            hx = 0.5 * tr.length * np.cos(tr.state[:, 2])
+            hy = 0.5 * tr.length * np.sin(tr.state[:, 2])
+            x, y = tr.state[:, 0] - fx * tau, tr.state[:, 1] - fy * tau
+            sw[rows, 0] = np.minimum(sw[rows, 0], np.minimum(x - hx, x + hx))
+            sw[rows, 1] = np.minimum(sw[rows, 1], np.minimum(y - hy, y + hy))
+            sw[rows, 2] = np.maximum(sw[rows, 2], np.maximum(x - hx, x + hx))
+            sw[rows, 3] = np.maximum(sw[rows, 3], np.maximum(y - hy, y + hy))
+            tr._update_status(act0[g])
+        keys = np.unique(np.asarray(C._active, dtype=np.int64))
+        k = int(nactive[0])
+        if k + keys.size > active_out.size:
+            code[q] = HIT_FULL
+            break
+        active_out[k:k + keys.size] = keys
+        nactive[0] = k + keys.size
+        if code[q]:
+            break
+    # statuses are set at the window's end from the samples where each log stopped
+    L.status[act0] = status0
+    tr.t = t0
+    tr._d0_valid = tr._F_valid = False
+    tr._set_active(act0)
 
 
 def _axis_box(S, length):

@@ -252,3 +252,128 @@ def test_a_resting_log_lifts_when_the_level_reaches_its_flotation_depth(clock):
         # lifted at the end of the sub-step in which the level crossed h*
         assert err <= U0 * tr.stats["max_dt"], (err, tr.stats["max_dt"])
         assert tr.stats["max_dt"] < 0.15
+
+
+# ------------------------------------------------ Moreau-Jean islands (driftlog.moreau_kernel)
+def moreau_cradle(clock, kernel=True):
+    """The cradle above with Moreau-Jean contacts (eps = 1, no forces)."""
+    from driftlog.contact import ContactModel
+
+    x = [4.0] + [8.0 + 1.21 * k for k in range(5)] + [3.0, 12.0, 20.0, 30.0]
+    y = [5.0] * 6 + [1.5, 8.5, 1.5, 8.5]
+    th = [0.0] * 6 + [0.3, 1.0, 2.0, 2.5]
+    u = [1.0] + [0.0] * 5 + [0.4, 0.1, 0.8, -0.3]
+    om = [0.0] * 6 + [0.05, -0.02, 0.5, 0.0]
+    logs = Logs(np.array(x), np.array(y), np.array(th), 1.0, 0.1, 700.0, u=np.array(u), v=0.0,
+                omega=np.array(om))
+    model = ContactModel(method="moreau", restitution=1.0, rest_speed=0.0)
+    model.island_kernel = kernel
+    tr = Tracker(on_mesh(UniformFlow(0.0, 0.0, depth=1.0), STILL), logs,
+                 PhysicsOptions(level="drag", drag_law="linear", linear_drag=0.0, rotation=True),
+                 "rk4", StepOptions(clock=clock), contact=model, t_end=16.0,
+                 output_interval=2.0, initial_velocity="given")
+    tr.run()
+    return tr, logs
+
+
+def test_moreau_cradle_keeps_momentum_and_energy_in_the_island_kernel():
+    from driftlog.contact.impulses import kinetic_energy, momenta
+
+    tr, logs = moreau_cradle("per_log")
+    S, m, inertia = logs.state, logs.mass, logs.inertia
+    np.testing.assert_allclose(S[5, 3], 1.0, atol=1e-9)  # the momentum went down the row
+    np.testing.assert_allclose(S[:5, 3], 0.0, atol=1e-9)
+    e0 = 0.5 * m[0] + 0.5 * np.sum(m[6:] * np.array([0.4, 0.1, 0.8, 0.3]) ** 2) + \
+        0.5 * np.sum(inertia[6:] * np.array([0.05, -0.02, 0.5, 0.0]) ** 2)
+    assert kinetic_energy(S, m, inertia) == pytest.approx(e0, rel=1e-12)
+    p = np.array(momenta(S, m, inertia))
+    assert p[0] == pytest.approx(m[0] + np.sum(m[6:] * [0.4, 0.1, 0.8, -0.3]), rel=1e-12)
+    assert abs(p[1]) < 1e-12
+    assert tr.stats["windows"] >= 16 and tr.stats["largest_island"] <= 7
+    assert tr.contact.stats["pgs_iterations"] > 0
+    # the same islands through the Python contact model: the same numbers; the global clock's
+    # Moreau steps: the same collisions
+    _, ref = moreau_cradle("per_log", kernel=False)
+    np.testing.assert_array_equal(logs.state, ref.state)
+    _, glob = moreau_cradle("global")
+    np.testing.assert_allclose(logs.state, glob.state, atol=1e-9)
+
+
+def moreau_pile(kernel, T=20.0):
+    """14 logs (some seeded overlapping) drift on a current onto two piers between two walls,
+    Moreau-Jean with eps = 0.3: islands that merge, split, touch walls and piers."""
+    from driftlog.contact import ContactModel
+    from driftlog.contact.obstacles import Obstacles
+
+    rng = np.random.default_rng(3)
+    n = 14
+    logs = Logs(rng.uniform(2, 14, n), rng.uniform(2.5, 7.5, n), rng.uniform(0, np.pi, n),
+                1.0, 0.1, 700.0)
+    obs = Obstacles()
+    obs.add_circle([20.0, 4.6], 0.4, name="pier1")
+    obs.add_circle([20.0, 5.8], 0.4, name="pier2")
+    obs.add_segments([[0.0, 2.0], [30.0, 2.0]], name="south")
+    obs.add_segments([[0.0, 8.0], [30.0, 8.0]], name="north")
+    model = ContactModel(obs, method="moreau", restitution=0.3)
+    model.island_kernel = kernel
+    tr = Tracker(on_mesh(UniformFlow(0.6, 0.05, depth=1.0), MESH), logs,
+                 PhysicsOptions(level="full"), "rk4", StepOptions(clock="per_log"),
+                 contact=model, t_end=T, output_interval=5.0)
+    tr.run()
+    return tr, logs
+
+
+def test_moreau_island_kernel_equals_the_contact_model_island_by_island():
+    # docs/model.md 11.1: the kernel runs each island with the contact model's Moreau-Jean
+    # steps; ContactModel.island_kernel = False runs the very same islands through the
+    # Python model.  Same arithmetic, same contact order here (islands of a few logs): the
+    # same states, hits, obstacle impulses and statistics
+    k, a = moreau_pile(True)
+    p, b = moreau_pile(False)
+    np.testing.assert_array_equal(a.state, b.state)
+    np.testing.assert_array_equal(a.status, b.status)
+    hk, hp = k.contact.drain_hits(), p.contact.drain_hits()
+    ok, op = (np.lexsort((h["other"], h["log_id"], h["time"])) for h in (hk, hp))
+    assert hk["time"].size == hp["time"].size >= 50
+    assert np.sum(hk["other"] < 0) >= 5  # piers and walls hit too
+    for key in ("time", "log_id", "other", "impulse", "x", "y"):
+        np.testing.assert_allclose(hk[key][ok], hp[key][op], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(k.contact.obstacle_impulse, p.contact.obstacle_impulse,
+                               rtol=1e-12, atol=1e-9)
+    assert np.abs(k.contact.obstacle_impulse[:2]).max() > 10.0  # the piers hold logs
+    for key in ("islands", "largest_island", "windows", "clock_retries"):
+        assert k.stats[key] == p.stats[key], key
+    assert k.stats["clock_retries"] > 0  # the closure was exercised
+    for key in ("pgs_max_iterations", "max_contacts", "min_gap"):
+        assert k.contact.stats[key] == p.contact.stats[key], key
+
+
+def test_island_pairs_are_the_broad_phase_pairs():
+    # moreau_kernel.island_pairs (all pairs for small islands, sort and sweep for large ones)
+    # finds the pairs of broadphase.grid_pairs and StaticGrid.query, ordered by log then
+    # other body
+    from driftlog.contact.broadphase import StaticGrid, grid_pairs, log_boxes
+    from driftlog.moreau_kernel import ALL_PAIRS, island_pairs
+
+    rng = np.random.default_rng(11)
+    for n in (5, 300):
+        S = np.zeros((n, 6))
+        S[:, 0], S[:, 1] = rng.uniform(0, 0.4 * n, n), rng.uniform(0, 6, n)
+        S[:, 2] = rng.uniform(0, np.pi, n)
+        length, radius = rng.uniform(0.5, 2.0, n), np.full(n, 0.1)
+        margin = rng.uniform(0.0, 0.3, n)
+        caps = np.array([[0.0, 3.0, 0.4 * n, 3.0, 0.0], [5.0, 1.0, 5.0, 1.0, 0.5],
+                         [1.0, 0.0, 1.5, 6.0, 0.05]])
+        ocaps = np.array([0, 2], np.int64)
+        pairs, nll = island_pairs(S, length, radius, n, margin, caps, ocaps)
+        ex, ey = np.empty(n), np.empty(n)
+        log_boxes(S, length, radius, margin, ex, ey)
+        ll = grid_pairs(S[:, 0].copy(), S[:, 1].copy(), ex, ey)
+        ll = ll[np.lexsort((ll[:, 1], ll[:, 0]))]
+        lo = StaticGrid(caps, 1.0).query(S[:, 0].copy(), S[:, 1].copy(), ex, ey)
+        lo = lo[np.isin(lo[:, 1], ocaps)]
+        lo[:, 1] = -(np.searchsorted(ocaps, lo[:, 1]) + 1)
+        lo = lo[np.lexsort((-lo[:, 1], lo[:, 0]))]
+        assert (n + ocaps.size > ALL_PAIRS) == (n == 300)
+        assert nll == len(ll) and (n == 5 or nll > 50)
+        np.testing.assert_array_equal(pairs, np.vstack([ll, lo]))

@@ -130,6 +130,10 @@ class ContactModel:
         self.near = 0.05  # event: pairs closer than this share of the radius that separate
         # at their contact point do not bound the step (toi.conservative_step)
         self.motion_share = 0.25  # Moreau: motion per step near contacts, share of the radius
+        # per-log clocks: contact islands in numba kernels (driftlog.island_kernel, event;
+        # driftlog.moreau_kernel, Moreau-Jean); False runs the same islands through this model,
+        # one after another (the reference the kernels are tested against)
+        self.island_kernel = True
         self.stats = dict(substeps=0, advances=0, rejected=0, events=0, detections=0,
                           pgs_iterations=0, separations=0, pgs_max_iterations=0, max_contacts=0,
                           min_gap=np.inf)

@@ -1,0 +1,492 @@
+"""Per-log clocks with Moreau-Jean contacts, the kernel: every contact island on its own clock.
+
+``driftlog.clocks.contact_window`` finds the contact islands of a contact window (the logs whose
+swept boxes may touch each other or an obstacle, connected components); with
+``contact.method = "moreau"`` this kernel then runs each island from the window's start to its
+end with the Moreau-Jean steps of ``driftlog.contact.ContactModel`` (docs/model.md 13.6) among
+the island's own logs, the island on its own clock (docs/model.md 11.1, eqs. (81)-(83)):
+
+1. the island's own bound (eq. (70) over its logs) and, where two of its bodies are near (boxes
+   grown by their motion over the step overlap), no log moves more than ``motion_share`` of the
+   smallest radius (eq. (81));
+2. the free step of its logs (the fused RK4 / Euler step, the flow sampled P1 at each stage
+   time, as ``driftlog.clock_kernel``);
+3. its contacts at the start of the step, boxes grown by the motion of the step at the larger of
+   the start and free-end speeds: the closest points of each pair and the four axis-end
+   contacts within the pair's margin (eq. (82));
+4. the impulses of all its contacts together (``contact.moreau.moreau_solve``: eqs. (52)-(54),
+   projected Gauss-Seidel, then the split-impulse position pass), the impulses passed to the
+   fixed obstacles, hits (contacts that start pushing), the flow sampled again where the
+   contacts moved the logs;
+5. the statuses (a log that stops floating leaves its island).
+
+An island's contacts never shorten another island's step.  Islands are flat CSR arrays
+(``members[start[q]:start[q + 1]]``, obstacle capsules ``ocaps[ostart[q]:ostart[q + 1]]``), its
+bodies in local arrays (``moreau_solve`` on the island alone); the candidate pairs of an island
+are found by testing all pairs (small islands) or by sorting the boxes along x and sweeping
+(eq. (83)): the same pairs, put in the order of the logs, then of the capsules.
+
+The numbers equal those of the Python contact model run island by island on the same islands
+(``ContactModel.island_kernel = False``) to round-off, except for the order of the contacts
+within an island (pairs by member order here, by the broad phase's grid order there), which
+changes where Gauss-Seidel stops: within its tolerance (1e-9 of the largest speed).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from driftlog.clock_kernel import _floats, _own_bound
+from driftlog.columns import CX, CY, GAP, NRES, NVAR, NX, NY, OMEGA, THETA, UB, VB, X, Y
+from driftlog.contact.geometry import capsule_gap, capsule_row, log_endpoints
+from driftlog.contact.moreau import moreau_solve
+from driftlog.contact.native import _ends_against
+from driftlog.integrators import row
+from driftlog.island_kernel import (
+    DIVERGED,
+    HIT_FULL,
+    OBST_BIT,
+    OK,
+    TOO_SMALL,
+    _first_stage,
+    _grow_box,
+    _pair_key,
+    _sample_at,
+    _step_one,
+)
+
+__all__ = ["moreau_islands", "island_pairs", "NSTAT", "OK", "TOO_SMALL", "DIVERGED",
+           "HIT_FULL"]
+
+# moreau_islands' statistics (stats[k])
+ST_STEPS, ST_ADVANCES, ST_PGS, ST_PGS_MAX, ST_MAX_CONTACTS, ST_LOG_STEPS = range(6)
+NSTAT = 6
+# islands of at most this many bodies (logs and capsules) test all their pairs
+ALL_PAIRS = 24
+
+
+@nb.njit(cache=True)
+def _push(out, m, a, b):
+    """Append the pair (a, b) at row m of out, grown when full; returns out."""
+    if m == out.shape[0]:
+        grown = np.empty((2 * m + 16, 2), np.int64)
+        grown[:m] = out[:m]
+        out = grown
+    out[m, 0] = a
+    out[m, 1] = b
+    return out
+
+
+@nb.njit(cache=True, inline="always")
+def _log_log_apart(Sl, a, b, ex, ey):
+    """``broadphase.grid_pairs``' test: the boxes of logs a and b do not overlap."""
+    return abs(Sl[a, X] - Sl[b, X]) > ex[a] + ex[b] or abs(Sl[a, Y] - Sl[b, Y]) > ey[a] + ey[b]
+
+
+@nb.njit(cache=True, inline="always")
+def _log_cap_apart(Sl, a, ex, ey, caps, cap):
+    """``broadphase.StaticGrid.query``'s test: log a's box misses capsule cap's box."""
+    qa, qb, qc, qd, qr = capsule_row(caps, cap)
+    return (Sl[a, X] - ex[a] > max(qa, qc) + qr or Sl[a, X] + ex[a] < min(qa, qc) - qr
+            or Sl[a, Y] - ey[a] > max(qb, qd) + qr or Sl[a, Y] + ey[a] < min(qb, qd) - qr)
+
+
+@nb.njit(cache=True)
+def island_pairs(Sl, ln, rd, na, margin, caps, ocaps):
+    """Candidate pairs of an island: its logs' boxes (capsule plus ``margin``) that overlap.
+
+    Parameters
+    ----------
+    Sl : (>= na, 6) the island's states (local rows 0 .. na - 1).
+    ln, rd, margin : (>= na) lengths, radii and box margins (``broadphase.log_boxes``).
+    caps : (m, 5) all obstacle capsules; ocaps : the island's capsule indices.
+
+    Returns
+    -------
+    pairs : (k, 2) int64
+        Log pairs (a, b), a < b, by a then b; then log-capsule pairs (a, -(c + 1)) for capsule
+        ``ocaps[c]``, by a then c.  The box tests of ``broadphase`` (the same pairs as
+        ``grid_pairs`` and ``StaticGrid.query``).
+    nll : int
+        How many are log pairs.
+    """
+    no = ocaps.size
+    ex = np.empty(na)
+    ey = np.empty(na)
+    for a in range(na):
+        h = 0.5 * ln[a]
+        ex[a] = h * abs(np.cos(Sl[a, THETA])) + rd[a] + margin[a]
+        ey[a] = h * abs(np.sin(Sl[a, THETA])) + rd[a] + margin[a]
+    out = np.empty((max(16, 2 * na), 2), np.int64)
+    m = 0
+    if na + no <= ALL_PAIRS:
+        for a in range(na):
+            for b in range(a + 1, na):
+                if not _log_log_apart(Sl, a, b, ex, ey):
+                    out = _push(out, m, a, b)
+                    m += 1
+        nll = m
+        for a in range(na):
+            for c in range(no):
+                if not _log_cap_apart(Sl, a, ex, ey, caps, ocaps[c]):
+                    out = _push(out, m, a, -(c + 1))
+                    m += 1
+        return out[:m].copy(), nll
+    # sort and sweep along x (boxes padded by round-off; the exact tests decide)
+    ni = na + no
+    lo = np.empty(ni)
+    hi = np.empty(ni)
+    for a in range(na):
+        pad = 1e-9 * (abs(Sl[a, X]) + ex[a])
+        lo[a], hi[a] = Sl[a, X] - ex[a] - pad, Sl[a, X] + ex[a] + pad
+    for c in range(no):
+        qa, qb, qc, qd, qr = capsule_row(caps, ocaps[c])
+        pad = 1e-9 * (abs(qa) + abs(qc) + qr)
+        lo[na + c], hi[na + c] = min(qa, qc) - qr - pad, max(qa, qc) + qr + pad
+    order = np.argsort(lo)
+    keys_ll = np.empty(16, np.int64)
+    keys_lo = np.empty(16, np.int64)
+    nl = 0
+    nk = 0
+    for s in range(ni):
+        p = order[s]
+        for s2 in range(s + 1, ni):
+            q = order[s2]
+            if lo[q] > hi[p]:
+                break
+            a, b = (p, q) if p < q else (q, p)
+            if a >= na:
+                continue  # two capsules
+            if b < na:
+                if _log_log_apart(Sl, a, b, ex, ey):
+                    continue
+                if nl == keys_ll.size:
+                    keys_ll = np.concatenate((keys_ll, np.empty(nl + 16, np.int64)))
+                keys_ll[nl] = a * na + b
+                nl += 1
+            else:
+                c = b - na
+                if _log_cap_apart(Sl, a, ex, ey, caps, ocaps[c]):
+                    continue
+                if nk == keys_lo.size:
+                    keys_lo = np.concatenate((keys_lo, np.empty(nk + 16, np.int64)))
+                keys_lo[nk] = a * no + c
+                nk += 1
+    kl = np.sort(keys_ll[:nl])
+    ko = np.sort(keys_lo[:nk])
+    out = np.empty((nl + nk, 2), np.int64)
+    for k in range(nl):
+        out[k, 0], out[k, 1] = kl[k] // na, kl[k] % na
+    for k in range(nk):
+        out[nl + k, 0], out[nl + k, 1] = ko[k] // no, -(ko[k] % no + 1)
+    return out, nl
+
+
+@nb.njit(cache=True)
+def _manifold(Sl, ln, rd, pairs, caps, ocaps, margin):
+    """``ContactModel.detect_manifold`` on an island's candidate pairs at the states Sl.
+
+    The closest points of every pair, then the four axis-end contacts of every pair (ends of
+    body 1 on body 2, of body 2 on body 1) whose gap is within the pair's margins.  Returns
+    (b1, b2, cap, res): local bodies (b2 = -1 for a capsule, whose index in ``caps`` is cap).
+    """
+    m = pairs.shape[0]
+    res = np.empty((5 * m, NRES))
+    b1 = np.empty(5 * m, np.int64)
+    b2 = np.empty(5 * m, np.int64)
+    cap = np.full(5 * m, -1, np.int64)
+    tmp = np.empty((4, NRES))
+    for c in range(m):
+        a, e = pairs[c, 0], pairs[c, 1]
+        ax, ay, bx, by = log_endpoints(Sl[a, X], Sl[a, Y], Sl[a, THETA], ln[a])
+        b1[c] = a
+        if e >= 0:
+            cx, cy, dx, dy = log_endpoints(Sl[e, X], Sl[e, Y], Sl[e, THETA], ln[e])
+            capsule_gap(ax, ay, bx, by, rd[a], cx, cy, dx, dy, rd[e], res[c])
+            b2[c] = e
+        else:
+            k = ocaps[-e - 1]
+            qa, qb, qc, qd, qr = capsule_row(caps, k)
+            capsule_gap(ax, ay, bx, by, rd[a], qa, qb, qc, qd, qr, res[c])
+            b2[c], cap[c] = -1, k
+    k = m
+    for c in range(m):
+        a, e = pairs[c, 0], pairs[c, 1]
+        ax, ay, bx, by = log_endpoints(Sl[a, X], Sl[a, Y], Sl[a, THETA], ln[a])
+        if e >= 0:
+            cx, cy, dx, dy = log_endpoints(Sl[e, X], Sl[e, Y], Sl[e, THETA], ln[e])
+            _ends_against(ax, ay, bx, by, rd[a], cx, cy, dx, dy, rd[e], False, tmp, 0)
+            _ends_against(cx, cy, dx, dy, rd[e], ax, ay, bx, by, rd[a], True, tmp, 2)
+            m1 = margin[a] + margin[e]
+        else:
+            qa, qb, qc, qd, qr = capsule_row(caps, cap[c])
+            _ends_against(ax, ay, bx, by, rd[a], qa, qb, qc, qd, qr, False, tmp, 0)
+            _ends_against(qa, qb, qc, qd, qr, ax, ay, bx, by, rd[a], True, tmp, 2)
+            m1 = margin[a]
+        for r in range(4):
+            if tmp[r, GAP] <= m1:
+                for q in range(NRES):
+                    res[k, q] = tmp[r, q]
+                b1[k], b2[k], cap[k] = a, b2[c], cap[c]
+                k += 1
+    return b1[:k], b2[:k], cap[:k], res[:k]
+
+
+@nb.njit(cache=True)
+def _min_gap(Sl, ln, rd, na, caps, ocaps, tol):
+    """The least gap of the candidate pairs within tol (``ContactModel.check_overlap``)."""
+    margin = np.full(na, tol)
+    pairs, _ = island_pairs(Sl, ln, rd, na, margin, caps, ocaps)
+    g = np.inf
+    out = np.empty(NRES)
+    for c in range(pairs.shape[0]):
+        a, e = pairs[c, 0], pairs[c, 1]
+        ax, ay, bx, by = log_endpoints(Sl[a, X], Sl[a, Y], Sl[a, THETA], ln[a])
+        if e >= 0:
+            cx, cy, dx, dy = log_endpoints(Sl[e, X], Sl[e, Y], Sl[e, THETA], ln[e])
+            g = min(g, capsule_gap(ax, ay, bx, by, rd[a], cx, cy, dx, dy, rd[e], out))
+        else:
+            qa, qb, qc, qd, qr = capsule_row(caps, ocaps[-e - 1])
+            g = min(g, capsule_gap(ax, ay, bx, by, rd[a], qa, qb, qc, qd, qr, out))
+    return g
+
+
+@nb.njit(cache=True)
+def _grow(a, n):
+    """The int64 array a, grown to hold at least n entries."""
+    if n <= a.size:
+        return a
+    b = np.empty(max(n, 2 * a.size), np.int64)
+    b[:a.size] = a
+    return b
+
+
+@nb.njit(cache=True)
+def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, inertia, ids,
+                   members, start, caps, owner, ocaps, ostart, t0, t_stop, time_tol, method,
+                   lf, ang, drag_fraction, explicit, max_step, min_step, tracer, rotation,
+                   thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
+                   recovered, loc, tolerance, eps, iterations, motion_share, island_stop,
+                   active_in, fx, fy, box, obst_impulse, hit_t, hit_log, hit_other, hit_j,
+                   hit_x, hit_y, nhit, active_out, nactive, stats, lim, code, t_code):
+    """Run each island of ``members``/``start`` from t0 to t_stop with Moreau-Jean steps.
+
+    Parameters
+    ----------
+    S, F, flag, face, D0, lin0, P, opt, length, radius, mass, inertia, ids, members, start,
+    caps, owner, ocaps, ostart, t0, t_stop, time_tol, method, lf, ang, drag_fraction,
+    explicit, max_step, min_step, tracer, rotation, thr, friction, vals_c, T0c, gap_c,
+    vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc
+        As ``island_kernel.island_advance``.
+    tolerance, eps, iterations, motion_share, island_stop
+        The contact model's tolerance (share of the smallest radius), restitution,
+        Gauss-Seidel sweeps at most, motion per step near contacts (share of the smallest
+        radius) and ``island_stop``.
+    active_in : sorted int64
+        Pair keys (``model._body_pairs``) touching or pushing at t0 (a hit is a contact that
+        starts pushing).
+    fx, fy, box, obst_impulse, hit_*, nhit
+        As ``island_kernel.island_advance``.
+    active_out, nactive : the pair keys touching or pushing at t_stop (each once per island);
+        code HIT_FULL when the buffer is too small.
+    stats : (NSTAT) int64, added to; lim : [shortest, longest step, least gap after a step].
+    code, t_code : per island outcome (OK, TOO_SMALL, DIVERGED, HIT_FULL) and its time.
+    """
+    nmax = 0
+    for q in range(start.size - 1):
+        nmax = max(nmax, start[q + 1] - start[q])
+    mem = np.empty(nmax, np.int64)
+    S0l = np.empty((nmax, 6))
+    Sl = np.empty((nmax, 6))
+    ln = np.empty(nmax)
+    rd = np.empty(nmax)
+    lm = np.empty(nmax)
+    li = np.empty(nmax)
+    margin = np.empty(nmax)
+    near = np.empty(nmax, np.bool_)
+    prev = np.empty(16, np.int64)
+    for q in range(start.size - 1):
+        code[q] = OK
+        t_code[q] = t0
+        na = start[q + 1] - start[q]
+        for a in range(na):
+            mem[a] = members[start[q] + a]
+        oc = ocaps[ostart[q]:ostart[q + 1]]
+        # pairs touching or pushing at t0 (a hit is a contact that starts pushing)
+        npv = 0
+        for a in range(na):
+            lo = np.searchsorted(active_in, _pair_key(ids[mem[a]], 0))
+            hi = np.searchsorted(active_in, _pair_key(ids[mem[a]] + 1, 0))
+            prev = _grow(prev, npv + hi - lo)
+            for k in range(lo, hi):
+                prev[npv] = active_in[k]
+                npv += 1
+        t = t0
+        while t < t_stop and na > 0:
+            # the island's own bound (Tracker.max_step over its logs)
+            _first_stage(S, F, D0, lin0, P, opt, mem, na)
+            dt = max_step
+            rmin = np.inf
+            for a in range(na):
+                i = mem[a]
+                lnr = (lin0[i, 0], lin0[i, 1], lin0[i, 2], lin0[i, 3], lin0[i, 4])
+                dt = min(dt, _own_bound(row(S, i), length[i], lnr, lf, ang, drag_fraction,
+                                        explicit, np.inf))
+                rmin = min(rmin, radius[i])
+                for k in range(6):
+                    S0l[a, k] = S[i, k]
+                ln[a], rd[a] = length[i], radius[i]
+                lm[a], li[a] = 1.0 / mass[i], 1.0 / inertia[i]
+            dt = min(dt, t_stop - t)
+            if dt < min_step and t_stop - t > min_step:
+                code[q], t_code[q] = TOO_SMALL, t
+                break
+            tol = tolerance * rmin
+            # near contacts: no log moves more than motion_share r_min (eq. (81))
+            for a in range(na):
+                sp = (np.hypot(S0l[a, UB], S0l[a, VB])
+                      + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
+                margin[a] = sp * dt + tol
+                near[a] = False
+            pairs, _ = island_pairs(S0l, ln, rd, na, margin, caps, oc)
+            if pairs.shape[0]:
+                for c in range(pairs.shape[0]):
+                    near[pairs[c, 0]] = True
+                    if pairs[c, 1] >= 0:
+                        near[pairs[c, 1]] = True
+                speed = 0.0
+                for a in range(na):
+                    if near[a]:
+                        speed = max(speed, np.hypot(S0l[a, UB], S0l[a, VB])
+                                    + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
+                if speed > 0.0:
+                    dt = min(dt, motion_share * rmin / speed)
+            # the free step
+            for a in range(na):
+                _step_one(S, D0, F, flag, face, lin0, mem[a], P[mem[a]], opt, t, dt, method,
+                          tracer, rotation, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split,
+                          dry_depth, recovered, loc)
+            stats[ST_ADVANCES] += 1
+            vmax = 0.0
+            for a in range(na):
+                i = mem[a]
+                for k in range(6):
+                    Sl[a, k] = S[i, k]
+                vmax = max(vmax, max(abs(Sl[a, UB]), abs(Sl[a, VB])))
+                # candidates over the motion of the step: the larger of the two speeds
+                fu = max(abs(S0l[a, UB]), abs(Sl[a, UB]))
+                fv = max(abs(S0l[a, VB]), abs(Sl[a, VB]))
+                fo = max(abs(S0l[a, OMEGA]), abs(Sl[a, OMEGA]))
+                margin[a] = (np.hypot(fu, fv) + fo * (0.5 * ln[a] + rd[a])) * dt + tol
+            t_prev = t
+            t = t + dt
+            if t_stop - t <= time_tol:
+                t = t_stop
+            pairs, _ = island_pairs(S0l, ln, rd, na, margin, caps, oc)
+            b1, b2, cap, res = _manifold(S0l, ln, rd, pairs, caps, oc, margin)
+            nc = b1.size
+            if nc:
+                Pc = np.zeros(nc)
+                it, _ = moreau_solve(S0l[:na], Sl[:na], lm[:na], li[:na], b1, b2, res, dt, eps,
+                                     tol, tol, 1e-9 * (vmax + 1e-3), iterations, Pc, 0.2,
+                                     island_stop)
+                stats[ST_PGS] += it
+                stats[ST_PGS_MAX] = max(stats[ST_PGS_MAX], it)
+                stats[ST_MAX_CONTACTS] = max(stats[ST_MAX_CONTACTS], nc)
+                for c in range(nc):
+                    if b2[c] < 0 and Pc[c] != 0.0 and obst_impulse.shape[0]:
+                        o = owner[cap[c]]
+                        obst_impulse[o, 0] -= Pc[c] * res[c, NX]
+                        obst_impulse[o, 1] -= Pc[c] * res[c, NY]
+                # the contacts moved the logs: the flow sampled again where they are
+                for a in range(na):
+                    i = mem[a]
+                    for k in range(6):
+                        S[i, k] = Sl[a, k]
+                    f, fg, fl = _sample_at(S[i, X], S[i, Y], face[i], t, vals_c, T0c, gap_c,
+                                           vals_n, T0n, gap_n, t_split, dry_depth, recovered,
+                                           loc)
+                    face[i], flag[i] = f, fg
+                    for k in range(NVAR):
+                        F[i, k] = fl[k]
+                lim[2] = min(lim[2], _min_gap(Sl, ln, rd, na, caps, oc, tol))
+                # hits: contacts that start pushing, one per (log, other body) at the step's
+                # start, impulses summed, point impulse-weighted
+                first = nhit[0]
+                for c in range(nc):
+                    if not Pc[c] > 0.0:
+                        continue
+                    lid = ids[mem[b1[c]]]
+                    other = ids[mem[b2[c]]] if b2[c] >= 0 else OBST_BIT + owner[cap[c]]
+                    key = _pair_key(lid, other)
+                    seen = False
+                    for k in range(npv):
+                        if prev[k] == key:
+                            seen = True
+                            break
+                    if seen:
+                        continue
+                    oth = ids[mem[b2[c]]] if b2[c] >= 0 else -(owner[cap[c]] + 1)
+                    slot = -1
+                    for k in range(first, nhit[0]):
+                        if hit_log[k] == lid and hit_other[k] == oth:
+                            slot = k
+                            break
+                    if slot < 0:
+                        if nhit[0] >= hit_t.size:
+                            code[q] = HIT_FULL
+                            return
+                        slot = nhit[0]
+                        nhit[0] += 1
+                        hit_t[slot], hit_log[slot], hit_other[slot] = t_prev, lid, oth
+                        hit_j[slot], hit_x[slot], hit_y[slot] = 0.0, 0.0, 0.0
+                    hit_j[slot] += Pc[c]
+                    hit_x[slot] += Pc[c] * res[c, CX]
+                    hit_y[slot] += Pc[c] * res[c, CY]
+                for k in range(first, nhit[0]):
+                    hit_x[k] /= hit_j[k]
+                    hit_y[k] /= hit_j[k]
+                # touching or pushing: a contact that flickers within the tolerance is one hit
+                npv = 0
+                prev = _grow(prev, nc)
+                for c in range(nc):
+                    if Pc[c] > 0.0 or res[c, GAP] <= tol:
+                        other = ids[mem[b2[c]]] if b2[c] >= 0 else OBST_BIT + owner[cap[c]]
+                        prev[npv] = _pair_key(ids[mem[b1[c]]], other)
+                        npv += 1
+            else:
+                npv = 0
+            taken = t - t_prev
+            lim[0] = min(lim[0], taken)
+            lim[1] = max(lim[1], taken)
+            stats[ST_STEPS] += 1
+            stats[ST_LOG_STEPS] += na
+            bad = False
+            for a in range(na):
+                for k in range(6):
+                    if not np.isfinite(S[mem[a], k]):
+                        bad = True
+            if bad:
+                code[q], t_code[q] = DIVERGED, t
+                break
+            # swept boxes; statuses: a log that stops floating leaves the island
+            k = 0
+            for a in range(na):
+                i = mem[a]
+                s = row(S, i)
+                _grow_box(box, i, s, length[i], fx, fy, t - t0)
+                fl = (F[i, 0], F[i, 1], F[i, 2], F[i, 3], F[i, 4], F[i, 5], F[i, 6], F[i, 7],
+                      F[i, 8], F[i, 9], F[i, 10], F[i, 11])
+                if _floats(flag[i], fl, s, P[i], thr[i], friction, opt):
+                    mem[k] = i
+                    k += 1
+            na = k
+        # the pairs touching or pushing at the end, each once
+        keys = np.unique(prev[:npv])
+        if nactive[0] + keys.size > active_out.size:
+            code[q] = HIT_FULL
+            return
+        for k in range(keys.size):
+            active_out[nactive[0]] = keys[k]
+            nactive[0] += 1
