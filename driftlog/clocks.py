@@ -261,22 +261,72 @@ def contact_advance(tr, stop, max_tries=3):
     The interval to ``stop`` is cut into contact windows (``WINDOW``); in each
     (``contact_window``) every floating log first runs free on its own clock, then the logs
     whose swept boxes may touch each other or an obstacle run again from the window's start
-    as contact islands, all islands in one kernel (``driftlog.island_kernel``), each on its
-    own clock.  The floating logs meet at the window ends (and their statuses are updated
-    there, as the global clock does after each sub-step).
+    as contact islands, all islands in one kernel (``driftlog.island_kernel``,
+    ``driftlog.moreau_kernel``), each on its own clock.  The floating logs meet at the window
+    ends (and their statuses are updated there, as the global clock does after each
+    sub-step).
+
+    Idle logs (resting, stranded) are not sampled at every window end: once per interval
+    (``clock_kernel.idle_lift``) each finds the first time the flow at its place floats it,
+    and a log that stops floating at a window end finds its own from there; a log lifts
+    (from rest) at the first window end at or after that time, or, when no log floats, the
+    interval jumps to it (docs/model.md 11.1).
     """
-    C = tr.contact
+    from driftlog.logs import RESTING, STRANDED
+
+    C, L = tr.contact, tr.logs
     kernel = C.backend.name == "native" and (
         C.method == "moreau" or (C.method == "event" and C.time_of_impact == "conservative"))
-    while stop - tr.t > tr.time_tol and tr.act.size:
-        end = _window_end(tr, stop)
-        if kernel:
-            contact_window(tr, end, max_tries)
+    tol = tr.time_tol
+    pairs = _pairs_of(tr, stop)
+    # friction: checks every contact window (its length at the start) or the interval
+    dt_check = (_window_end(tr, stop) - tr.t) if tr.act.size else stop - tr.t
+    idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
+    pend, t_pend = _pending_lifts(tr, idle, stop, dt_check, pairs)
+    while stop - tr.t > tol:
+        if tr.act.size:
+            before = tr.act
+            end = _window_end(tr, stop)
+            if kernel:
+                contact_window(tr, end, max_tries)
+            else:
+                python_islands(tr, end, max_tries)
+                tr.stats["windows"] = tr.stats.get("windows", 0) + 1
+            tr._update_status(idle=False)
+            st = L.status[before]
+            stopped = before[(st == RESTING) | (st == STRANDED)]
+            if stopped.size:  # landed in this window: when does the flow lift them again?
+                p2, t2 = _pending_lifts(tr, stopped, stop, dt_check, pairs)
+                pend, t_pend = np.concatenate([pend, p2]), np.concatenate([t_pend, t2])
+        elif pend.size:  # nobody floats: on to the next lift
+            tr.t = min(float(t_pend.min()), stop)
+            if stop - tr.t <= tol:
+                tr.t = stop
         else:
-            python_islands(tr, end, max_tries)
-            tr.stats["windows"] = tr.stats.get("windows", 0) + 1
-        tr._update_status()
+            break
+        due = t_pend <= tr.t + tol
+        if due.any():
+            new = pend[due]
+            pend, t_pend = pend[~due], t_pend[~due]
+            if tr.act.size:
+                tr._scatter()
+            L.status[new] = FLOATING
+            L.state[new, VELOCITY] = 0.0  # a lifted log starts from rest
+            tr._d0_valid = tr._F_valid = False
+            tr._set_active(np.union1d(tr.act, new))
+            tr.stats["lifted"] = tr.stats.get("lifted", 0) + int(new.size)
     tr.t = stop
+
+
+def _pending_lifts(tr, idx, stop, dt_check, pairs):
+    """The idle logs ``idx`` the flow lifts before ``stop``, and when (``idle_lift``)."""
+    if idx.size == 0:
+        return np.empty(0, np.int64), np.empty(0)
+    L = tr.logs
+    t_lift = _lift_times(tr, L.state[idx], L.face[idx], idx, np.full(idx.size, tr.t), stop,
+                         dt_check, pairs)
+    up = np.isfinite(t_lift)
+    return idx[up], t_lift[up]
 
 
 def _window_end(tr, stop):

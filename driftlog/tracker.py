@@ -487,12 +487,15 @@ class Tracker:
                                               float(L.water_density))
         self.P_all[:] = log_parameters(L.length, L.radius, L.density, L.float_depth)
 
-    def _update_status(self, pool=None):
+    def _update_status(self, pool=None, idle=True):
         """Re-classify floating logs (left, stranded, resting) and the resting ones (refloat).
 
         ``pool``: only these logs move now (a contact island under per-log clocks): the
         floating ones among them stay active, idle logs are left for the synchronisation time.
+        ``idle``: False leaves the idle logs alone (per-log clocks' contact windows, which
+        know when each idle log lifts: ``clocks.contact_advance``).
         """
+        check = idle
         L = self.logs
         changed = scattered = False
         settled = self._settled_now()
@@ -509,12 +512,13 @@ class Tracker:
                 L.status[self.act] = st
                 # resting logs do not move (docs/model.md section 6)
                 L.state[self.act[st != FLOATING], VELOCITY] = 0.0
-        idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
         # on a steady flow an idle log can only change when it has just stopped
         # (waterlogging changes the logs themselves)
-        if pool is None and idle.size and (not self._steady or changed or self._first_check
-                                           or self.physics.waterlogging != "off"):
-            changed |= self._check_idle(idle)
+        if pool is None and check:
+            idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
+            if idle.size and (not self._steady or changed or self._first_check
+                              or self.physics.waterlogging != "off"):
+                changed |= self._check_idle(idle)
         self._first_check = False
         if changed:
             if not scattered and self.act.size:

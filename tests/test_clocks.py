@@ -377,3 +377,28 @@ def test_island_pairs_are_the_broad_phase_pairs():
         assert (n + ocaps.size > ALL_PAIRS) == (n == 300)
         assert nll == len(ll) and (n == 5 or nll > 50)
         np.testing.assert_array_equal(pairs, np.vstack([ll, lo]))
+
+
+def test_a_resting_log_lifts_within_a_contact_window_with_contacts_on():
+    # docs/model.md 11.1 eq. (83): with contacts the idle logs are not sampled at every
+    # contact window's end; their lift times are found once per interval and a log lifts at
+    # the first window end at or after it (within one window, 0.5 L / |U| = 0.5 s here, of
+    # the exact t* = 9.3 s)
+    from driftlog.contact import ContactModel
+
+    U0, cd, rho, T, t_star = 1.0, 1.1, 1000.0, 16.0, 9.3
+    logs = Logs([2.0, 2.0], [2.0, 4.0], 0.0, 1.0, 0.1, [200.0, 800.0], u=0.0)
+    h_star = float(logs.float_depth[1])
+    depth0 = 0.08
+    flow = rising_flow(depth0, (h_star - depth0) / t_star, U0, T)
+    tr = Tracker(flow, logs, PhysicsOptions(drag_law="constant", drag_coefficient=cd), "rk4",
+                 StepOptions(length_fraction=0.1, drag_fraction=0.1, clock="per_log"),
+                 contact=ContactModel(method="moreau"), t_end=T, output_interval=5.0)
+    tr.run()
+    assert np.all(logs.status == FLOATING)
+    assert tr.stats["lifted"] == 1 and tr.stats["windows"] > 20
+    beta = cd * rho * np.pi * 0.01 / (2 * (800.0 + rho / 2) * logs.volume[1])
+    x = 2.0 + U0 * (T - t_star) - np.log(1 + beta * U0 * (T - t_star)) / beta
+    err = abs(logs.state[1, 0] - x)
+    assert err <= 0.5 * U0, err
+    assert logs.state[1, 0] < x + 1e-9  # lifted at or after t*, never before
