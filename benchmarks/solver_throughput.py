@@ -83,8 +83,9 @@ def measure(mesh, order, threads, steps, ordering="rcm", repeat=1):
 
 # the solver's kernel attributes, in the order a step calls them
 KERNELS = {"_k_mark": "active set", "_k_grad": "gradients + limiter", "_k_edges": "edge fluxes",
-           "_k_faces": "face residuals", "_k_euler": "Euler stage", "_k_thin": "thin layer",
-           "_k_heun": "Heun average"}
+           "_k_faces": "face residuals", "_k_euler": "Euler stage",
+           "_k_pred": "predictor (Euler + thin layer)",
+           "_k_corr": "corrector (Euler + Heun + thin layer)"}
 
 
 class _Timed:
@@ -198,7 +199,7 @@ def main(argv=None):
                     notes=f"Started on {start}. Best of {args.repeat} runs of the steps, CPU "
                           "(process) time of each kernel call; an order-2 step runs the "
                           "gradients, fluxes and residuals twice (Heun); other: the Python "
-                          "between the kernels (boundary volumes, the CFL max, copies).")
+                          "between the kernels (boundary volumes, the CFL max).")
         return
     orderings = args.orderings.split(",")
     sizes = [(1e4, 300), (1e5, 40)] + ([] if args.quick else [(1e6, 8)])

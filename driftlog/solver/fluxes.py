@@ -9,6 +9,8 @@ Bristeau, Klein & Perthame 2004) the two sides see different momentum fluxes: ea
 an exact discrete steady state and depths stay non-negative under the CFL condition below.
 At second order the centred source ``g/2 (h_e + h) (z_e - z)`` of the face's own linear bed
 is added on each side (Audusse et al. 2004, sect. 4), which keeps the scheme well balanced.
+At second order the sides' states at the edge (and that source) come ready from the gradient
+kernel (``reconstruction.limited_gradients``, computed once per face and edge per stage).
 
 ``face_residuals`` then sums, for each face, the fluxes of its edges (``prange`` over faces,
 reading edge arrays only) into d(h, hu, hv)/dt and the face's time-step bound: at first order
@@ -47,30 +49,6 @@ def _cell_state(f, h, hu, hv, z, hdry):
 
 
 @nb.njit(cache=True, inline="always")
-def _reconstructed_state(f, dx, dy, h, hu, hv, z, hdry, grad):
-    """(h, u, v, z) of face f at the point (dx, dy) from its centroid, from its gradients."""
-    hf = h[f]
-    he = hf + grad[f, 2] * dx + grad[f, 3] * dy
-    eta = hf + z[f] + grad[f, 0] * dx + grad[f, 1] * dy
-    if he <= hdry:
-        return he, 0.0, 0.0, eta - he
-    return (he, (hu[f] + grad[f, 4] * dx + grad[f, 5] * dy) / he,
-            (hv[f] + grad[f, 6] * dx + grad[f, 7] * dy) / he, eta - he)
-
-
-@nb.njit(cache=True, inline="always")
-def _side_state(f, dx, dy, h, hu, hv, z, hdry, order, grad):
-    """(h, u, v, z) of face f at the point (dx, dy) from its centroid.
-
-    The kernels call ``_cell_state`` (order 1) or ``_reconstructed_state`` (order 2)
-    directly: with the order a run-time argument the flux kernel took twice the time.
-    """
-    if order == 1:
-        return _cell_state(f, h, hu, hv, z, hdry)
-    return _reconstructed_state(f, dx, dy, h, hu, hv, z, hdry, grad)
-
-
-@nb.njit(cache=True, inline="always")
 def _share(h_side, h_face):
     """max(1, h_side / h_face): an edge's outflow is at most speed * h_side (1 when dry)."""
     if h_face <= 0.0 or h_side <= h_face:
@@ -78,13 +56,15 @@ def _share(h_side, h_face):
     return h_side / h_face
 
 
-def edge_fluxes(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad, order,
-                riemann, g, hdry, slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed,
-                speed1):
+def edge_fluxes(edges, edge_faces, nx, ny, length, h, hu, hv, z, order, riemann, g, hdry, slot,
+                bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1, edge_state=None):
     """Fluxes of the edges ``edges`` times their length; ``speed``: length x largest wave speed.
 
-    At second order ``speed`` and ``speed1`` hold that product for each side, times
-    max(1, h_side / h_face) (the side's share of the face's positivity bound).
+    At second order the two sides' states are the faces' reconstructed ones at the edge,
+    rows 2 e (face ``edge_faces[e, 0]``) and 2 e + 1 of ``edge_state``
+    (``reconstruction.limited_gradients``); ``speed`` and ``speed1`` then hold length x wave
+    speed for each side, times max(1, h_side / h_face) (the side's share of the face's
+    positivity bound).
 
     ``edges`` lists the edges to compute (the active set's, ``driftlog.solver.layout``); the
     others keep their values.
@@ -98,15 +78,18 @@ def edge_fluxes(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, gra
         edge_fluxes_1(edges, edge_faces, nx, ny, length, h, hu, hv, z, riemann, g, hdry, slot,
                       bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed)
     else:
-        edge_fluxes_2(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad,
-                      riemann, g, hdry, slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed,
-                      speed1)
+        edge_fluxes_2(edges, edge_faces, nx, ny, length, h, z, edge_state, riemann, g, hdry,
+                      slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1)
 
 
 @kernel
-def edge_fluxes_2(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, grad, riemann,
-                  g, hdry, slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1):
-    """``edge_fluxes`` at second order: the states of the faces' gradients at the edges."""
+def edge_fluxes_2(edges, edge_faces, nx, ny, length, h, z, est, riemann, g, hdry, slot, bkind,
+                  bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1):
+    """``edge_fluxes`` at second order: the faces' reconstructed states at the edges, ``est``.
+
+    ``est[2 e + s]``: depth, velocity and bed of the face on side s of edge e at the edge,
+    computed once per stage by ``reconstruction.limited_gradients``.
+    """
     half_g = 0.5 * g
     for i in nb.prange(edges.shape[0]):
         e = edges[i]
@@ -115,8 +98,11 @@ def edge_fluxes_2(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, g
         n1 = nx[e]
         n2 = ny[e]
         ln = length[e]
-        hA, uA, vA, zA = _reconstructed_state(a, off0[e, 0], off0[e, 1], h, hu, hv, z, hdry,
-                                              grad)
+        ka = 2 * e
+        hA = est[ka, 0]
+        uA = est[ka, 1]
+        vA = est[ka, 2]
+        zA = est[ka, 3]
         unA = uA * n1 + vA * n2
         utA = -uA * n2 + vA * n1
         if b < 0:
@@ -131,8 +117,11 @@ def edge_fluxes_2(edges, edge_faces, nx, ny, length, off0, off1, h, hu, hv, z, g
             fy1[e] = 0.0
             speed[e] = ln * sp * _share(hA, h[a])
             continue
-        hB, uB, vB, zB = _reconstructed_state(b, off1[e, 0], off1[e, 1], h, hu, hv, z, hdry,
-                                              grad)
+        kb = ka + 1
+        hB = est[kb, 0]
+        uB = est[kb, 1]
+        vB = est[kb, 2]
+        zB = est[kb, 3]
         unB = uB * n1 + vB * n2
         utB = -uB * n2 + vB * n1
         zs = max(zA, zB)

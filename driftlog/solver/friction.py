@@ -17,7 +17,7 @@ import numba as nb
 
 from driftlog._numba import kernel
 
-__all__ = ["euler_stage", "heun_average", "manning_factor", "thin_layer"]
+__all__ = ["euler_stage", "manning_factor", "predictor_stage", "corrector_stage"]
 
 
 @nb.njit(cache=True, inline="always")
@@ -63,39 +63,101 @@ def euler_stage(h0, hu0, hv0, dh, dhu, dhv, dt, gn2, hdry, thin, h, hu, hv):
         hv[f] = qy * k
 
 
-@kernel
-def heun_average(h0, hu0, hv0, thin, h, hu, hv):
-    """(h, hu, hv) = ((h0, hu0, hv0) + (h, hu, hv)) / 2: Heun's (SSP-RK2) last step.
+@nb.njit(cache=True, inline="always")
+def _thin_factor(hf, e):
+    """The desingularisation factor below the depth e (docs/model.md eq. (68)-(69)).
 
-    Below the depth ``thin`` the averaged discharges are desingularised as in ``euler_stage``.
+    u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, e^4)) (Kurganov & Petrova 2007, eq. 2.17),
+    discharges reset to h u: a factor sqrt(2) h^2 / sqrt(h^4 + e^4) < 1 for 0 < h < e.
     """
+    h2 = hf * hf
+    e2 = e * e
+    return 1.4142135623730951 * h2 / (h2 * h2 + e2 * e2) ** 0.5
+
+
+@kernel
+def predictor_stage(h0, hu0, hv0, dh, dhu, dhv, dt, gn2, hdry, thin, eps, h, hu, hv):
+    """Heun's first stage: ``euler_stage``, then the thin layer below ``eps`` (per face).
+
+    Discharges are desingularised where 0 < h < eps (``_thin_factor``, eq. (69)), in the same
+    pass.  (h, hu, hv) must not alias (h0, hu0, hv0).
+    """
+    scalar_n = gn2.shape[0] == 1
     thin4 = thin * thin * thin * thin
     for f in nb.prange(h0.shape[0]):
-        hn = 0.5 * (h0[f] + h[f])
-        h[f] = hn
-        hu[f] = 0.5 * (hu0[f] + hu[f])
-        hv[f] = 0.5 * (hv0[f] + hv[f])
+        hn = h0[f] + dt * dh[f]
+        if hn < 0.0:  # round-off only: the CFL bound keeps h >= 0 in exact arithmetic
+            hn = 0.0
+        if hn <= hdry:
+            h[f] = hn
+            hu[f] = 0.0
+            hv[f] = 0.0
+            continue
+        qx0 = hu0[f]
+        qy0 = hv0[f]
+        qx = qx0 + dt * dhu[f]
+        qy = qy0 + dt * dhv[f]
+        k = manning_factor(dt, gn2[0] if scalar_n else gn2[f], hn, qx0, qy0)
         if hn < thin:
             h2 = hn * hn
-            k = 1.4142135623730951 * h2 / (h2 * h2 + thin4) ** 0.5
-            hu[f] *= k
-            hv[f] *= k
+            k *= 1.4142135623730951 * h2 / (h2 * h2 + thin4) ** 0.5
+        qx *= k
+        qy *= k
+        e = eps[f]
+        if hn < e:  # (hn > hdry > 0 here)
+            kt = _thin_factor(hn, e)
+            qx *= kt
+            qy *= kt
+        h[f] = hn
+        hu[f] = qx
+        hv[f] = qy
 
 
 @kernel
-def thin_layer(h, hu, hv, eps):
-    """Desingularised velocity in water thinner than ``eps`` (per face).
+def corrector_stage(h1, hu1, hv1, dh, dhu, dhv, dt, gn2, hdry, thin, eps, h, hu, hv):
+    """Heun's second stage and average in one pass: (h, hu, hv) = (E(h1, ...) + (h, hu, hv)) / 2.
 
-    u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, eps^4)) (Kurganov & Petrova 2007, eq. 2.17),
-    discharges reset to h u: a factor sqrt(2) h^2 / sqrt(h^4 + eps^4) < 1 below eps.
+    E is ``euler_stage`` from the predicted state (h1, hu1, hv1) with its residuals (dh, dhu,
+    dhv); below the depth ``thin`` the averaged discharges are desingularised as in
+    ``euler_stage``, then below ``eps`` (per face, ``_thin_factor``, eq. (69)).  U'' is never
+    stored: the state (h, hu, hv) holds U^n on entry and U^(n+1) on return.
     """
-    for f in nb.prange(h.shape[0]):
-        hf = h[f]
+    scalar_n = gn2.shape[0] == 1
+    thin4 = thin * thin * thin * thin
+    for f in nb.prange(h1.shape[0]):
+        # U'' = E(U'), as euler_stage
+        hn = h1[f] + dt * dh[f]
+        if hn < 0.0:
+            hn = 0.0
+        if hn <= hdry:
+            qx = 0.0
+            qy = 0.0
+        else:
+            qx0 = hu1[f]
+            qy0 = hv1[f]
+            qx = qx0 + dt * dhu[f]
+            qy = qy0 + dt * dhv[f]
+            k = manning_factor(dt, gn2[0] if scalar_n else gn2[f], hn, qx0, qy0)
+            if hn < thin:
+                h2 = hn * hn
+                k *= 1.4142135623730951 * h2 / (h2 * h2 + thin4) ** 0.5
+            qx = qx * k
+            qy = qy * k
+        # (U'' + U^n) / 2, Heun's average
+        ha = 0.5 * (hn + h[f])
+        qx = 0.5 * (qx + hu[f])
+        qy = 0.5 * (qy + hv[f])
+        if ha < thin:
+            h2 = ha * ha
+            k = 1.4142135623730951 * h2 / (h2 * h2 + thin4) ** 0.5
+            qx *= k
+            qy *= k
+        # the thin layer (69)
         e = eps[f]
-        if hf >= e or hf <= 0.0:
-            continue
-        h2 = hf * hf
-        e2 = e * e
-        k = 1.4142135623730951 * h2 / (h2 * h2 + e2 * e2) ** 0.5
-        hu[f] *= k
-        hv[f] *= k
+        if ha < e and ha > 0.0:
+            kt = _thin_factor(ha, e)
+            qx *= kt
+            qy *= kt
+        h[f] = ha
+        hu[f] = qx
+        hv[f] = qy

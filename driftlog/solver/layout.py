@@ -22,8 +22,9 @@ Active set
     state cannot change in a stage.  ``active_set`` marks the wet faces, their neighbours and
     the faces of open boundaries that can bring water in (level, depth and discharge), and
     lists the marked faces and the edges touching them; the gradient, flux and residual
-    kernels loop over those lists only.  Faces that leave the set get their residuals, time
-    step bounds and gradients zeroed (what the full pass would compute there), so that the
+    kernels loop over those lists only.  Faces that leave the set get their residuals and time
+    step bounds zeroed and, at second order, the edge states of a dry face (what the full pass
+    would compute there: an active face's edge reads them), so that the
     kernels over all faces (Euler stage, Heun average, extremes) see exact zeros.  Results are
     bit for bit those of the full pass; a dam-break valley that is mostly dry costs little.
 """
@@ -36,6 +37,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from driftlog._numba import kernel
+from driftlog.solver.reconstruction import first_order_states
 
 __all__ = ["ORDERINGS", "face_order", "rcm_order", "hilbert_order", "edge_order",
            "active_set", "mark_active"]
@@ -98,12 +100,14 @@ def edge_order(edge_faces_new):
 
 
 @kernel
-def mark_active(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, grad):
+def mark_active(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdry, edge_offset,
+                rows, est):
     """Mark the faces a stage can change; zero the residuals of the faces that leave.
 
     ``state[f]``: bit 0 set when face f is active now, bit 1 when it was before this call.  A
     face is active when it or a neighbour holds water (h > 0) or ``always[f]``.  Returns the
-    number of active faces.
+    number of active faces.  At second order a face that leaves gets the edge states of a dry
+    face (``est``, ``reconstruction.limited_gradients``; first order: ``rows`` has no rows).
     """
     n = 0
     for f in nb.prange(h.shape[0]):
@@ -125,9 +129,9 @@ def mark_active(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, grad):
                 dhu[f] = 0.0
                 dhv[f] = 0.0
                 rate[f] = 0.0
-                if f < grad.shape[0]:  # (1, n) at first order: no gradients
-                    for m in range(grad.shape[1]):
-                        grad[f, m] = 0.0
+                if f < rows.shape[0]:  # no rows at first order
+                    first_order_states(est, rows, f, face_n[f], h[f], z[f], 0.0, 0.0, 0.0, 0.0,
+                                       edge_offset, hdry)
     return n
 
 
@@ -149,7 +153,7 @@ def _compact(state, edge_faces, faces, edges):
 
 
 def active_set(mark, h, always, face_n, neighbours, edge_faces, state, all_faces, all_edges, faces,
-               edges, dh, dhu, dhv, rate, grad):
+               edges, dh, dhu, dhv, rate, z, hdry, edge_offset, rows, est):
     """The active faces and edges of state ``h``: (faces, edges), views of index arrays.
 
     ``mark``: ``mark_active.serial`` or ``.parallel``.  ``all_faces``/``all_edges``
@@ -157,7 +161,8 @@ def active_set(mark, h, always, face_n, neighbours, edge_faces, state, all_faces
     the lists are written into ``faces``/``edges`` (work arrays of full length), in
     increasing order.
     """
-    n = mark(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, grad)
+    n = mark(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdry, edge_offset,
+             rows, est)
     if n == h.shape[0]:
         return all_faces, all_edges
     nf, ne = _compact(state, edge_faces, faces, edges)

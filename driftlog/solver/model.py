@@ -20,9 +20,9 @@ from driftlog.errors import ScenarioError
 from driftlog.solver.boundaries import DEPTH, DISCHARGE, LEVEL, WALL, BoundarySet
 from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes
 from driftlog.solver.fluxes import edge_fluxes_1, edge_fluxes_2, face_residuals, face_sides
-from driftlog.solver.friction import euler_stage, heun_average, thin_layer
+from driftlog.solver.friction import corrector_stage, euler_stage, predictor_stage
 from driftlog.solver.layout import ORDERINGS, active_set, edge_order, face_order, mark_active
-from driftlog.solver.reconstruction import NGRAD, limited_gradients, lsq_geometry
+from driftlog.solver.reconstruction import NSTATE, limited_gradients, lsq_geometry
 from driftlog.solver.riemann import RIEMANN
 
 __all__ = ["ShallowWaterSolver", "GRAVITY", "DEFAULT_CFL"]
@@ -156,11 +156,11 @@ class ShallowWaterSolver:
         par = nf >= PARALLEL_FACES if parallel is None else bool(parallel)
         self.parallel = par
         pick = (lambda k: k.parallel) if par else (lambda k: k.serial)
-        self._k_grad, self._k_edges, self._k_faces, self._k_euler, self._k_heun, \
-            self._k_mark, self._k_thin = map(pick, (limited_gradients,
+        self._k_grad, self._k_edges, self._k_faces, self._k_euler, self._k_pred, \
+            self._k_corr, self._k_mark = map(pick, (limited_gradients,
                                                     edge_fluxes_1 if order == 1 else edge_fluxes_2,
-                                                    face_residuals, euler_stage, heun_average,
-                                                    mark_active, thin_layer))
+                                                    face_residuals, euler_stage, predictor_stage,
+                                                    corrector_stage, mark_active))
         if renumber is None:
             renumber = "rcm" if nf >= RENUMBER_FACES else "none"
         if renumber not in ORDERINGS:
@@ -211,15 +211,8 @@ class ShallowWaterSolver:
         self._fn = faces_(mesh.face_n)
         self._side = face_sides(self._fe, self._ef)
         self._nbr = np.ascontiguousarray(new_face(mesh.face_neighbours[perm]))
-        a = mesh.edge_faces[:, 0]
-        b = np.where(mesh.edge_faces[:, 1] >= 0, mesh.edge_faces[:, 1], a)
-        self._off0 = edges_(np.column_stack([mesh.edge_x - mesh.face_x[a],
-                                             mesh.edge_y - mesh.face_y[a]]))
-        self._off1 = edges_(np.column_stack([mesh.edge_x - mesh.face_x[b],
-                                             mesh.edge_y - mesh.face_y[b]]))
         if self.order == 2:
             self._lsq = tuple(faces_(g) for g in lsq_geometry(mesh))
-            self._grad = np.zeros((nf, NGRAD))
             nbr = self._nbr
             # the gradients' neighbours: -1 an open boundary edge (no state beyond: its edge
             # value may go one range further), -2 a wall (its mirror state bounds the range)
@@ -228,10 +221,25 @@ class ShallowWaterSolver:
             ekind[bs.edges] = bs.kind
             wall = (nbr < 0) & (self._fe >= 0) & (ekind[np.maximum(self._fe, 0)] == WALL)
             self._gnbr = np.ascontiguousarray(np.where(wall, -2, nbr))
+            self._open_edge = np.ascontiguousarray((self._gnbr == -1).any(1))
             zj = self._z[np.where(nbr >= 0, nbr, np.arange(nf)[:, None])]
             self._thin_eps = self.thin_fraction * np.abs(zj - self._z[:, None]).max(1)
+            # the reconstructed states of the two sides of each edge (written by the gradient
+            # kernel once per stage, read by the edge kernel): row 2 e + s of _est, s = 0 for
+            # the face edge e's normal points out of; _rows[f, k] the row of face f at its k-th
+            self._est = np.zeros((2 * ne, NSTATE))
+            self._rows = np.ascontiguousarray(np.where(
+                self._fe >= 0, 2 * self._fe + 1 - self._side.astype(np.int64), 0))
+            # every face starts with a dry face's edge states (faces outside the active set
+            # keep them)
+            limited_gradients.serial(np.arange(nf, dtype=np.int64), np.zeros(nf), np.zeros(nf),
+                                     np.zeros(nf), self._z, self.dry_depth, self._fn, self._gnbr,
+                                     *self._lsq, self._rows, self._est, self._open_edge)
+            self._eoff = self._lsq[2]
         else:
-            self._grad = np.zeros((1, NGRAD))
+            self._est = np.zeros((0, NSTATE))  # no edge states at first order
+            self._rows = np.zeros((0, 1), dtype=np.int64)
+            self._eoff = np.zeros((0, 1, 2))
         self._flux = [np.zeros(ne) for _ in range(7 if self.order == 2 else 6)]
         if self.order == 1:
             self._flux.append(self._flux[5])  # speed1: unused at first order
@@ -366,7 +374,8 @@ class ShallowWaterSolver:
         if m.active_set:
             faces, edges = active_set(m._k_mark, h, m._always, m._fn, m._nbr, m._ef, m._mark,
                                       m._all_faces, m._all_edges, m._faces_buf, m._edges_buf,
-                                      dh, dhu, dhv, rate, m._grad)
+                                      dh, dhu, dhv, rate, m._z, m.dry_depth, m._eoff, m._rows,
+                                      m._est)
         else:
             faces, edges = m._all_faces, m._all_edges
         m.active_faces = faces.shape[0]
@@ -374,23 +383,19 @@ class ShallowWaterSolver:
         if m.order == 2:
             offset, minv, eoff = m._lsq
             m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._gnbr, offset, minv, eoff,
-                      m._grad)
+                      m._rows, m._est, m._open_edge)
         fm, fx0, fy0, fx1, fy1, sp, sp1 = m._flux
         if m.order == 1:
             m._k_edges(edges, m._ef, m._nx, m._ny, m._len, h, hu, hv, m._z, RIEMANN[m.riemann],
                        m.gravity, m.dry_depth, bs.slot, bs.kind, bs.value, fm, fx0, fy0, fx1,
                        fy1, sp)
         else:
-            m._k_edges(edges, m._ef, m._nx, m._ny, m._len, m._off0, m._off1, h, hu, hv, m._z,
-                       m._grad, RIEMANN[m.riemann], m.gravity, m.dry_depth, bs.slot,
-                       bs.kind, bs.value, fm, fx0, fy0, fx1, fy1, sp, sp1)
+            m._k_edges(edges, m._ef, m._nx, m._ny, m._len, h, m._z, m._est,
+                       RIEMANN[m.riemann], m.gravity, m.dry_depth, bs.slot, bs.kind, bs.value,
+                       fm, fx0, fy0, fx1, fy1, sp, sp1)
         m._k_faces(faces, m._fe, m._fn, m._side, m._area, fm, fx0, fy0, fx1, fy1, sp, sp1,
                    m.order, dh, dhu, dhv, rate)
         return float(rate.max())
-
-    def _thin_layer(self):
-        if self.thin_fraction > 0:
-            self._k_thin(self._h, self._hu, self._hv, self._thin_eps)
 
     def step(self, dt_max=np.inf) -> float:
         """Advance one time step, at most ``dt_max`` s; returns the step taken."""
@@ -408,28 +413,29 @@ class ShallowWaterSolver:
             self._k_euler(self._h, self._hu, self._hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
                           self._thin, self._h, self._hu, self._hv)
         else:
-            h0, hu0, hv0 = self._save
-            h0[:] = self._h
-            hu0[:] = self._hu
-            hv0[:] = self._hv
+            # the predictor and corrector stages go to work arrays; the state (h, hu, hv)
+            # stays U^n until the Heun average, (U'' + U^n) / 2 written onto it (a + b is
+            # b + a exactly: the average of the saved state and U'' as before, without copies)
+            h1, hu1, hv1 = self._save
+            h, hu, hv = self._h, self._hu, self._hv
+            eps = self._thin_eps
             while True:
                 self._bflux_sum[:] = 0.5 * fm[bedges]
-                self._k_euler(h0, hu0, hv0, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
-                          self._thin, self._h, self._hu, self._hv)
-                self._thin_layer()
-                rmax1 = self._rates(self._h, self._hu, self._hv, self.t + dt)
+                # Euler stage and thin layer (68)-(69) in one pass
+                self._k_pred(h, hu, hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth, self._thin,
+                             eps, h1, hu1, hv1)
+                rmax1 = self._rates(h1, hu1, hv1, self.t + dt)
                 if dt * rmax1 <= 1.0:
                     break
                 # the corrector's own positivity bound is tighter than the predictor's (the
                 # predicted state's waves are faster): redo the step at that bound
                 self.rejected_steps += 1
                 dt = self.cfl / rmax1
-                self._rates(h0, hu0, hv0, self.t)
+                self._rates(h, hu, hv, self.t)
             self._bflux_sum += 0.5 * fm[bedges]
-            self._k_euler(self._h, self._hu, self._hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
-                          self._thin, self._h, self._hu, self._hv)
-            self._k_heun(h0, hu0, hv0, self._thin, self._h, self._hu, self._hv)
-            self._thin_layer()
+            # Euler stage from U', Heun average with U^n and thin layer in one pass
+            self._k_corr(h1, hu1, hv1, dh, dhu, dhv, dt, self._gn2, self.dry_depth, self._thin,
+                         eps, h, hu, hv)
         vol = self._bflux_sum * dt  # m3 out (>0) or in (<0) per boundary edge
         bs = self.boundaries
         n = len(self.mesh.tag_names)

@@ -19,6 +19,13 @@ towards first order by the depth ratio to its neighbours (ANUGA DE1's rule, docs
 (80)): a face beside a much shallower or much deeper neighbour (a nearly dry bank, a thin film
 beside a deep channel) reconstructs nothing, which stops the flood piling up on Malpasset's
 steep valley sides.
+
+The kernel does not store the gradients: it stores what the edge-flux kernel needs of each
+face at each of its edges (depth, velocity and bed, ``EDGE_STATE``), once per stage, in the
+rows of the two sides of each edge side by side.  The edge kernel then reads two rows per edge
+and makes no velocity division (before, it recomputed each side's state from the gradients,
+the velocity divisions that the check here had already made, at every edge of every face: the
+same numbers, twice the work).
 """
 
 from __future__ import annotations
@@ -28,9 +35,12 @@ import numpy as np
 
 from driftlog._numba import kernel
 
-__all__ = ["lsq_geometry", "limited_gradients", "NGRAD"]
+__all__ = ["lsq_geometry", "limited_gradients", "first_order_states", "EDGE_STATE", "NSTATE"]
 
-NGRAD = 8  # d(eta)/dx, d(eta)/dy, dh/dx, dh/dy, d(hu)/dx, d(hu)/dy, d(hv)/dx, d(hv)/dy
+# what ``limited_gradients`` stores for each side of each edge (``est[2 e + s, :]``, s = 0 for
+# the face the edge's normal points out of, 1 for the other)
+EDGE_STATE = ("h", "u", "v", "z")
+NSTATE = len(EDGE_STATE)
 # depth-ratio blending (eq. (80)), ANUGA DE1's thresholds: the gradients are scaled by
 # (r - DEPTH_RATIO_FIRST) / (DEPTH_RATIO_FULL - DEPTH_RATIO_FIRST) clipped to [0, 1], r the
 # smaller of h_min / h_i and h_i / h_max over the face and its neighbours
@@ -72,41 +82,101 @@ def lsq_geometry(mesh):
 def _bj(phi, g_x, g_y, ex, ey, qc, qmin, qmax, ext):
     """Barth-Jespersen factor so far ``phi``, tightened by one edge (offset ex, ey)."""
     dq = g_x * ex + g_y * ey
-    # selects, not branches: the sign of dq is a coin toss from edge to edge, and the
-    # mispredicted branches took a third of the gradient kernel's time (same numbers)
+    # the bound has the sign of dq (qmax + ext >= qc >= qmin - ext), so the ratio is >= 0, and
+    # >= 1 >= phi unless |bound| < |dq|: only then can the edge tighten phi, and only then is
+    # the division made (the same phi; dq = 0 never tightens)
     flat = dq == 0.0
     bound = (qmax + ext - qc) if dq > 0.0 else (qmin - ext - qc)
     r = bound / (1.0 if flat else dq)
     return phi if flat else min(phi, r)
 
 
+@nb.njit(cache=True, inline="always")
+def _bj2(dmax, dmin, qc, qmin, qmax):
+    """Barth-Jespersen factor of a face with no open-boundary edge, from its extreme dq.
+
+    Every edge's bound is then qmax - qc where dq > 0 and qmin - qc where dq < 0, so the
+    smallest ratio of each sign is the one of the largest |dq| (a correctly rounded division
+    is monotone): ``_bj`` over the edges gives the same factor with two divisions, not one
+    per edge.  ``dmax`` >= 0 and ``dmin`` <= 0 are the largest and smallest dq (0: none).
+    """
+    rp = (qmax + 0.0 - qc) / (dmax if dmax > 0.0 else 1.0)
+    rm = (qmin - 0.0 - qc) / (dmin if dmin < 0.0 else 1.0)
+    p = min(1.0, rp) if dmax > 0.0 else 1.0
+    return min(p, rm) if dmin < 0.0 else p
+
+
+@nb.njit(cache=True, inline="always")
+def _slot(est, r, he, ue, ve, ze):
+    """Store a face's state at one of its edges in row ``r`` of ``est`` (``EDGE_STATE``)."""
+    est[r, 0] = he
+    est[r, 1] = ue
+    est[r, 2] = ve
+    est[r, 3] = ze
+
+
+@nb.njit(cache=True, inline="always")
+def first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdry):
+    """Edge states of face f with zero depth and discharge gradients, level gradient (g0, g1).
+
+    The values of the general formulas with those gradients (h_e = h + 0 dx + 0 dy = h,
+    u_e = (hu + 0 dx + 0 dy) / h_e) without their divisions: hu / h once per face (the
+    numerator differs from hu only by the sign of a zero, and then so does the quotient).
+    """
+    c0 = hi + zi
+    u0 = v0 = 0.0
+    wet = hi > hdry
+    if wet:
+        u0 = c2 / hi
+        v0 = c3 / hi
+    for k in range(n):
+        ex = edge_offset[f, k, 0]
+        ey = edge_offset[f, k, 1]
+        he = hi + 0.0 * ex + 0.0 * ey
+        eta = c0 + g0 * ex + g1 * ey
+        ue = ve = 0.0
+        if wet:
+            ue = u0 if c2 != 0.0 else c2 + 0.0 * ex + 0.0 * ey
+            ve = v0 if c3 != 0.0 else c3 + 0.0 * ex + 0.0 * ey
+        _slot(est, rows[f, k], he, ue, ve, eta - he)
+
+
 @kernel
 def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset,
-                      grad):
-    """Fill ``grad`` (n_faces, 8) with the limited gradients of eta, h, hu, hv on ``faces``.
+                      rows, est, open_edge):
+    """The reconstructed states of ``faces`` at their edges, from limited gradients.
 
+    Fills row ``rows[f, k]`` of ``est`` (2 n_edges, ``NSTATE``) for face f's k-th edge e
+    (row 2 e for the face the edge's normal points out of, 2 e + 1 for the other: the edge
+    kernel reads its two sides side by side) with the ``EDGE_STATE`` fields: depth h_e,
+    velocity (u_e, v_e) = (hu_e, hv_e) / h_e (0 where h_e <= ``hdry``) and bed
+    z_e = eta_e - h_e, so that the edge-flux kernel reads them and computes nothing twice.
     ``faces``: the active set's faces (``driftlog.solver.layout``); other rows keep theirs.
+    ``open_edge[f]``: face f has an open-boundary edge (a -1 in ``neighbours``), where the
+    limiter's bound is widened edge by edge.
     One pass over the neighbours gathers the four least-squares sums, their ranges and the
-    velocities' range; one pass over the edges limits the four gradients.
+    velocities' range; one pass over the edges limits the four gradients; one more computes
+    the edge states (and checks the edge velocities).
     """
     for i in nb.prange(faces.shape[0]):
         f = faces[i]
-        for k in range(NGRAD):
-            grad[f, k] = 0.0
         hi = h[f]
-        if hi <= hdry or (minv[f, 0] == 0.0 and minv[f, 2] == 0.0):
-            continue
+        zi = z[f]
+        c2 = hu[f]
+        c3 = hv[f]
         n = face_n[f]
+        if hi <= hdry or (minv[f, 0] == 0.0 and minv[f, 2] == 0.0):
+            first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry)
+            continue
         front = False
         for k in range(n):
             j = neighbours[f, k]
             if j >= 0 and h[j] <= hdry:
                 front = True
         if front:
+            first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry)
             continue
-        c0 = hi + z[f]
-        c2 = hu[f]
-        c3 = hv[f]
+        c0 = hi + zi
         rx0 = ry0 = rx1 = ry1 = rx2 = ry2 = rx3 = ry3 = 0.0
         mn0 = mx0 = c0
         mn1 = mx1 = hi
@@ -167,27 +237,54 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         # MacDonald's channel its second order); a wall (-2) is not widened: its mirror state
         # holds the level and the speed, and widening there let Ritter's dry front on
         # triangles grow noisy under refinement
-        p0 = p1 = p2 = p3 = 1.0
-        for k in range(n):
-            ex = edge_offset[f, k, 0]
-            ey = edge_offset[f, k, 1]
-            bnd = neighbours[f, k] == -1
-            p0 = _bj(p0, gx0, gy0, ex, ey, c0, mn0, mx0, mx0 - mn0 if bnd else 0.0)
-            p1 = _bj(p1, gx1, gy1, ex, ey, hi, mn1, mx1, mx1 - mn1 if bnd else 0.0)
-            p2 = _bj(p2, gx2, gy2, ex, ey, c2, mn2, mx2, mx2 - mn2 if bnd else 0.0)
-            p3 = _bj(p3, gx3, gy3, ex, ey, c3, mn3, mx3, mx3 - mn3 if bnd else 0.0)
+        if open_edge[f]:
+            p0 = p1 = p2 = p3 = 1.0
+            for k in range(n):
+                ex = edge_offset[f, k, 0]
+                ey = edge_offset[f, k, 1]
+                bnd = neighbours[f, k] == -1
+                p0 = _bj(p0, gx0, gy0, ex, ey, c0, mn0, mx0, mx0 - mn0 if bnd else 0.0)
+                p1 = _bj(p1, gx1, gy1, ex, ey, hi, mn1, mx1, mx1 - mn1 if bnd else 0.0)
+                p2 = _bj(p2, gx2, gy2, ex, ey, c2, mn2, mx2, mx2 - mn2 if bnd else 0.0)
+                p3 = _bj(p3, gx3, gy3, ex, ey, c3, mn3, mx3, mx3 - mn3 if bnd else 0.0)
+        else:  # the edges' extreme increments, then two divisions per quantity (_bj2)
+            a0 = a1 = a2 = a3 = b0 = b1 = b2 = b3 = 0.0
+            for k in range(n):
+                ex = edge_offset[f, k, 0]
+                ey = edge_offset[f, k, 1]
+                d = gx0 * ex + gy0 * ey
+                a0 = max(a0, d)
+                b0 = min(b0, d)
+                d = gx1 * ex + gy1 * ey
+                a1 = max(a1, d)
+                b1 = min(b1, d)
+                d = gx2 * ex + gy2 * ey
+                a2 = max(a2, d)
+                b2 = min(b2, d)
+                d = gx3 * ex + gy3 * ey
+                a3 = max(a3, d)
+                b3 = min(b3, d)
+            p0 = _bj2(a0, b0, c0, mn0, mx0)
+            p1 = _bj2(a1, b1, hi, mn1, mx1)
+            p2 = _bj2(a2, b2, c2, mn2, mx2)
+            p3 = _bj2(a3, b3, c3, mn3, mx3)
         # depth-ratio blending towards first order (docs/model.md eq. (80)): a neighbour far
         # shallower or far deeper than the face marks a wet/dry front or a steep bank
-        beta = min(DEPTH_RATIO_SLOPE * (mn1 / hi - DEPTH_RATIO_FIRST),
-                   DEPTH_RATIO_SLOPE * (hi / mx1 - DEPTH_RATIO_FIRST), 1.0)
+        # (both ratios above 0.31 make both terms > 1 whatever the round-off: beta = 1 without
+        # the divisions, the usual case)
+        beta = 1.0
+        if mn1 < 0.31 * hi or hi < 0.31 * mx1:
+            beta = min(DEPTH_RATIO_SLOPE * (mn1 / hi - DEPTH_RATIO_FIRST),
+                       DEPTH_RATIO_SLOPE * (hi / mx1 - DEPTH_RATIO_FIRST), 1.0)
         if beta <= 0.0:
+            first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry)
             continue
         p0 = max(p0, 0.0) * beta
         p1 = max(p1, 0.0) * beta
         p2 = max(p2, 0.0) * beta
         p3 = max(p3, 0.0) * beta
-        grad[f, 0] = p0 * gx0
-        grad[f, 1] = p0 * gy0
+        g0 = p0 * gx0
+        g1 = p0 * gy0
         gx1 *= p1
         gy1 *= p1
         gx2 *= p2
@@ -217,10 +314,6 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
             if ue < umin or ue > umax or ve < vmin or ve > vmax:
                 ok = False
                 break
-        if ok:  # else depth and discharges at first order here
-            grad[f, 2] = gx1
-            grad[f, 3] = gy1
-            grad[f, 4] = gx2
-            grad[f, 5] = gy2
-            grad[f, 6] = gx3
-            grad[f, 7] = gy3
+            _slot(est, rows[f, k], he, ue, ve, (c0 + g0 * ex + g1 * ey) - he)
+        if not ok:  # depth and discharges at first order here, the level's gradient kept
+            first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdry)
