@@ -55,11 +55,13 @@ from driftlog.fused import _rk4_stage
 from driftlog.integrators import euler_row, put_row, rk4_final_row, row
 from driftlog.physics import log_rhs, rest_drive
 
-__all__ = ["CLOCKS", "per_log_mesh_advance", "OK", "TOO_SMALL", "DIVERGED", "EULER", "RK4"]
+__all__ = ["CLOCKS", "per_log_mesh_advance", "idle_lift", "OK", "TOO_SMALL", "DIVERGED",
+           "STOPPED", "EULER", "RK4"]
 
 CLOCKS = ("global", "per_log")
-# per-log outcome codes of per_log_mesh_advance
-OK, TOO_SMALL, DIVERGED = 0, 1, 2
+# per-log outcome codes of per_log_mesh_advance (STOPPED: its status would change, left,
+# stranded or resting, at t_log)
+OK, TOO_SMALL, DIVERGED, STOPPED = 0, 1, 2, 3
 EULER, RK4 = 0, 1
 
 
@@ -105,13 +107,13 @@ def _floats(fg, fl, s, p, thr, friction, opt):
 
 
 @kernel
-def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t0, t_stop, tol, method,
+def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t_from, t0, t_stop, tol, method,
                          length, lf, ang, drag_fraction, explicit, max_step, min_step,
                          tracer, rotation, thr, friction,
                          vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split,
-                         dry_depth, recovered, loc, fx, fy,
+                         dry_depth, recovered, loc, fx, fy, restart,
                          t_log, nsteps, dt_min, dt_max, box, code):
-    """Advance every log from t0 to t_stop with its own sub-steps (one log per thread).
+    """Advance every log from t_from to t_stop with its own sub-steps (one log per thread).
 
     Parameters
     ----------
@@ -121,8 +123,12 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t0, t_stop, tol, me
         of each log's last sub-step.
     P, opt : arrays
         Parameter rows and physics options.
+    t_from : array
+        Each log's start time (t0 for the logs floating at t0; later for a log lifted inside
+        the interval, ``idle_lift``).
     t0, t_stop, tol : float
-        The interval and the round-off tolerance of landing on t_stop.
+        The interval (t0: the origin of the moving frame of the boxes) and the round-off
+        tolerance of landing on t_stop.
     method : int
         EULER or RK4.
     length, lf, ang, drag_fraction, explicit, max_step, min_step
@@ -139,19 +145,41 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t0, t_stop, tol, me
     fx, fy : float
         Velocity of the frame the swept boxes are measured in (contact windows: the logs'
         mean velocity, so that logs drifting together do not sweep over each other).
+    restart : bool
+        The logs start from rest at t_from (lifted off the bed, docs/model.md section 6): their
+        velocity is set to 0 and F, flag, face, D0 and lin0 are computed there first.
     t_log, nsteps, dt_min, dt_max, box, code : outputs
         Each log's end time (t_stop unless it stopped early), sub-steps taken, shortest and
-        longest sub-step, bounding box of its axis ends over t0 and its sub-step ends, in
+        longest sub-step, bounding box of its axis ends over t_from and its sub-step ends, in
         the frame moving at (fx, fy) from t0 (xmin, ymin, xmax, ymax) and outcome (OK,
-        TOO_SMALL, DIVERGED).
+        TOO_SMALL, DIVERGED, STOPPED).
     """
     for i in nb.prange(S.shape[0]):
         s = row(S, i)
         p = P[i]
-        t = t0
+        t = t_from[i]
+        if restart:
+            s = (s[X], s[Y], s[THETA], 0.0, 0.0, 0.0)
+            if t >= t_split:
+                a_r, inv_r = _weight(t, T0n, gap_n)
+                vals_r = vals_n
+            else:
+                a_r, inv_r = _weight(t, T0c, gap_c)
+                vals_r = vals_c
+            f, fg, fl = sample_point(s[X], s[Y], face[i], a_r, inv_r, vals_r, dry_depth,
+                                     recovered, loc)
+            face[i] = f
+            flag[i] = fg
+            for q in range(NVAR):
+                F[i, q] = fl[q]
+            d, ln2 = log_rhs(s, fl, p, opt, True)
+            put_row(D0, i, d)
+            for q in range(NLIN):
+                lin0[i, q] = ln2[q]
         k = 0
         lo, hi = np.inf, 0.0
-        ax, ay, bx, by = log_endpoints(s[X], s[Y], s[THETA], length[i])
+        tau = t - t0
+        ax, ay, bx, by = log_endpoints(s[X] - fx * tau, s[Y] - fy * tau, s[THETA], length[i])
         x0, y0, x1, y1 = min(ax, bx), min(ay, by), max(ax, bx), max(ay, by)
         c = OK
         while t < t_stop:
@@ -228,6 +256,7 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t0, t_stop, tol, me
             x0, y0 = min(x0, min(ax, bx)), min(y0, min(ay, by))
             x1, y1 = max(x1, max(ax, bx)), max(y1, max(ay, by))
             if not _floats(fg, fl, s, p, thr[i], friction, opt):
+                c = STOPPED
                 break
         put_row(S, i, s)
         t_log[i] = t
@@ -236,3 +265,62 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t0, t_stop, tol, me
         dt_max[i] = hi
         box[i, 0], box[i, 1], box[i, 2], box[i, 3] = x0, y0, x1, y1
         code[i] = c
+
+
+@nb.njit(cache=True)
+def _idle_floats(x, y, th, hint, t, p, opt, thr, friction, vals_c, T0c, gap_c, vals_n, T0n,
+                 gap_n, t_split, dry_depth, recovered, loc):
+    """Whether an idle log at (x, y, th) floats at time t (``stepping.classify``'s rules)."""
+    if t >= t_split:
+        a, inv = _weight(t, T0n, gap_n)
+        vals = vals_n
+    else:
+        a, inv = _weight(t, T0c, gap_c)
+        vals = vals_c
+    f, fg, fl = sample_point(x, y, hint, a, inv, vals, dry_depth, recovered, loc)
+    return _floats(fg, fl, (x, y, th, 0.0, 0.0, 0.0), p, thr, friction, opt)
+
+
+@kernel
+def idle_lift(S, face, P, opt, thr, friction, t_from, t_stop, dt_check, tol, vals_c, T0c,
+              gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc, t_lift):
+    """The first time in (t_from, t_stop] at which each idle (resting, stranded) log floats.
+
+    Per-log clocks (docs/model.md 11.1): an idle log does not move, so whether it floats at a
+    time t is the flow at its place at t.  Within a snapshot pair the flow is linear in time
+    at a fixed point, so with ``physics.motion = "floating"`` (float where h >= h*) the
+    depth crosses h* at most once on each side of the snapshot time t_split: the two ends of
+    each piece tell whether it lifts there, and bisection finds when, to ``tol``.  With
+    ``friction`` (the flow's force against bed friction: not monotone in time) the pieces are
+    cut into checks ``dt_check`` apart (the floating logs' shortest sub-step: at least as
+    often as the global clock checks its idle logs) and bisection runs in the first check
+    interval where it floats.  ``t_lift``: that time, inf where the log stays idle.
+    """
+    for i in nb.prange(S.shape[0]):
+        x, y, th = S[i, X], S[i, Y], S[i, THETA]
+        hint = face[i]
+        p = P[i]
+        t_lift[i] = np.inf
+        ta = t_from[i]
+        while ta < t_stop - tol:
+            tb = t_stop
+            if ta < t_split < t_stop:
+                tb = t_split  # the end of this snapshot piece (linear in time before it)
+            if friction and tb - ta > dt_check:
+                tb = ta + dt_check
+            if _idle_floats(x, y, th, hint, tb, p, opt, thr[i], friction, vals_c, T0c, gap_c,
+                            vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc):
+                lo, hi = ta, tb  # idle at lo (or just before), floating at hi
+                while hi - lo > tol:
+                    mid = 0.5 * (lo + hi)
+                    if mid <= lo or mid >= hi:
+                        break
+                    if _idle_floats(x, y, th, hint, mid, p, opt, thr[i], friction, vals_c,
+                                    T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
+                                    recovered, loc):
+                        hi = mid
+                    else:
+                        lo = mid
+                t_lift[i] = hi
+                break
+            ta = tb

@@ -26,13 +26,17 @@ from driftlog.clock_kernel import (
     DIVERGED,
     EULER,
     RK4,
+    STOPPED,
     TOO_SMALL,
+    idle_lift,
     per_log_mesh_advance,
 )
+from driftlog.columns import VELOCITY
 from driftlog.contact.islands import island_labels
 from driftlog.logs import FLOATING
 
-__all__ = ["CLOCKS", "per_log_interval", "free_advance", "contact_advance", "contact_window"]
+__all__ = ["CLOCKS", "per_log_interval", "free_advance", "relift_advance", "contact_advance",
+           "contact_window"]
 
 
 # --------------------------------------------------------------------- the tracker's side
@@ -46,7 +50,7 @@ def per_log_interval(tr, stop, bar=None):
     """
     t0 = tr.t
     if tr.contact is None:
-        free_advance(tr, stop)
+        relift_advance(tr, stop)
     else:
         contact_advance(tr, stop)
     tr.t = stop
@@ -58,7 +62,7 @@ def per_log_interval(tr, stop, bar=None):
         bar.update(stop - t0)
 
 
-def free_advance(tr, stop, frame=(0.0, 0.0)):
+def free_advance(tr, stop, frame=(0.0, 0.0), pairs=None):
     """Every floating log of ``tr`` to ``stop`` with its own sub-steps (one kernel).
 
     Returns each log's swept box (n, 4: xmin, ymin, xmax, ymax of its axis ends at the start
@@ -66,20 +70,55 @@ def free_advance(tr, stop, frame=(0.0, 0.0)):
     whose status changes on the way stops there; the tracker then
     classifies it from the flow sampled where it stopped (``F``, as the global clock would).
     """
-    from driftlog.columns import P_HSTAR
-    from driftlog.stepping import IntegrationError, StepTooSmallError
+    return _advance_rows(tr, stop, None, None, False, frame, pairs)[0]
 
-    so, kern, n = tr.step_options, tr._kernel, tr.act.size
-    if not tr._d0_valid:
-        tr._rhs(tr.state, tr.t, tr.D0, tr.lin0)
+
+def _pairs_of(tr, stop):
+    """The node-value snapshot pairs of the interval from ``tr.t`` to ``stop``.
+
+    (vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split): stage times before t_split use the
+    first pair, the others the second (an interval holds no snapshot time inside).  Taken
+    once per interval: the flow keeps one pair, and asking for the two in turn loads them
+    again from the file each time.
+    """
+    kern = tr._kernel
     vals_c, T0c, gap_c, t_split = kern.node_pair(tr.t)
     if stop >= t_split:
         vals_n, T0n, gap_n, _ = kern.node_pair(stop)
     else:
         vals_n, T0n, gap_n = vals_c, T0c, gap_c
+    return vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split
+
+
+def _advance_rows(tr, stop, rows, t_from, restart, frame=(0.0, 0.0), pairs=None):
+    """``per_log_mesh_advance`` on the compact rows ``rows`` (None: all) from ``t_from``.
+
+    ``t_from``: each row's start time (None: ``tr.t``); ``restart``: the rows start from rest
+    there (lifted off the bed); ``pairs``: ``_pairs_of(tr, stop)`` when already taken.
+    Returns (box, t_log, code, dt_min) of those rows; the rows of the tracker's compact arrays
+    are updated in place.
+    """
+    from driftlog.columns import P_HSTAR
+    from driftlog.stepping import IntegrationError, StepTooSmallError
+
+    so, kern = tr.step_options, tr._kernel
+    t0 = tr.t
+    if rows is None and not tr._d0_valid:
+        tr._rhs(tr.state, tr.t, tr.D0, tr.lin0)
+    vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split = pairs or _pairs_of(tr, stop)
     friction = tr.physics.motion != "floating"
-    thr = (tr.P[:, P_HSTAR].copy() if friction
-           else np.ascontiguousarray(tr.logs.float_depth[tr.act]))
+    if rows is None:
+        S, D0, lin0, face, F, flag = tr.state, tr.D0, tr.lin0, tr.face, tr.F, tr.flag
+        P, length, ids = tr.P, np.ascontiguousarray(tr.length), tr.ids
+    else:
+        S, D0, lin0 = tr.state[rows], tr.D0[rows], tr.lin0[rows]
+        face, F, flag = tr.face[rows], tr.F[rows], tr.flag[rows]
+        P, length, ids = tr.P[rows], np.ascontiguousarray(tr.length[rows]), tr.ids[rows]
+    n = S.shape[0]
+    thr = (P[:, P_HSTAR].copy() if friction
+           else np.ascontiguousarray(tr.logs.float_depth[tr.act if rows is None
+                                                         else tr.act[rows]]))
+    t_from = np.full(n, t0) if t_from is None else np.ascontiguousarray(t_from, dtype=float)
     t_log, dt_min, dt_max = np.empty(n), np.empty(n), np.empty(n)
     nsteps, code = np.empty(n, np.int64), np.empty(n, np.int8)
     box = np.empty((n, 4))
@@ -87,13 +126,18 @@ def free_advance(tr, stop, frame=(0.0, 0.0)):
     explicit = not tr.integrator.stiff_stable and not tracer
     method = RK4 if tr.integrator.name == "rk4" else EULER
     per_log_mesh_advance(
-        tr.state, tr.D0, tr.lin0, tr.face, tr.F, tr.flag, tr.P, tr.opt, tr.t, stop,
-        tr.time_tol, method, np.ascontiguousarray(tr.length), so.length_fraction,
+        S, D0, lin0, face, F, flag, P, tr.opt, t_from, t0, stop,
+        tr.time_tol, method, length, so.length_fraction,
         so.angle_step, so.drag_fraction, explicit, so.max_step if so.max_step else np.inf,
         so.min_step, tracer, bool(tr.physics.rotation), thr, friction, vals_c, T0c, gap_c,
         vals_n, T0n, gap_n, t_split, kern.dry_depth, kern.recovered, kern.locator,
-        float(frame[0]), float(frame[1]), t_log, nsteps, dt_min, dt_max, box, code)
-    tr._F_valid = tr._d0_valid = True
+        float(frame[0]), float(frame[1]), bool(restart), t_log, nsteps, dt_min, dt_max, box,
+        code)
+    if rows is None:
+        tr._F_valid = tr._d0_valid = True
+    else:
+        tr.state[rows], tr.D0[rows], tr.lin0[rows] = S, D0, lin0
+        tr.face[rows], tr.F[rows], tr.flag[rows] = face, F, flag
     k = int(nsteps.sum())
     st = tr.stats
     st["log_substeps"] = st.get("log_substeps", 0) + k
@@ -105,17 +149,101 @@ def free_advance(tr, stop, frame=(0.0, 0.0)):
     if bad.size:
         i = bad[0]
         raise StepTooSmallError(
-            f"sub-step below integrator.min_step = {so.min_step} s for log {int(tr.ids[i])} "
+            f"sub-step below integrator.min_step = {so.min_step} s for log {int(ids[i])} "
             f"at t = {t_log[i]} s; a log spins or moves too fast for its length (check the "
             "flow at the logs) or lower integrator.min_step")
     bad = np.flatnonzero(code == DIVERGED)
     if bad.size:
         raise IntegrationError(
             f"the {tr.integrator.name} integration diverged at t = {t_log[bad[0]]:.6g} s "
-            f"(logs {tr.ids[bad[:5]].tolist()}): the step is too long for the drag "
+            f"(logs {ids[bad[:5]].tolist()}): the step is too long for the drag "
             "relaxation time; use integrator.method = 'exponential' or set "
             "integrator.drag_fraction > 0")
-    return box
+    return box, t_log, code, np.where(nsteps > 0, dt_min, np.inf)
+
+
+# a log that keeps landing and lifting within one interval is followed this many times; after
+# that it waits for the synchronisation time (as before the fix of issue 15's idle checks)
+RELIFT_ROUNDS = 16
+
+
+def _lift_times(tr, S, face, idx, t_from, stop, dt_check, pairs):
+    """``clock_kernel.idle_lift`` for the logs ``idx`` (full arrays) at states S from t_from."""
+    from driftlog.columns import P_HSTAR
+
+    kern = tr._kernel
+    vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split = pairs
+    friction = tr.physics.motion != "floating"
+    P = np.ascontiguousarray(tr.P_all[idx])
+    thr = (P[:, P_HSTAR].copy() if friction
+           else np.ascontiguousarray(tr.logs.float_depth[idx]))
+    t_lift = np.empty(idx.size)
+    idle_lift(np.ascontiguousarray(S), np.ascontiguousarray(face, dtype=np.int64), P, tr.opt,
+              thr, friction, np.ascontiguousarray(t_from, dtype=float), float(stop),
+              float(dt_check), tr.time_tol, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split,
+              kern.dry_depth, kern.recovered, kern.locator, t_lift)
+    return t_lift
+
+
+def relift_advance(tr, stop):
+    """Per-log clocks without contacts: the floating logs, and the idle logs the flow lifts.
+
+    The floating logs run to ``stop`` on their own clocks (``free_advance``).  An idle log
+    (resting or stranded at the interval's start, or a floating log that stopped on the way)
+    is checked for refloating over the whole interval, not only at ``stop``
+    (``clock_kernel.idle_lift``: the first time the flow at its place floats it); one that
+    lifts at t_l starts from rest there and runs on its own clock from t_l to ``stop``, and
+    may stop and lift again (up to ``RELIFT_ROUNDS`` times).  So an idle log lifts at the
+    same time as under the global clock, within that clock's sub-step (docs/model.md 11.1).
+    """
+    from driftlog.logs import RESTING, STRANDED
+
+    L = tr.logs
+    t0 = tr.t
+    pairs = _pairs_of(tr, stop)
+    _, t_log, code, dtm = _advance_rows(tr, stop, None, None, False, pairs=pairs)
+    # the finest check interval of the global clock: the floating logs' shortest own step
+    dt_check = min(float(dtm.min(initial=np.inf)), stop - t0)
+    idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
+    if idle.size:
+        t_lift = _lift_times(tr, L.state[idle], L.face[idle], idle, np.full(idle.size, t0),
+                             stop, dt_check, pairs)
+        up = np.flatnonzero(np.isfinite(t_lift))
+        if up.size:
+            new, t_new = idle[up], t_lift[up]
+            old = tr.act
+            kept = (tr.F.copy(), tr.flag.copy(), tr.D0.copy(), tr.lin0.copy(), t_log, code)
+            tr._scatter()
+            L.status[new] = FLOATING
+            L.state[new, VELOCITY] = 0.0  # a lifted log starts from rest
+            tr._d0_valid = tr._F_valid = False
+            tr._set_active(np.union1d(old, new))
+            pos = np.searchsorted(tr.act, old)
+            tr.F[pos], tr.flag[pos], tr.D0[pos], tr.lin0[pos] = kept[:4]
+            t_log = np.full(tr.act.size, stop)
+            code = np.zeros(tr.act.size, np.int8)
+            t_log[pos], code[pos] = kept[4], kept[5]
+            rows = np.searchsorted(tr.act, new)
+            _, t_log[rows], code[rows], _ = _advance_rows(tr, stop, rows, t_new, True,
+                                                          pairs=pairs)
+            tr._F_valid = tr._d0_valid = True
+    for _ in range(RELIFT_ROUNDS):
+        # floating logs that stopped on the way (landed, stranded): lifted again before stop?
+        rows = np.flatnonzero((code == STOPPED) & (t_log < stop - tr.time_tol))
+        if rows.size == 0:
+            break
+        S = tr.state[rows].copy()
+        S[:, VELOCITY] = 0.0
+        t_lift = _lift_times(tr, S, tr.face[rows], tr.act[rows], t_log[rows], stop, dt_check,
+                             pairs)
+        up = np.flatnonzero(np.isfinite(t_lift))
+        code[rows] = 0  # checked: idle up to stop unless lifted
+        if up.size == 0:
+            break
+        rows = rows[up]
+        _, t_log[rows], code[rows], _ = _advance_rows(tr, stop, rows, t_lift[up], True,
+                                                      pairs=pairs)
+    return t_log
 
 
 # --------------------------------------------------------------------- contact windows
@@ -138,11 +266,15 @@ def contact_advance(tr, stop, max_tries=3):
     there, as the global clock does after each sub-step).
     """
     C = tr.contact
-    if C.method != "event" or C.time_of_impact != "conservative" or C.backend.name != "native":
-        python_islands(tr, stop, max_tries)
-        return
+    kernel = (C.method == "event" and C.time_of_impact == "conservative"
+              and C.backend.name == "native")
     while stop - tr.t > tr.time_tol and tr.act.size:
-        contact_window(tr, _window_end(tr, stop), max_tries)
+        end = _window_end(tr, stop)
+        if kernel:
+            contact_window(tr, end, max_tries)
+        else:
+            python_islands(tr, end, max_tries)
+            tr.stats["windows"] = tr.stats.get("windows", 0) + 1
         tr._update_status()
     tr.t = stop
 
@@ -259,7 +391,8 @@ def contact_window(tr, stop, max_tries=3):
     n = tr.act.size
     S0, face0, F0, flag0 = tr.state.copy(), tr.face.copy(), tr.F.copy(), tr.flag.copy()
     frame = (float(S0[:, 3].mean()), float(S0[:, 4].mean())) if n else (0.0, 0.0)
-    box = free_advance(tr, stop, frame)
+    pairs = _pairs_of(tr, stop)
+    box = free_advance(tr, stop, frame, pairs)
     E = (tr.state.copy(), tr.face.copy(), tr.F.copy(), tr.flag.copy())
     reach = _reach(tr)
     span = stop - t0
@@ -273,9 +406,7 @@ def contact_window(tr, stop, max_tries=3):
         tr._scatter()
         return
     # what the islands need of the flow and the model
-    vals_c, T0c, gap_c, t_split = kern.node_pair(t0)
-    vals_n, T0n, gap_n = (kern.node_pair(stop)[:3] if stop >= t_split
-                          else (vals_c, T0c, gap_c))
+    vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split = pairs
     friction = tr.physics.motion != "floating"
     from driftlog.columns import P_HSTAR
 
@@ -457,7 +588,7 @@ def touching(tr, box, half):
     return hit, pairs
 
 
-def python_islands(tr, stop, max_tries=3):
+def python_islands(tr, stop, max_tries=3, together=True):
     """Per-log clocks with contacts, islands through the Python contact model (Moreau-Jean).
 
     The path of ``contact.method = "moreau"``, the dichotomy time of impact and the fcl
@@ -467,10 +598,13 @@ def python_islands(tr, stop, max_tries=3):
     2. Logs whose boxes (grown by half a length, the radius and a margin) overlap another
        log's or an obstacle's are the contact set; the connected components of the overlap
        graph are its islands.  The others keep their free motion.
-    3. Each island restarts from the interval's start and runs the global clock's contact
-       steps among its own logs (``Tracker._global_steps`` on the island): impulses, times of
-       impact and the event-driven step of the contact model, as before; an island's next
-       contact ends only that island's step.
+    3. The islands restart from the window's start and run the global clock's contact
+       steps among their own logs (``Tracker._global_steps`` on them): impulses, times of
+       impact and the step of the contact model, as before.  ``together`` (default): all the
+       islands of the window in one pass, sharing its steps (``contact_advance`` cuts the
+       interval into short contact windows, so the islands are few logs and their steps
+       many only where logs are close); False: one island after another, each on its own
+       clock (a Python pass per island).
     4. Closure: if an island's actual sweep reaches a free log's box or another island's
        sweep, those join (one island) and the interval is computed again; after
        ``max_tries``, the whole contact set and the logs it reaches share one step.
@@ -510,7 +644,11 @@ def python_islands(tr, stop, max_tries=3):
         cuts = np.flatnonzero(np.diff(labels[order])) + 1
         swept = np.column_stack([S0[:, 0], S0[:, 1], S0[:, 0], S0[:, 1]])
         active = []
-        for group in np.split(order, cuts):  # one island at a time (its own clock)
+        # the islands of a contact window share its contact steps: one pass of the contact
+        # model over all of them (a Python pass per island costs more than the steps it saves
+        # once the islands are many: the 1e4 logs of benchmarks/million_logs.py)
+        groups = [sub] if together else np.split(order, cuts)
+        for group in groups:
             pool = act0[group]
             tr.t = t0
             tr._d0_valid = tr._F_valid = False

@@ -209,3 +209,46 @@ def test_island_kernel_records_the_same_hits_and_momentum_as_the_contact_model()
     # the islands were run by the kernel in contact windows, never all logs in one (each
     # row, with a bystander that comes near it)
     assert p.stats["windows"] >= 16 and p.stats["largest_island"] <= 7 < len(b)
+
+
+def rising_flow(depth0, rate, U0=1.0, T=16.0):
+    """A uniform current U0 over a flat bed whose depth rises as depth0 + rate t."""
+    from driftlog.flow import MeshFlowField
+
+    times = np.arange(0.0, T + 0.1, 4.0)
+    n = UNIFORM_MESH.n_faces
+    h = np.array([np.full(n, depth0 + rate * t) for t in times])
+    return MeshFlowField.from_arrays(UNIFORM_MESH, np.zeros(n), times, h, U0 * h, 0.0 * h)
+
+
+@pytest.mark.parametrize("clock", ["global", "per_log"])
+def test_a_resting_log_lifts_when_the_level_reaches_its_flotation_depth(clock):
+    # docs/model.md 6 and 11.1: a heavy log (800 kg/m3) rests on the bed of a rising current
+    # while a light one (200 kg/m3) floats from the start.  The level reaches the heavy log's
+    # flotation depth at t* = 9.3 s, between two synchronisation times (outputs every 5 s,
+    # snapshots every 4 s); the log must lift then, from rest, under both clocks (the global
+    # clock within one of its sub-steps, the per-log clock at t* itself: exact solution of
+    # quadratic drag from rest, 15.C).  Before the fix the per-log clock checked idle logs
+    # only at the synchronisation times and lifted the log at t = 10 s (0.6 m behind).
+    U0, cd, rho, T, t_star = 1.0, 1.1, 1000.0, 16.0, 9.3
+    logs = Logs([2.0, 2.0], [2.0, 4.0], 0.0, 1.0, 0.1, [200.0, 800.0], u=0.0)
+    h_star = float(logs.float_depth[1])
+    depth0 = 0.08
+    assert logs.float_depth[0] < depth0 < h_star
+    flow = rising_flow(depth0, (h_star - depth0) / t_star, U0, T)
+    tr = Tracker(flow, logs, PhysicsOptions(drag_law="constant", drag_coefficient=cd), "rk4",
+                 StepOptions(length_fraction=0.1, drag_fraction=0.1, clock=clock),
+                 t_end=T, output_interval=5.0)
+    tr.run()
+    assert np.all(logs.status == FLOATING)
+    r, rho_b = 0.1, 800.0
+    beta = cd * rho * np.pi * r * r / (2 * (rho_b + rho / 2) * logs.volume[1])
+    tau = T - t_star
+    x = 2.0 + U0 * tau - np.log(1 + beta * U0 * tau) / beta
+    err = abs(logs.state[1, 0] - x)
+    if clock == "per_log":
+        assert err < 1e-4, err
+    else:
+        # lifted at the end of the sub-step in which the level crossed h*
+        assert err <= U0 * tr.stats["max_dt"], (err, tr.stats["max_dt"])
+        assert tr.stats["max_dt"] < 0.15
