@@ -379,6 +379,10 @@ class Tracker:
             return s
         return None
 
+    # snapshot times the steps land on (``_landing_times``); none for a coupled run, whose
+    # flow pairs are the solver's own steps
+    _snapshots = np.empty(0)
+
     def _pair_index(self, t):
         """Index of the snapshot pair (i, i + 1) that the flow samples at t alone."""
         return int(np.searchsorted(self._snapshots, t, side="right"))
