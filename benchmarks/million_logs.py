@@ -156,6 +156,7 @@ def run_one(a):
     out = Path(a.out)
     for p in (out, Path(str(out) + ".partial")):
         p.unlink(missing_ok=True)
+    load0 = os.getloadavg()[0]
     c0, w0 = time.process_time(), time.perf_counter()
     scen = as_scenario(CASE, overrides(a.flow, a.logs, a.end, a.output_interval, a.method,
                                        a.flush_interval, a.clock))
@@ -163,13 +164,16 @@ def run_one(a):
     wall, cpu = time.perf_counter() - w0, time.process_time() - c0
     mon.stop()
     facts = check_output(out, a.logs, a.flow)
-    floating = [r for r in res.stats.items() if r[0] in ("substeps", "rhs_evaluations")]
+    floating = [r for r in res.stats.items() if r[0] in (
+        "substeps", "rhs_evaluations", "log_substeps", "windows", "islands", "largest_island",
+        "contact_set", "clock_retries", "lifted")]
     row = dict(logs=a.logs, end_s=a.end, output_interval_s=a.output_interval,
                contact_method=a.method, clock=a.clock, wall_s=wall, cpu_s=cpu,
                rss_start_mb=rss0 / 2**20,
                peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
                sampled_peak_mb=mon.peak / 2**20,
                output_mb=out.stat().st_size / 2**20, physics=res.physics["level"],
+               load_start=load0, load_end=os.getloadavg()[0],
                **dict(floating), **facts)
     print("RESULT " + json.dumps(row), flush=True)
     if not a.keep:
