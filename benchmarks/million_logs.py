@@ -196,6 +196,11 @@ def sweep(a):
             continue
         rows.append(json.loads(line[-1][7:]))
         print(rows[-1], flush=True)
+    write_results(a, rows)
+
+
+def write_results(a, rows):
+    """benchmarks/results/<name>.json and .md from the runs' RESULT rows."""
     RESULTS.mkdir(parents=True, exist_ok=True)
     info = dict(machine=machine(), flow=str(a.flow), end_s=a.end,
                 output_interval_s=a.output_interval, contact_method=a.method, clock=a.clock,
@@ -209,19 +214,24 @@ def sweep(a):
              f"RK4 ({a.clock} clock), contacts ({a.method}), records every "
              f"{a.output_interval:g} s.  "
              f"Re-create: `python benchmarks/million_logs.py --flow F --sweep "
-             f"{' '.join(str(int(n)) for n in a.sweep)} --end {a.end:g} --output-interval "
-             f"{a.output_interval:g}`.", "",
-             "| logs | wall (s) | CPU (s) | RSS after imports (MB) | peak RSS (MB) | output (MB) "
-             "| observations | sub-steps | hits | final status |",
-             "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+             f"{' '.join(str(int(r['logs'])) for r in rows)} --end {a.end:g} "
+             f"--output-interval {a.output_interval:g}`.", "",
+             "| logs | wall (s) | CPU (s) | load avg start/end | RSS after imports (MB) "
+             "| peak RSS (MB) | output (MB) | observations | sub-steps | windows | lifted "
+             "| hits | final status |",
+             "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     for r in rows:
         if "error" in r:
             lines.append(f"| {r['logs']} | failed: {r['error'][-200:]!r} |")
             continue
         fin = ", ".join(f"{k} {v}" for k, v in r["final_status"].items() if v)
-        lines.append(f"| {r['logs']:.0f} | {r['wall_s']:.0f} | {r['cpu_s']:.0f} | "
+        load = (f"{r['load_start']:.1f} / {r['load_end']:.1f}" if "load_start" in r
+                else "?")
+        lines.append(f"| {r['logs']:.0f} | {r['wall_s']:.0f} | {r['cpu_s']:.0f} | {load} | "
                      f"{r['rss_start_mb']:.0f} | {r['peak_rss_mb']:.0f} | {r['output_mb']:.1f} | "
-                     f"{r['observations']} | {r.get('substeps', '?')} | {r['hits']} | {fin} |")
+                     f"{r['observations']} | {r.get('substeps', '?')} | "
+                     f"{r.get('windows', '?')} | {r.get('lifted', '?')} | {r['hits']} | "
+                     f"{fin} |")
     text = "\n".join(lines) + "\n"
     (RESULTS / f"{name}.md").write_text(text)
     print(text)
@@ -244,12 +254,21 @@ def main(argv=None):
     p.add_argument("--name", help="results name (default million_logs)")
     p.add_argument("--keep", action="store_true", help="keep the trajectory file")
     p.add_argument("--progress", action="store_true")
+    p.add_argument("--results-from", nargs="+", metavar="LOG",
+                   help="write the results table from the RESULT lines of these run logs "
+                   "(runs made with --logs N, e.g. to watch --progress)")
     a = p.parse_args(argv)
     if not Path(a.flow).is_file():
         raise SystemExit(f"flow file {a.flow} not found: python benchmarks/malpasset.py "
                          f"--flow {a.flow} --solve-only")
     a.logs = int(a.logs)
-    if a.sweep:
+    if a.results_from:
+        rows = []
+        for path in a.results_from:
+            rows += [json.loads(q[7:]) for q in Path(path).read_text().splitlines()
+                     if q.startswith("RESULT ")]
+        write_results(a, rows)
+    elif a.sweep:
         sweep(a)
     else:
         run_one(a)
