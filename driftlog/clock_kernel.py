@@ -139,7 +139,8 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t_from, t0, t_stop,
         Depth below which a log stops floating (flotation depth or h*), and whether it moves
         on the bed when the flow overcomes friction (``physics.motion = "friction"``).
     vals_c, T0c, gap_c : node values, start and length of the snapshot pair at t0.
-    vals_n, T0n, gap_n, t_split : the pair stage times at or after ``t_split`` use.
+    vals_n, T0n, gap_n, t_split : the pair stage times after ``t_split`` use, and the flow
+        sampled at the end of a step that ends at or after it.
     dry_depth, recovered, loc : as ``driftlog.fused``.
     fx, fy : float
         Velocity of the frame the swept boxes are measured in (contact windows: the logs'
@@ -191,12 +192,19 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t_from, t0, t_stop,
             hint = face[i]
             d0 = row(D0, i)
             te = t + dt
+            # the last stage of a step ending on the snapshot t_split reads the step's own pair
+            # (dU/dt's left limit); the flow at the new state, the next pair (docs/model.md 11)
+            if te > t_split:
+                a_s, inv_s = _weight(te, T0n, gap_n)
+                vals_s = vals_n
+            else:
+                a_s, inv_s = _weight(te, T0c, gap_c)
+                vals_s = vals_c
             if te >= t_split:
                 a_e, inv_e = _weight(te, T0n, gap_n)
                 vals_e = vals_n
             else:
-                a_e, inv_e = _weight(te, T0c, gap_c)
-                vals_e = vals_c
+                a_e, inv_e, vals_e = a_s, inv_s, vals_s
             if method == RK4:
                 tm = t + 0.5 * dt
                 if tm >= t_split:
@@ -209,7 +217,7 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t_from, t0, t_stop,
                                 loc, p, opt)
                 d2 = _rk4_stage(s, 2, dt, d1, hint, a_m, inv_m, vals_m, dry_depth, recovered,
                                 loc, p, opt)
-                d3 = _rk4_stage(s, 3, dt, d2, hint, a_e, inv_e, vals_e, dry_depth, recovered,
+                d3 = _rk4_stage(s, 3, dt, d2, hint, a_s, inv_s, vals_s, dry_depth, recovered,
                                 loc, p, opt)
                 s = rk4_final_row(s, dt, d0, d1, d2, d3)
             else:

@@ -204,6 +204,16 @@ class FlowField:
         """
         return None
 
+    def step_interval(self, t_mid):
+        """Stages of the sub-step around ``t_mid`` read the snapshot pair around ``t_mid``.
+
+        Sub-steps land on every snapshot (``integrator.land_on_snapshots``), so a step lies in
+        one pair of snapshots; its last stage, at the pair's end, takes the pair's value there
+        (its left limit: the flow's time derivative jumps at each snapshot), where a time
+        alone would give the next pair's.  ``None`` ends it.  A field without snapshot pairs
+        ignores it.
+        """
+
     def check_time(self, t):
         """FlowDomainError if t is outside the field's time span (to 1e-9 of the span)."""
         t0, t1 = self.time_span
@@ -240,6 +250,9 @@ class TimeShiftedField(FlowField):
 
     def sample_into(self, x, y, t, face, out, flag):
         self.base.sample_into(x, y, t + self.origin, face, out, flag)
+
+    def step_interval(self, t_mid):
+        self.base.step_interval(None if t_mid is None else t_mid + self.origin)
 
     def shifted(self, origin):
         return self.base.shifted(self.origin + float(origin))
@@ -592,11 +605,18 @@ class MeshFlowField(FlowField):
         if nt == 1:
             return 0, 0, 0.0, 0.0
         self.check_time(t)
-        i = int(np.searchsorted(self._times, t, side="right")) - 1
+        m = self._step_middle  # the pair of the current sub-step (step_interval)
+        i = int(np.searchsorted(self._times, t if m is None else m, side="right")) - 1
         i = min(max(i, 0), nt - 2)
         dt = self._times[i + 1] - self._times[i]
         a = min(max((t - self._times[i]) / dt, 0.0), 1.0)
         return i, i + 1, a, 1.0 / dt
+
+    _step_middle = None
+
+    def step_interval(self, t_mid):
+        """The pair of snapshots of the sub-step around ``t_mid`` (``FlowField``'s)."""
+        self._step_middle = t_mid
 
     def node_values(self, t):
         """(n_nodes, 2 NQ) node columns at the snapshots around t; the time weight, 1 / dt."""

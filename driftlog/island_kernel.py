@@ -143,12 +143,19 @@ def _step_one(S, D0, F, flag, face, lin0, i, p, opt, t, dt, method, tracer, rota
     d0 = row(D0, i)
     hint = face[i]
     te = t + dt
+    # the last stage of a step ending on the snapshot t_split reads the step's own pair
+    # (dU/dt's left limit); the flow at the new state, the next pair (docs/model.md 11)
+    if te > t_split:
+        a_s, inv_s = _weight(te, T0n, gap_n)
+        vals_s = vals_n
+    else:
+        a_s, inv_s = _weight(te, T0c, gap_c)
+        vals_s = vals_c
     if te >= t_split:
         a_e, inv_e = _weight(te, T0n, gap_n)
         vals_e = vals_n
     else:
-        a_e, inv_e = _weight(te, T0c, gap_c)
-        vals_e = vals_c
+        a_e, inv_e, vals_e = a_s, inv_s, vals_s
     if method == RK4:
         tm = t + 0.5 * dt
         if tm >= t_split:
@@ -161,7 +168,7 @@ def _step_one(S, D0, F, flag, face, lin0, i, p, opt, t, dt, method, tracer, rota
                         opt)
         d2 = _rk4_stage(s, 2, dt, d1, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p,
                         opt)
-        d3 = _rk4_stage(s, 3, dt, d2, hint, a_e, inv_e, vals_e, dry_depth, recovered, loc, p,
+        d3 = _rk4_stage(s, 3, dt, d2, hint, a_s, inv_s, vals_s, dry_depth, recovered, loc, p,
                         opt)
         s = rk4_final_row(s, dt, d0, d1, d2, d3)
     else:

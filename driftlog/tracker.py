@@ -324,17 +324,34 @@ class Tracker:
         self._settled = None
         settle = self._settle_next and fused and self._can_settle()
         self._settle_next = False
+        # landing on the snapshots, every stage reads the pair of snapshots of this step, the
+        # last one too (docs/model.md section 11: the flow's dU/dt jumps at a snapshot)
+        t_mid = self.t + 0.5 * dt
+        pair = self.step_options.land_on_snapshots and self._snapshots.size > 1
         if self.state.shape[0]:
             if not have_d0:
                 self._rhs(self.state, self.t, self.D0, self.lin0)
-            if fused:
-                self._fused_step(dt, settle)
-            else:
-                self.integrator.step(self.state, self.t, dt, self._rhs, self._next, have_d0=True)
+            if pair:
+                self.flow.step_interval(t_mid)
+            try:
+                if fused:
+                    self._fused_step(dt, settle)
+                else:
+                    self.integrator.step(self.state, self.t, dt, self._rhs, self._next,
+                                         have_d0=True)
+            finally:
+                if pair:
+                    self.flow.step_interval(None)
             self.state, self._next = self._next, self.state
         self.t += dt
-        # the fused step sampled the flow at the new state and computed its first stage
-        self._F_valid = self._d0_valid = fused
+        # the fused step sampled the flow at the new state and computed its first stage; at a
+        # snapshot its dU/dt was the ending pair's, and full physics reads dU/dt (the
+        # pressure gradient and added mass): sampled again, from the next pair
+        fresh = fused and not (pair and self.physics.level == "full"
+                               and self._pair_index(self.t) != self._pair_index(t_mid))
+        self._F_valid = self._d0_valid = fresh
+        if fused and not fresh:
+            settle = False
         if settle:
             # statuses, bounds and tracer velocities came with the step (same arithmetic)
             b, moved, bad = settle_summary(self._st, self._bound)
@@ -361,6 +378,14 @@ class Tracker:
         if s is not None and s[0] is self.state and s[1] == self.t and self._d0_valid:
             return s
         return None
+
+    # snapshot times the steps land on (``_landing_times``); none for a coupled run, whose
+    # flow pairs are the solver's own steps
+    _snapshots = np.empty(0)
+
+    def _pair_index(self, t):
+        """Index of the snapshot pair (i, i + 1) that the flow samples at t alone."""
+        return int(np.searchsorted(self._snapshots, t, side="right"))
 
     def _fused_step(self, dt, settle=False):
         """One integrator step of every floating log in one kernel (``driftlog.fused``)."""
@@ -599,6 +624,7 @@ class Tracker:
         """
         t0, t1 = (self.t if t_origin is None else t_origin), self.t_end
         hydro = np.asarray(self.flow.times, float)
+        self._snapshots = hydro
         self._steady = hydro.size <= 1
         if hydro.size <= 1:
             n = int(np.ceil((t1 - t0) / self.hydro_step - 1e-9))

@@ -286,8 +286,11 @@ def test_ganser_slope_is_the_derivative():
 
 # whole trajectories: the final states of tests/test_fused.py's scene (200 logs, 20 s on a
 # draining, meandering channel: logs leave, strand, cross many faces) as the code before issue
-# 15 computed them (commit bdea483).  Where the step sizes stay the same (full RK4: the length
-# bound and max_step set them) only round-off separates the two; where the drag relaxation
+# 15 computed them (commit bdea483, with the fix of docs/model.md section 11 applied: a step
+# landing on a snapshot takes its last stage's dU/dt from its own pair of snapshots; the
+# references were computed again with that fix on bdea483's code).  Where the step sizes
+# stay the same (full RK4: the length bound and max_step set them) only round-off separates
+# the two; where the drag relaxation
 # bound sets the step (drag level) or the exponential integrator integrates the linearised
 # drag, the analytic rate along w replaces a forward difference whose relative error was
 # ~5e-7, and the trajectories move by that much of their local truncation error.
