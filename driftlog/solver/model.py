@@ -234,7 +234,8 @@ class ShallowWaterSolver:
             # keep them)
             limited_gradients.serial(np.arange(nf, dtype=np.int64), np.zeros(nf), np.zeros(nf),
                                      np.zeros(nf), self._z, self.dry_depth, self._fn, self._gnbr,
-                                     *self._lsq, self._rows, self._est, self._open_edge)
+                                     *self._lsq, self._rows, self._est, self._open_edge,
+                                     self._fe, bs.slot, bs.kind, bs.value)
             self._eoff = self._lsq[2]
         else:
             self._est = np.zeros((0, NSTATE))  # no edge states at first order
@@ -383,7 +384,7 @@ class ShallowWaterSolver:
         if m.order == 2:
             offset, minv, eoff = m._lsq
             m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._gnbr, offset, minv, eoff,
-                      m._rows, m._est, m._open_edge)
+                      m._rows, m._est, m._open_edge, m._fe, bs.slot, bs.kind, bs.value)
         fm, fx0, fy0, fx1, fy1, sp, sp1 = m._flux
         if m.order == 1:
             m._k_edges(edges, m._ef, m._nx, m._ny, m._len, h, hu, hv, m._z, RIEMANN[m.riemann],

@@ -34,6 +34,7 @@ import numba as nb
 import numpy as np
 
 from driftlog._numba import kernel
+from driftlog.solver.boundaries import DEPTH, LEVEL
 
 __all__ = ["lsq_geometry", "limited_gradients", "first_order_states", "EDGE_STATE", "NSTATE"]
 
@@ -143,7 +144,7 @@ def first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdr
 
 @kernel
 def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset,
-                      rows, est, open_edge):
+                      rows, est, open_edge, face_edges, slot, bkind, bvalue):
     """The reconstructed states of ``faces`` at their edges, from limited gradients.
 
     Fills row ``rows[f, k]`` of ``est`` (2 n_edges, ``NSTATE``) for face f's k-th edge e
@@ -153,7 +154,9 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
     z_e = eta_e - h_e, so that the edge-flux kernel reads them and computes nothing twice.
     ``faces``: the active set's faces (``driftlog.solver.layout``); other rows keep theirs.
     ``open_edge[f]``: face f has an open-boundary edge (a -1 in ``neighbours``), where the
-    limiter's bound is widened edge by edge.
+    limiter's bound is widened edge by edge, except at level and depth boundaries, whose
+    ghost state (the imposed level or depth: ``face_edges``, ``slot``, ``bkind`` and
+    ``bvalue`` as in ``boundaries.BoundarySet``) joins the range instead.
     One pass over the neighbours gathers the four least-squares sums, their ranges and the
     velocities' range; one pass over the edges limits the four gradients; one more computes
     the edge states (and checks the edge velocities).
@@ -238,11 +241,29 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         # holds the level and the speed, and widening there let Ritter's dry front on
         # triangles grow noisy under refinement
         if open_edge[f]:
+            # a level or depth boundary has an outside state, the ghost: its level and depth
+            # join the range (Barth & Jespersen's bound with a ghost cell) and its edge is not
+            # widened; widening there let the coast faces of Malpasset extrapolate the arriving
+            # flood's level and speed one range beyond at every stage, a feedback that blew up
+            # (20 m/s at 1800 s, 3e4 m/s seven seconds later; docs/model.md sect. 3.4)
+            for k in range(n):
+                if neighbours[f, k] == -1:
+                    sl = slot[face_edges[f, k]]
+                    kd = bkind[sl]
+                    if kd == LEVEL or kd == DEPTH:
+                        hg = max(bvalue[sl] - zi, 0.0) if kd == LEVEL else bvalue[sl]
+                        mn0 = min(mn0, zi + hg)
+                        mx0 = max(mx0, zi + hg)
+                        mn1 = min(mn1, hg)
+                        mx1 = max(mx1, hg)
             p0 = p1 = p2 = p3 = 1.0
             for k in range(n):
                 ex = edge_offset[f, k, 0]
                 ey = edge_offset[f, k, 1]
-                bnd = neighbours[f, k] == -1
+                bnd = False
+                if neighbours[f, k] == -1:
+                    kd = bkind[slot[face_edges[f, k]]]
+                    bnd = kd != LEVEL and kd != DEPTH
                 p0 = _bj(p0, gx0, gy0, ex, ey, c0, mn0, mx0, mx0 - mn0 if bnd else 0.0)
                 p1 = _bj(p1, gx1, gy1, ex, ey, hi, mn1, mx1, mx1 - mn1 if bnd else 0.0)
                 p2 = _bj(p2, gx2, gy2, ex, ey, c2, mn2, mx2, mx2 - mn2 if bnd else 0.0)
