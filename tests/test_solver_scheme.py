@@ -66,6 +66,37 @@ def test_lake_at_rest_stays_at_rest(basin, order, height):
     assert s.h.min() >= 0.0
 
 
+@pytest.mark.parametrize("height", [0.3, 0.8])  # immersed, emerged
+def test_second_order_on_a_node_bed_reconstructs_the_continuous_bed_at_edges(height):
+    """docs/model.md sect. 3.4 (Kurganov & Petrova 2007): with the bed given at the nodes, a
+    fully reconstructed face's bed at an edge is the mean of the edge's two nodes, the same
+    from both sides (no spurious step for the hydrostatic reconstruction), its depth the
+    limited level minus that bed; a lake at rest over it, wet or emerged, stays at rest."""
+    mesh = channel_mesh(4.0, 1.0, 0.1)
+    mesh.node_z = height * np.exp(-((mesh.node_x - 2.0) ** 2 + (mesh.node_y - 0.5) ** 2) / 0.1)
+    s = ShallowWaterSolver(mesh, order=2, manning=0.03, renumber="none")
+    # a tilted, deep surface: every face wet, its gradients kept
+    z = s.bed
+    s.set_state(1.0 + 0.05 * mesh.face_x - z)
+    s._rates(s._h, s._hu, s._hv, 0.0)
+    en = mesh.edge_nodes
+    zedge = 0.5 * (mesh.node_z[en[:, 0]] + mesh.node_z[en[:, 1]])
+    on = mesh.face_edges >= 0
+    z_e = np.where(on, s._est[s._rows, 3], np.nan)
+    h_e = np.where(on, s._est[s._rows, 0], np.nan)
+    expect = np.where(on, zedge[np.maximum(mesh.face_edges, 0)], np.nan)
+    assert np.all(z_e[on] == expect[on])
+    assert np.abs(h_e + z_e - (s.h + z)[:, None])[on].max() < 0.05 * 0.1  # level's slope
+    s.set_level(0.5)
+    h0 = s.h.copy()
+    assert (s.h == 0).any() == (height > 0.5)
+    for _ in range(300):
+        s.step()
+    speed = np.hypot(s.hu, s.hv) / np.maximum(s.h, 1e-300)
+    assert speed.max() < 1e-10
+    assert np.abs(s.h - h0).max() < 1e-12
+
+
 @pytest.mark.parametrize("order", [1, 2])
 def test_closed_dam_break_over_topography_conserves_mass(basin, order):
     bed = bump(basin, 0.4) + 0.05 * basin.face_x

@@ -132,6 +132,7 @@ class ShallowWaterSolver:
             raise ScenarioError("solver.dry_depth", dry_depth, "must be > 0 m")
         self.mesh = mesh
         nf = mesh.n_faces
+        bed_from_nodes = bed is None and mesh.node_z is not None
         if bed is None:
             bed = mesh.face_bed()
             bed = np.zeros(nf) if bed is None else bed
@@ -228,6 +229,15 @@ class ShallowWaterSolver:
             # kernel once per stage, read by the edge kernel): row 2 e + s of _est, s = 0 for
             # the face edge e's normal points out of; _rows[f, k] the row of face f at its k-th
             self._est = np.zeros((2 * ne, NSTATE))
+            # a bed given at the nodes (the default bed, mesh.face_bed()) is continuous and
+            # piecewise linear: its value at an edge midpoint is the mean of the edge's two
+            # nodes, the same from both sides (docs/model.md sect. 3.4)
+            self._edge_bed = bool(bed_from_nodes)
+            zedge = np.zeros(ne)
+            if self._edge_bed:
+                en = mesh.edge_nodes
+                zedge = 0.5 * (mesh.node_z[en[:, 0]] + mesh.node_z[en[:, 1]])
+            self._zedge = edges_(zedge)
             self._rows = np.ascontiguousarray(np.where(
                 self._fe >= 0, 2 * self._fe + 1 - self._side.astype(np.int64), 0))
             # every face starts with a dry face's edge states (faces outside the active set
@@ -235,7 +245,8 @@ class ShallowWaterSolver:
             limited_gradients.serial(np.arange(nf, dtype=np.int64), np.zeros(nf), np.zeros(nf),
                                      np.zeros(nf), self._z, self.dry_depth, self._fn, self._gnbr,
                                      *self._lsq, self._rows, self._est, self._open_edge,
-                                     self._fe, bs.slot, bs.kind, bs.value)
+                                     self._fe, bs.slot, bs.kind, bs.value, self._zedge,
+                                     self._edge_bed)
             self._eoff = self._lsq[2]
         else:
             self._est = np.zeros((0, NSTATE))  # no edge states at first order
@@ -384,7 +395,8 @@ class ShallowWaterSolver:
         if m.order == 2:
             offset, minv, eoff = m._lsq
             m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._gnbr, offset, minv, eoff,
-                      m._rows, m._est, m._open_edge, m._fe, bs.slot, bs.kind, bs.value)
+                      m._rows, m._est, m._open_edge, m._fe, bs.slot, bs.kind, bs.value,
+                      m._zedge, m._edge_bed)
         fm, fx0, fy0, fx1, fy1, sp, sp1 = m._flux
         if m.order == 1:
             m._k_edges(edges, m._ef, m._nx, m._ny, m._len, h, hu, hv, m._z, RIEMANN[m.riemann],

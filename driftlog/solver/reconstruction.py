@@ -11,7 +11,11 @@ Where that velocity would go further than one range beyond the range of the face
 neighbours' velocities (thin water: a small reconstructed depth), the face's depth and
 discharges fall back to first order.
 The bed at an edge is eta - h there, which keeps the scheme well balanced with the hydrostatic
-reconstruction (Audusse et al. 2004, sect. 4).
+reconstruction (Audusse et al. 2004, sect. 4).  Where the bed is given at the nodes
+(``edge_bed``), it is continuous: the edge's bed is the mean of its two nodes (``zedge``), the
+same from both sides, and the depth there is the limited level minus it (Kurganov & Petrova
+2007; docs/model.md eq. (84)); two sides' implied beds that differ made the hydrostatic
+reconstruction see a weir at the edge (Malpasset's gorge below the dam filled up, P1 +8.6 m).
 
 Faces that are dry or touch a dry face keep zero gradients (first order at wet/dry fronts,
 where a slope would only make spurious overshoots), and every face's gradients are blended
@@ -144,7 +148,7 @@ def first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdr
 
 @kernel
 def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset,
-                      rows, est, open_edge, face_edges, slot, bkind, bvalue):
+                      rows, est, open_edge, face_edges, slot, bkind, bvalue, zedge, edge_bed):
     """The reconstructed states of ``faces`` at their edges, from limited gradients.
 
     Fills row ``rows[f, k]`` of ``est`` (2 n_edges, ``NSTATE``) for face f's k-th edge e
@@ -157,6 +161,9 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
     limiter's bound is widened edge by edge, except at level and depth boundaries, whose
     ghost state (the imposed level or depth: ``face_edges``, ``slot``, ``bkind`` and
     ``bvalue`` as in ``boundaries.BoundarySet``) joins the range instead.
+    ``zedge`` (n_edges,): the bed at each edge midpoint, used where ``edge_bed`` is true (a bed
+    given at the nodes: h_e = eta_e - zedge, eq. (84)); otherwise the bed eta_e - h_e implied
+    by the limited level and depth.
     One pass over the neighbours gathers the four least-squares sums, their ranges and the
     velocities' range; one pass over the edges limits the four gradients; one more computes
     the edge states (and checks the edge velocities).
@@ -326,7 +333,16 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         for k in range(n):
             ex = edge_offset[f, k, 0]
             ey = edge_offset[f, k, 1]
-            he = hi + gx1 * ex + gy1 * ey
+            if edge_bed:
+                # the continuous bed's own value at the edge (Kurganov & Petrova 2007), the
+                # same from both sides; depth = limited level minus it
+                ze = zedge[face_edges[f, k]]
+                if beta < 1.0:
+                    ze = zi + beta * (ze - zi)
+                he = (c0 + g0 * ex + g1 * ey) - ze
+            else:
+                he = hi + gx1 * ex + gy1 * ey
+                ze = (c0 + g0 * ex + g1 * ey) - he
             if he <= hdry:
                 ok = False
                 break
@@ -335,6 +351,6 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
             if ue < umin or ue > umax or ve < vmin or ve > vmax:
                 ok = False
                 break
-            _slot(est, rows[f, k], he, ue, ve, (c0 + g0 * ex + g1 * ey) - he)
+            _slot(est, rows[f, k], he, ue, ve, ze)
         if not ok:  # depth and discharges at first order here, the level's gradient kept
             first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdry)
