@@ -126,6 +126,63 @@ def _contacts(S, length, radius, mem, na, caps, ocaps, o0, o1, margin, use_margi
 
 
 @nb.njit(cache=True, inline="always")
+def add_hit(first, nhit, hit_t, hit_log, hit_other, hit_j, hit_x, hit_y, t, lid, oth, imp, cx,
+            cy):
+    """Add impulse ``imp`` at (cx, cy) to the hit of log ``lid`` on ``oth``.
+
+    The hit is the one recorded since index ``first`` for that pair, or a new one at time t
+    (its point: the impulse-weighted mean, divided by the impulse once the step is done).
+    False when the hit arrays are full (nothing added).
+    """
+    slot = -1
+    for k in range(first, nhit[0]):
+        if hit_log[k] == lid and hit_other[k] == oth:
+            slot = k
+            break
+    if slot < 0:
+        if nhit[0] >= hit_t.size:
+            return False
+        slot = nhit[0]
+        nhit[0] += 1
+        hit_t[slot], hit_log[slot], hit_other[slot] = t, lid, oth
+        hit_j[slot], hit_x[slot], hit_y[slot] = 0.0, 0.0, 0.0
+    hit_j[slot] += imp
+    hit_x[slot] += imp * cx
+    hit_y[slot] += imp * cy
+    return True
+
+
+@nb.njit(cache=True)
+def _diverged(S, mem, na):
+    """True when a state of the island's logs ``mem[:na]`` is not finite."""
+    for a in range(na):
+        i = mem[a]
+        for k in range(6):
+            if not np.isfinite(S[i, k]):
+                return True
+    return False
+
+
+@nb.njit(cache=True)
+def _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx, fy, tau):
+    """The island's logs that still float, kept in ``mem`` in order; their number.
+
+    Grows each log's swept box over ``tau`` first; floating: docs/model.md section 6.
+    """
+    k = 0
+    for a in range(na):
+        i = mem[a]
+        s = row(S, i)
+        _grow_box(box, i, s, length[i], fx, fy, tau)
+        fl = (F[i, 0], F[i, 1], F[i, 2], F[i, 3], F[i, 4], F[i, 5], F[i, 6], F[i, 7],
+              F[i, 8], F[i, 9], F[i, 10], F[i, 11])
+        if _floats(flag[i], fl, s, P[i], thr[i], friction, opt):
+            mem[k] = i
+            k += 1
+    return k
+
+
+@nb.njit(cache=True, inline="always")
 def _sample_at(x, y, hint, ts, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
                recovered, loc):
     if ts >= t_split:
@@ -365,22 +422,10 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                     lid = ids[mem[c1[c]]]
                     oth = ids[mem[c2[c]]] if c2[c] >= 0 else -(owner[ocaps[o0 - c2[c] - 1]]
                                                                + 1)
-                    slot = -1
-                    for k in range(first, nhit[0]):
-                        if hit_log[k] == lid and hit_other[k] == oth:
-                            slot = k
-                            break
-                    if slot < 0:
-                        if nhit[0] >= hit_t.size:
-                            code[q] = HIT_FULL
-                            break
-                        slot = nhit[0]
-                        nhit[0] += 1
-                        hit_t[slot], hit_log[slot], hit_other[slot] = t, lid, oth
-                        hit_j[slot], hit_x[slot], hit_y[slot] = 0.0, 0.0, 0.0
-                    hit_j[slot] += imp[c]
-                    hit_x[slot] += imp[c] * cres[c, CX]
-                    hit_y[slot] += imp[c] * cres[c, CY]
+                    if not add_hit(first, nhit, hit_t, hit_log, hit_other, hit_j, hit_x, hit_y,
+                                   t, lid, oth, imp[c], cres[c, CX], cres[c, CY]):
+                        code[q] = HIT_FULL
+                        break
                 if code[q] == HIT_FULL:
                     break
                 for k in range(first, nhit[0]):
@@ -479,27 +524,12 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
             dt_lim[1] = max(dt_lim[1], taken)
             stats[ST_STEPS] += 1
             stats[ST_LOG_STEPS] += na
-            bad = False
-            for a in range(na):
-                i = mem[a]
-                for k in range(6):
-                    if not np.isfinite(S[i, k]):
-                        bad = True
-            if bad:
+            if _diverged(S, mem, na):
                 code[q], t_code[q] = DIVERGED, t
                 break
             # swept boxes; statuses: a log that stops floating leaves the island
-            k = 0
-            for a in range(na):
-                i = mem[a]
-                s = row(S, i)
-                _grow_box(box, i, s, length[i], fx, fy, t - t0)
-                fl = (F[i, 0], F[i, 1], F[i, 2], F[i, 3], F[i, 4], F[i, 5], F[i, 6], F[i, 7],
-                      F[i, 8], F[i, 9], F[i, 10], F[i, 11])
-                if _floats(flag[i], fl, s, P[i], thr[i], friction, opt):
-                    mem[k] = i
-                    k += 1
-            na = k
+            na = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx,
+                                 fy, t - t0)
         if code[q] == HIT_FULL:
             return
         # the pairs in contact at the end (the model's _active after its last step)

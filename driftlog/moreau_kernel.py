@@ -37,7 +37,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from driftlog.clock_kernel import _floats, _own_bound
+from driftlog.clock_kernel import _own_bound
 from driftlog.columns import CX, CY, GAP, NRES, NVAR, NX, NY, OMEGA, THETA, UB, VB, X, Y
 from driftlog.contact.geometry import capsule_gap, capsule_row, log_endpoints
 from driftlog.contact.moreau import moreau_solve
@@ -49,11 +49,13 @@ from driftlog.island_kernel import (
     OBST_BIT,
     OK,
     TOO_SMALL,
+    _diverged,
     _first_stage,
-    _grow_box,
     _pair_key,
     _sample_at,
     _step_one,
+    _still_floating,
+    add_hit,
 )
 
 __all__ = ["moreau_islands", "island_pairs", "NSTAT", "OK", "TOO_SMALL", "DIVERGED",
@@ -428,22 +430,10 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                     if seen:
                         continue
                     oth = ids[mem[b2[c]]] if b2[c] >= 0 else -(owner[cap[c]] + 1)
-                    slot = -1
-                    for k in range(first, nhit[0]):
-                        if hit_log[k] == lid and hit_other[k] == oth:
-                            slot = k
-                            break
-                    if slot < 0:
-                        if nhit[0] >= hit_t.size:
-                            code[q] = HIT_FULL
-                            return
-                        slot = nhit[0]
-                        nhit[0] += 1
-                        hit_t[slot], hit_log[slot], hit_other[slot] = t_prev, lid, oth
-                        hit_j[slot], hit_x[slot], hit_y[slot] = 0.0, 0.0, 0.0
-                    hit_j[slot] += Pc[c]
-                    hit_x[slot] += Pc[c] * res[c, CX]
-                    hit_y[slot] += Pc[c] * res[c, CY]
+                    if not add_hit(first, nhit, hit_t, hit_log, hit_other, hit_j, hit_x, hit_y,
+                                   t_prev, lid, oth, Pc[c], res[c, CX], res[c, CY]):
+                        code[q] = HIT_FULL
+                        return
                 for k in range(first, nhit[0]):
                     hit_x[k] /= hit_j[k]
                     hit_y[k] /= hit_j[k]
@@ -462,26 +452,12 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
             lim[1] = max(lim[1], taken)
             stats[ST_STEPS] += 1
             stats[ST_LOG_STEPS] += na
-            bad = False
-            for a in range(na):
-                for k in range(6):
-                    if not np.isfinite(S[mem[a], k]):
-                        bad = True
-            if bad:
+            if _diverged(S, mem, na):
                 code[q], t_code[q] = DIVERGED, t
                 break
             # swept boxes; statuses: a log that stops floating leaves the island
-            k = 0
-            for a in range(na):
-                i = mem[a]
-                s = row(S, i)
-                _grow_box(box, i, s, length[i], fx, fy, t - t0)
-                fl = (F[i, 0], F[i, 1], F[i, 2], F[i, 3], F[i, 4], F[i, 5], F[i, 6], F[i, 7],
-                      F[i, 8], F[i, 9], F[i, 10], F[i, 11])
-                if _floats(flag[i], fl, s, P[i], thr[i], friction, opt):
-                    mem[k] = i
-                    k += 1
-            na = k
+            na = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx,
+                                 fy, t - t0)
         # the pairs touching or pushing at the end, each once
         keys = np.unique(prev[:npv])
         if nactive[0] + keys.size > active_out.size:
