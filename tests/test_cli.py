@@ -1,5 +1,6 @@
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -56,6 +57,19 @@ def test_run_a_case_end_to_end(tmp_path, capsys):
     # the log stays on its circle of radius 1 m
     np.testing.assert_allclose(np.hypot(ds["x"].values, ds["y"].values), 1.0, atol=1e-6)
     assert (tmp_path / "trajectories.png").stat().st_size > 10_000
+
+
+def test_a_solved_case_flow_goes_to_the_run_folder(tmp_path):
+    """``driftlog run CASE --out DIR`` (and ``cases run``): the flow the solver computes for a
+    shipped case is written in DIR with the trajectories, not in ./driftlog-runs/CASE."""
+    from driftlog.api import cases_dir
+    from driftlog.cli.common import case_overrides
+
+    beach = cases_dir() / "beach" / "scenario.toml"
+    over = case_overrides(beach, "beach", run_dir=tmp_path / "out")
+    assert Path(over["flow"]["path"]).parent == (tmp_path / "out").resolve()
+    default = case_overrides(beach, "beach")
+    assert Path(default["flow"]["path"]).parent == (Path("driftlog-runs") / "beach").resolve()
 
 
 def test_cases_list(capsys):

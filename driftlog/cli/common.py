@@ -116,12 +116,12 @@ def in_cases(path) -> bool:
         return False
 
 
-def case_overrides(path, name, over=None):
+def case_overrides(path, name, over=None, run_dir=None):
     """Overrides that keep a shipped case's outputs out of the clone.
 
     For a scenario in the repository's cases/ whose flow is computed by the solver, the flow
-    file goes to the run folder ``driftlog-runs/<case>/`` (and is reused from there), not
-    beside the scenario.
+    file goes to the run folder (``run_dir``, default ``driftlog-runs/<case>/``; reused from
+    there), not beside the scenario.
     """
     from driftlog.scenario import read_toml
     from driftlog.schema import merge
@@ -135,7 +135,7 @@ def case_overrides(path, name, over=None):
     if solver:
         name_ = Path((flow.get("path") if isinstance(flow, dict) else None)
                      or "solver_flow.nc").name
-        run = (Path("driftlog-runs") / name / name_).resolve()
+        run = (Path(run_dir or Path("driftlog-runs") / name) / name_).resolve()
         over = merge(over, {"flow": {"path": str(run)}})
     return over
 

@@ -117,7 +117,8 @@ def cmd_run(args):
     from driftlog.files import check_output_dir
 
     out = check_output_dir(Path(args.out or Path("driftlog-runs") / name), "run folder")
-    scen = as_scenario(path, case_overrides(path, name, overrides(args.set)))
+    # a shipped case's solved flow goes to the run folder too (--out)
+    scen = as_scenario(path, case_overrides(path, name, overrides(args.set), run_dir=out))
     print(f"driftlog: running {path}")
     res = track(scen, output=out / "trajectories.nc", progress=not args.quiet)
     flow = flow_file(scen)
