@@ -55,6 +55,11 @@ def test_rarefaction_into_dry_bed_speed():
 @pytest.mark.parametrize("height", [0.3, 0.8])  # immersed, emerged
 def test_lake_at_rest_stays_at_rest(basin, order, height):
     s = ShallowWaterSolver(basin, bed=bump(basin, height), order=order, manning=0.03)
+    _stays_at_rest(s, height)
+
+
+def _stays_at_rest(s, height):
+    """Level 0.5 m over a bump of ``height``: 300 steps leave it at rest to round-off."""
     s.set_level(0.5)
     h0 = s.h.copy()
     assert (s.h == 0).any() == (height > 0.5)
@@ -87,14 +92,7 @@ def test_second_order_on_a_node_bed_reconstructs_the_continuous_bed_at_edges(hei
     expect = np.where(on, zedge[np.maximum(mesh.face_edges, 0)], np.nan)
     assert np.all(z_e[on] == expect[on])
     assert np.abs(h_e + z_e - (s.h + z)[:, None])[on].max() < 0.05 * 0.1  # level's slope
-    s.set_level(0.5)
-    h0 = s.h.copy()
-    assert (s.h == 0).any() == (height > 0.5)
-    for _ in range(300):
-        s.step()
-    speed = np.hypot(s.hu, s.hv) / np.maximum(s.h, 1e-300)
-    assert speed.max() < 1e-10
-    assert np.abs(s.h - h0).max() < 1e-12
+    _stays_at_rest(s, height)
 
 
 @pytest.mark.parametrize("order", [1, 2])
