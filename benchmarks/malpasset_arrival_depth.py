@@ -142,7 +142,7 @@ def main(argv=None):
     stem = f"malpasset_arrival_depth_o{a.order}" + (
         "" if a.thin_fraction is None else f"_k{a.thin_fraction:g}") + (
         f"_refine{a.refine}" if a.refine else "")
-    levels = ""
+    levels, level_errors = "", None
     if a.end >= 4000.0:  # every level observation has peaked: the level RMSE as malpasset.py
         from malpasset_compare import extremes_points, headline
 
@@ -153,6 +153,7 @@ def main(argv=None):
                                  s.arrival_depth, a.end)
         head = headline(pts)
         g9 = next(r["level_error_m"] for r in pts if r["id"] == "G9")
+        level_errors = {r["id"]: r["level_error_m"] for r in pts}
         levels = (f" Maximum level (4000 s): RMSE {head['level_rmse_m']:.2f} m over the "
                   f"{head['level_n']} wetted points, worst {head['worst_point']} "
                   f"{head['worst_error_m']:+.1f} m, G9 {g9:+.1f} m.")
@@ -174,7 +175,7 @@ def main(argv=None):
     (RESULTS / f"{stem}.json").write_text(json.dumps(
         {"order": a.order, "thin_fraction": s.thin_fraction, "end_s": a.end,
          "steps": s.steps, "cpu_s": cpu, "depths_m": list(DEPTHS), "faces": s.mesh.n_faces,
-         "refine": a.refine, "levels": levels,
+         "refine": a.refine, "levels": levels, "level_errors_m": level_errors,
          "points": [o["id"] for o in obs], "observed_s": observed.tolist(),
          "arrival_s": arr.tolist(), "rms_s": rms, "rise_005_to_1m_s": rise.tolist(),
          "fastest_film_m_s": fastest_film if a.speeds else None,
