@@ -7,8 +7,9 @@ end with the Moreau-Jean steps of ``driftlog.contact.ContactModel`` (docs/model.
 the island's own logs, the island on its own clock (docs/model.md 11.1, eqs. (81)-(83)):
 
 1. the island's own bound (eq. (70) over its logs) and, where two of its bodies are near (boxes
-   grown by their motion over the step overlap), no log moves more than ``motion_share`` of the
-   smallest radius (eq. (81));
+   grown by their motion over the step overlap), no such pair moves against each other by more
+   than ``motion_share`` of the smallest radius (eq. (81); a log against a fixed obstacle by
+   its own motion);
 2. the free step of its logs (the fused RK4 / Euler step, the flow sampled P1 at each stage
    time, as ``driftlog.clock_kernel``);
 3. its contacts at the start of the step, boxes grown by the motion of the step at the larger of
@@ -361,7 +362,8 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                 code[q], t_code[q] = TOO_SMALL, t
                 break
             tol = tolerance * rmin
-            # near contacts: no log moves more than motion_share r_min (eq. (81))
+            # near contacts: no pair moves against each other by more than motion_share r_min
+            # (eq. (81))
             for a in range(na):
                 sp = (np.hypot(S0l[a, UB], S0l[a, VB])
                       + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
