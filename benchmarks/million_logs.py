@@ -219,10 +219,14 @@ def write_results(a, rows):
              f"Re-create: `python benchmarks/million_logs.py --flow F --sweep "
              f"{' '.join(str(int(r['logs'])) for r in rows)} --end {a.end:g} "
              f"--output-interval {a.output_interval:g}`.", "",
-             "| logs | wall (s) | CPU (s) | load avg start/end | RSS after imports (MB) "
-             "| peak RSS (MB) | output (MB) | observations | sub-steps | windows | lifted "
-             "| hits | final status |",
-             "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+             "Moreau bound: the step near contacts bounded by each near pair's relative "
+             "motion (docs/model.md eq. (81)) or, before 2026-12-02, by each log's own "
+             "(`--motion absolute`).  Wall and CPU time include numba's compilation when the "
+             "kernels were not cached yet.", "",
+             "| logs | Moreau bound | wall (s) | CPU (s) | load avg start/end "
+             "| RSS after imports (MB) | peak RSS (MB) | output (MB) | observations | sub-steps "
+             "| windows | lifted | hits | final status |",
+             "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     for r in rows:
         if "error" in r:
             lines.append(f"| {r['logs']} | failed: {r['error'][-200:]!r} |")
@@ -230,7 +234,8 @@ def write_results(a, rows):
         fin = ", ".join(f"{k} {v}" for k, v in r["final_status"].items() if v)
         load = (f"{r['load_start']:.1f} / {r['load_end']:.1f}" if "load_start" in r
                 else "?")
-        lines.append(f"| {r['logs']:.0f} | {r['wall_s']:.0f} | {r['cpu_s']:.0f} | {load} | "
+        lines.append(f"| {r['logs']:.0f} | {r.get('motion', 'absolute')} | {r['wall_s']:.0f} | "
+                     f"{r['cpu_s']:.0f} | {load} | "
                      f"{r['rss_start_mb']:.0f} | {r['peak_rss_mb']:.0f} | {r['output_mb']:.1f} | "
                      f"{r['observations']} | {r.get('substeps', '?')} | "
                      f"{r.get('windows', '?')} | {r.get('lifted', '?')} | {r['hits']} | "
