@@ -206,7 +206,9 @@ def main(argv=None):
             trajectories=digest(tmp / "coupled.nc", ["time", "trajectory_index", "x", "y",
                                                       "theta", "u", "v", "omega", "status",
                                                       "water_depth", "flow_u", "flow_v"]),
-            flow=digest(tmp / "coupled_flow.nc", ["time", "h", "hu", "hv"]))
+            flow=digest(tmp / "coupled_flow.nc", ["time", "water_depth", "velocity_x",
+                                                  "velocity_y", "restart_momentum_x",
+                                                  "restart_momentum_y"]))
         keep("coupled", c, w, (parts, digests), at)
     c_solve, w_solve, _, at_solve = best["solve"]
     c_off, w_off, (c_track, substeps), at_off = best["offline"]
