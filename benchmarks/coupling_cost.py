@@ -34,6 +34,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import shutil
 import sys
 import tempfile
 import time
@@ -274,6 +275,7 @@ def main(argv=None):
         momentum_given=given, region_nodes=region, n_nodes=s.mesh.n_nodes,
         region_widenings=widened, coupled_parts_cpu_s=parts, coupled_digests=digests,
         evolution=evo), indent=1))
+    shutil.rmtree(tmp, ignore_errors=True)  # the flow files: 175 MB each over the whole flood
 
 
 if __name__ == "__main__":
