@@ -130,12 +130,14 @@ def extremes_operator(dom, arrival_depth):
     return Extremes(dom)
 
 
-def run_one(name, end, work, anuga_bed="centroids"):
+def run_one(name, end, work, anuga_bed="centroids", thin_fraction=None):
     """Run ``name`` to ``end`` s in this process; write its extremes (.npz) and facts (.json).
 
     ``anuga_bed``: ANUGA's elevation is driftlog's face bed at the centroids ('centroids',
     constant per triangle: the very same bed) or the mesh's node elevations at the vertices
     ('vertices', continuous, piecewise linear); both have the same centroid values.
+    ``thin_fraction``: driftlog order 2's thin-water fraction k of docs/model.md (69)
+    (None: the solver's default).
     """
     from driftlog.floodsetup import MALPASSET_MANNING, malpasset_solver
 
@@ -144,8 +146,13 @@ def run_one(name, end, work, anuga_bed="centroids"):
     work.mkdir(parents=True, exist_ok=True)
     cpu_start = time.process_time()
     # the set-up of malpasset.py; ANUGA takes its mesh, bed and initial depth
+    opts = {"thin_fraction": thin_fraction} if kind == "driftlog" and order == 2 \
+        and thin_fraction is not None else {}
     solver = malpasset_solver(data_dir() / "malpasset_mesh.nc",
-                              order=order if kind == "driftlog" else 1, sea_level=SEA_LEVEL)
+                              order=order if kind == "driftlog" else 1, sea_level=SEA_LEVEL,
+                              **opts)
+    if opts:
+        label = f"{label}, k = {thin_fraction:g}"
     mesh, bed, h0 = solver.mesh, solver.bed.copy(), solver.h.copy()
     facts = {"run": name, "label": label, "end_s": end, "faces": mesh.n_faces,
              "interval_s": INTERVAL, "sea_level_m": SEA_LEVEL,
@@ -169,7 +176,9 @@ def run_one(name, end, work, anuga_bed="centroids"):
                      sea_inflow_m3=float(solver.inflow_volume.sum()),
                      arrival_depth_m=float(solver.arrival_depth),
                      scheme={1: "HLLC, first order, Euler",
-                             2: "HLLC, MUSCL (limited least squares), Heun"}[order],
+                             2: "HLLC, MUSCL (limited least squares), Heun, thin-water k "
+                                f"{solver.thin_fraction:g}"}[order],
+                     thin_fraction=float(solver.thin_fraction),
                      cfl=float(solver.cfl))
         flow.unlink(missing_ok=True)
     else:
@@ -229,14 +238,16 @@ def _children_cpu():
     return ru.ru_utime + ru.ru_stime
 
 
-def run_child(name, end, work, anuga_bed="centroids"):
+def run_child(name, end, work, anuga_bed="centroids", thin_fraction=None):
     """Run ``name`` in a child process; add its process's wall and CPU time to its facts."""
     cpu0, t0 = _children_cpu(), time.perf_counter()
     Path(work).mkdir(parents=True, exist_ok=True)
     log = Path(work) / f"{name}.log"
     with open(log, "w") as f:
         rc = subprocess.call([sys.executable, str(Path(__file__).resolve()), "--child", name,
-                              "--end", str(end), "--work", str(work), "--anuga-bed", anuga_bed],
+                              "--end", str(end), "--work", str(work), "--anuga-bed", anuga_bed]
+                             + ([] if thin_fraction is None
+                                else ["--thin-fraction", repr(thin_fraction)]),
                              stdout=f,
                              stderr=subprocess.STDOUT)
     if rc != 0:
@@ -435,12 +446,15 @@ def main(argv=None):
     p.add_argument("--anuga-bed", default="centroids", choices=("centroids", "vertices"),
                    help="ANUGA's bed: driftlog's face bed, constant per triangle (default), or "
                    "the node elevations at the vertices")
+    p.add_argument("--thin-fraction", type=float, default=None,
+                   help="driftlog order 2: the thin-water fraction k of docs/model.md (69) "
+                   "(default: the solver's, 0.03); give a --work and --tag per value")
     p.add_argument("--child", choices=list(RUNS), help=argparse.SUPPRESS)
     a = p.parse_args(argv)
     end = a.end or (120.0 if a.quick else FULL_END)
     work = Path(a.work or f"/tmp/malpasset_peers_{end:g}")
     if a.child:
-        run_one(a.child, end, work, a.anuga_bed)
+        run_one(a.child, end, work, a.anuga_bed, a.thin_fraction)
         return 0
     if not a.report_only:
         try:
@@ -452,7 +466,7 @@ def main(argv=None):
                 print(f"{n}: reused from {work}")
                 continue
             print(f"{n}: running to {end:g} s ...", flush=True)
-            facts = run_child(n, end, work, a.anuga_bed)
+            facts = run_child(n, end, work, a.anuga_bed, a.thin_fraction)
             facts["commit"] = _commit() if n.startswith("driftlog") else facts.get("anuga")
             (work / f"{n}.json").write_text(json.dumps(facts, indent=1))
             print(f"{n}: {facts['steps']} steps, {facts['cpu_s']:.1f} CPU s, "

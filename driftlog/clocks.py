@@ -505,7 +505,8 @@ def contact_window(tr, stop, max_tries=3):
                                    active_in, code, t_code, active_out, nactive)
             elif moreau:
                 mk.moreau_islands(*head, C.tolerance, C.restitution, C.iterations,
-                                  C.motion_share, bool(C.island_stop), active_in, *tail)
+                                  C.motion_share, bool(C.relative_motion), bool(C.island_stop),
+                                  active_in, *tail)
             else:
                 ik.island_advance(*head, C.tolerance, C.restitution, C.rest_speed, C.near,
                                   C.max_events, active_in, *tail)

@@ -7,8 +7,9 @@ end with the Moreau-Jean steps of ``driftlog.contact.ContactModel`` (docs/model.
 the island's own logs, the island on its own clock (docs/model.md 11.1, eqs. (81)-(83)):
 
 1. the island's own bound (eq. (70) over its logs) and, where two of its bodies are near (boxes
-   grown by their motion over the step overlap), no log moves more than ``motion_share`` of the
-   smallest radius (eq. (81));
+   grown by their motion over the step overlap), no such pair moves against each other by more
+   than ``motion_share`` of the smallest radius (eq. (81); a log against a fixed obstacle by
+   its own motion);
 2. the free step of its logs (the fused RK4 / Euler step, the flow sampled P1 at each stage
    time, as ``driftlog.clock_kernel``);
 3. its contacts at the start of the step, boxes grown by the motion of the step at the larger of
@@ -185,6 +186,20 @@ def island_pairs(Sl, ln, rd, na, margin, caps, ocaps):
     return out, nl
 
 
+@nb.njit(cache=True, inline="always")
+def _pair_speed(Sl, ln, rd, a, e):
+    """How fast the geometry of pair (a, e) changes: relative speed plus both turning rates.
+
+    e >= 0 a log, e < 0 a fixed obstacle capsule (eq. (81)): |U_a - U_e| + |omega_a| (L_a/2
+    + r_a) + |omega_e| (L_e/2 + r_e), the obstacle's terms zero.
+    """
+    s = abs(Sl[a, OMEGA]) * (0.5 * ln[a] + rd[a])
+    if e >= 0:
+        return (np.hypot(Sl[a, UB] - Sl[e, UB], Sl[a, VB] - Sl[e, VB]) + s
+                + abs(Sl[e, OMEGA]) * (0.5 * ln[e] + rd[e]))
+    return np.hypot(Sl[a, UB], Sl[a, VB]) + s
+
+
 @nb.njit(cache=True)
 def _manifold(Sl, ln, rd, pairs, caps, ocaps, margin):
     """``ContactModel.detect_manifold`` on an island's candidate pairs at the states Sl.
@@ -269,9 +284,10 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                    members, start, caps, owner, ocaps, ostart, t0, t_stop, time_tol, method,
                    lf, ang, drag_fraction, explicit, max_step, min_step, tracer, rotation,
                    thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
-                   recovered, loc, tolerance, eps, iterations, motion_share, island_stop,
-                   active_in, fx, fy, box, obst_impulse, hit_t, hit_log, hit_other, hit_j,
-                   hit_x, hit_y, nhit, active_out, nactive, stats, lim, code, t_code):
+                   recovered, loc, tolerance, eps, iterations, motion_share, relative_motion,
+                   island_stop, active_in, fx, fy, box, obst_impulse, hit_t, hit_log,
+                   hit_other, hit_j, hit_x, hit_y, nhit, active_out, nactive, stats, lim, code,
+                   t_code):
     """Run each island of ``members``/``start`` from t0 to t_stop with Moreau-Jean steps.
 
     Parameters
@@ -281,10 +297,11 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
     explicit, max_step, min_step, tracer, rotation, thr, friction, vals_c, T0c, gap_c,
     vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc
         As ``island_kernel.island_advance``.
-    tolerance, eps, iterations, motion_share, island_stop
+    tolerance, eps, iterations, motion_share, relative_motion, island_stop
         The contact model's tolerance (share of the smallest radius), restitution,
         Gauss-Seidel sweeps at most, motion per step near contacts (share of the smallest
-        radius) and ``island_stop``.
+        radius), whether that motion is the pairs' relative motion (eq. (81)) or each near
+        log's own, and ``island_stop``.
     active_in : sorted int64
         Pair keys (``model._body_pairs``) touching or pushing at t0 (a hit is a contact that
         starts pushing).
@@ -345,7 +362,8 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                 code[q], t_code[q] = TOO_SMALL, t
                 break
             tol = tolerance * rmin
-            # near contacts: no log moves more than motion_share r_min (eq. (81))
+            # near contacts: no pair moves against each other by more than motion_share r_min
+            # (eq. (81))
             for a in range(na):
                 sp = (np.hypot(S0l[a, UB], S0l[a, VB])
                       + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
@@ -353,15 +371,21 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                 near[a] = False
             pairs, _ = island_pairs(S0l, ln, rd, na, margin, caps, oc)
             if pairs.shape[0]:
-                for c in range(pairs.shape[0]):
-                    near[pairs[c, 0]] = True
-                    if pairs[c, 1] >= 0:
-                        near[pairs[c, 1]] = True
                 speed = 0.0
-                for a in range(na):
-                    if near[a]:
-                        speed = max(speed, np.hypot(S0l[a, UB], S0l[a, VB])
-                                    + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
+                if relative_motion:
+                    # the speed at which each near pair's geometry changes (eq. (81))
+                    for c in range(pairs.shape[0]):
+                        a, e = pairs[c, 0], pairs[c, 1]
+                        speed = max(speed, _pair_speed(S0l, ln, rd, a, e))
+                else:
+                    for c in range(pairs.shape[0]):
+                        near[pairs[c, 0]] = True
+                        if pairs[c, 1] >= 0:
+                            near[pairs[c, 1]] = True
+                    for a in range(na):
+                        if near[a]:
+                            speed = max(speed, np.hypot(S0l[a, UB], S0l[a, VB])
+                                        + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
                 if speed > 0.0:
                     dt = min(dt, motion_share * rmin / speed)
             # the free step

@@ -299,7 +299,7 @@ def test_moreau_cradle_keeps_momentum_and_energy_in_the_island_kernel():
     np.testing.assert_allclose(logs.state, glob.state, atol=1e-9)
 
 
-def moreau_pile(kernel, T=20.0):
+def moreau_pile(kernel, T=20.0, relative=True):
     """14 logs (some seeded overlapping) drift on a current onto two piers between two walls,
     Moreau-Jean with eps = 0.3: islands that merge, split, touch walls and piers."""
     from driftlog.contact import ContactModel
@@ -316,6 +316,7 @@ def moreau_pile(kernel, T=20.0):
     obs.add_segments([[0.0, 8.0], [30.0, 8.0]], name="north")
     model = ContactModel(obs, method="moreau", restitution=0.3)
     model.island_kernel = kernel
+    model.relative_motion = relative
     tr = Tracker(on_mesh(UniformFlow(0.6, 0.05, depth=1.0), MESH), logs,
                  PhysicsOptions(level="full"), "rk4", StepOptions(clock="per_log"),
                  contact=model, t_end=T, output_interval=5.0)
@@ -327,9 +328,10 @@ def test_moreau_island_kernel_equals_the_contact_model_island_by_island():
     # docs/model.md 11.1: the kernel runs each island with the contact model's Moreau-Jean
     # steps; ContactModel.island_kernel = False runs the very same islands through the
     # Python model.  Same arithmetic, same contact order here (islands of a few logs): the
-    # same states, hits, obstacle impulses and statistics
-    k, a = moreau_pile(True)
-    p, b = moreau_pile(False)
+    # same states, hits, obstacle impulses and statistics.  Bit for bit on the step bound by
+    # each log's own motion, whose steps keep at most two contacts of a step apart in order
+    k, a = moreau_pile(True, relative=False)
+    p, b = moreau_pile(False, relative=False)
     np.testing.assert_array_equal(a.state, b.state)
     np.testing.assert_array_equal(a.status, b.status)
     hk, hp = k.contact.drain_hits(), p.contact.drain_hits()
@@ -346,6 +348,24 @@ def test_moreau_island_kernel_equals_the_contact_model_island_by_island():
     assert k.stats["clock_retries"] > 0  # the closure was exercised
     for key in ("pgs_max_iterations", "max_contacts", "min_gap"):
         assert k.contact.stats[key] == p.contact.stats[key], key
+
+
+def test_moreau_island_kernel_matches_the_contact_model_on_the_relative_bound():
+    # with the default bound (81) on the pairs' relative motion, steps are longer and take
+    # several contacts together; the kernel sweeps them in the order of its logs, the Python
+    # model in the broad phase's: Gauss-Seidel stops at another point within its tolerance
+    # (1e-9 of the largest speed), so the states agree to that, until the pile's collisions
+    # amplify it (after 10 s here)
+    k, a = moreau_pile(True, T=10.0)
+    p, b = moreau_pile(False, T=10.0)
+    np.testing.assert_allclose(a.state, b.state, rtol=0, atol=1e-8)
+    np.testing.assert_array_equal(a.status, b.status)
+    hk, hp = k.contact.drain_hits(), p.contact.drain_hits()
+    assert hk["time"].size == hp["time"].size >= 5
+    np.testing.assert_allclose(np.sort(hk["time"]), np.sort(hp["time"]), rtol=1e-9)
+    np.testing.assert_allclose(k.contact.obstacle_impulse, p.contact.obstacle_impulse,
+                               rtol=1e-9, atol=1e-9)
+    assert np.abs(k.contact.obstacle_impulse).max() > 1.0
 
 
 def test_island_pairs_are_the_broad_phase_pairs():
@@ -402,3 +422,44 @@ def test_a_resting_log_lifts_within_a_contact_window_with_contacts_on():
     err = abs(logs.state[1, 0] - x)
     assert err <= 0.5 * U0, err
     assert logs.state[1, 0] < x + 1e-9  # lifted at or after t*, never before
+
+
+def drifting_raft(clock, speed, relative=True):
+    """Three logs side by side, 1 mm apart, carried at the current's own speed (no drag), past
+    a wall 2 m to the side: Moreau-Jean, both clocks."""
+    from driftlog.contact import ContactModel
+    from driftlog.contact.obstacles import Obstacles
+
+    y = 5.0 + 0.201 * np.arange(3)
+    logs = Logs(np.full(3, 5.0), y, 0.0, 1.0, 0.1, 700.0, u=speed, v=0.0, omega=0.0)
+    obs = Obstacles()
+    obs.add_segments([[0.0, 3.0], [400.0, 3.0]], name="bank")
+    model = ContactModel(obs, method="moreau", restitution=0.3)
+    model.relative_motion = relative
+    mesh = Mesh.regular_grid(100, 2, 5.0)
+    tr = Tracker(on_mesh(UniformFlow(speed, 0.0, depth=1.0), mesh), logs,
+                 PhysicsOptions(level="full"), "rk4",
+                 StepOptions(clock=clock, max_step=0.25, length_fraction=1e9, angle_step=1e9),
+                 contact=model, t_end=10.0, output_interval=5.0, initial_velocity="given")
+    tr.run()
+    return tr, logs
+
+
+@pytest.mark.parametrize("clock", ["global", "per_log"])
+def test_moreau_step_near_contacts_follows_the_pairs_relative_motion(clock):
+    # docs/model.md eq. (81): what limits a Moreau-Jean step near contacts is how far the two
+    # bodies of a pair move against each other (the contact geometry is linearised at the
+    # step's start), not how fast the raft drifts: three logs 1 mm apart carried along a bank
+    # take the steps of their own bound (max_step 0.25 s; per-log clocks: contact windows of
+    # half a length's travel, 0.125 s at 4 m/s), whatever the drift, and keep their places in
+    # the raft (Galilean invariance).  Bounding each log's own speed (before 2026-12-02) took
+    # 0.25 r per step: 1,600 steps at 4 m/s.
+    for speed in (0.5, 4.0):
+        tr, logs = drifting_raft(clock, speed)
+        np.testing.assert_allclose(logs.state[:, 0], 5.0 + 10.0 * speed, rtol=1e-12)
+        np.testing.assert_allclose(logs.state[:, 1], 5.0 + 0.201 * np.arange(3), rtol=1e-12)
+        np.testing.assert_allclose(logs.state[:, 3], speed, rtol=1e-12)
+        window = 0.5 * 1.0 / speed if clock == "per_log" else np.inf
+        assert tr.contact.stats["advances"] <= 10.0 / min(0.25, window) + 2
+    tr, _ = drifting_raft(clock, 4.0, relative=False)
+    assert tr.contact.stats["advances"] >= 4.0 * 10.0 / (0.25 * 0.1)

@@ -108,6 +108,11 @@ class ContactModel:
         event-driven step collapses.
     """
 
+    # Moreau: the motion bounded per step near contacts is each near pair's relative motion
+    # (eq. (81)); False: each near log's own motion in the ground's frame (the bound before
+    # 2026-12-02, kept to compare: benchmarks/million_logs.py --motion absolute)
+    relative_motion = True
+
     def __init__(self, obstacles=None, method="event", time_of_impact="conservative",
                  restitution=1.0, backend="native", tolerance=1e-4, max_events=10000,
                  iterations=200, rest_speed=0.01):
@@ -449,6 +454,27 @@ class ContactModel:
         before = C.gap[order][k]
         return bool(np.all(found & (before < -tol) & (E.gap[deep] >= before - tol)))
 
+    def _near_speed(self, S0, bodies, near):
+        """The speed that bounds a Moreau step near contacts (eq. (81)).
+
+        ``relative_motion``: the fastest change of a near pair's geometry, |U_1 - U_2| plus both
+        bodies' turning rates times their reach (an obstacle's terms zero); otherwise the
+        fastest near log's own speed (the bound before 2026-12-02).
+        """
+        if not self.relative_motion:
+            idx = np.unique(np.concatenate([near.body1, near.body2[near.body2 >= 0]]))
+            reach = 0.5 * bodies.length[idx] + bodies.radius[idx]
+            return float((np.hypot(S0[idx, UB], S0[idx, VB])
+                          + np.abs(S0[idx, OMEGA]) * reach).max())
+        b1, b2 = near.body1, near.body2
+        log = b2 >= 0
+        o = np.where(log, b2, b1)
+        reach = 0.5 * bodies.length + bodies.radius
+        du = S0[b1, UB] - np.where(log, S0[o, UB], 0.0)
+        dv = S0[b1, VB] - np.where(log, S0[o, VB], 0.0)
+        turn2 = np.where(log, np.abs(S0[o, OMEGA]) * reach[o], 0.0)
+        return float((np.hypot(du, dv) + np.abs(S0[b1, OMEGA]) * reach[b1] + turn2).max())
+
     def _moreau(self, bodies, dt):
         st = self.stats
         tol = self._tol(bodies)
@@ -458,10 +484,7 @@ class ContactModel:
         # contact geometry is linearised at the start of the step
         near = self.detect(bodies, motion_margin(S0, bodies.length, bodies.radius, dt, tol))
         if len(near):
-            idx = np.unique(np.concatenate([near.body1, near.body2[near.body2 >= 0]]))
-            reach = 0.5 * bodies.length[idx] + bodies.radius[idx]
-            speed = float((np.hypot(S0[idx, UB], S0[idx, VB])
-                           + np.abs(S0[idx, OMEGA]) * reach).max())
+            speed = self._near_speed(S0, bodies, near)
             if speed > 0.0:
                 dt = min(dt, self.motion_share * float(bodies.radius.min()) / speed)
         bodies.advance(dt)
