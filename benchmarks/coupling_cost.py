@@ -15,12 +15,12 @@ steps, coupled / solve and coupled / (solve + offline track) ratios; and
 coupling_cost_parts{.md,.csv}: the coupled run's CPU time per part (the solver's steps, the
 flow's node values, the tracker's sub-steps, the hand-over of the logs' reaction, the flow
 file, the rest: setup, spin-up, trajectory file), in total and per solver step.  The full flood is
-4000 s (about 15 min per solve on 2 cores); ``--end 300`` (the default) is labelled as a
-shortened run.
+4000 s (the three runs about 330 CPU s per repetition: 10 min wall on the shared 2 cores); a
+shorter ``--end`` (300 s by default) is labelled as a shortened run.
 
     python benchmarks/coupling_cost.py --end 120 --logs 1000 --repeat 3
     python benchmarks/coupling_cost.py --end 4000 --logs 1000 --checkpoints 600,1800 \
-        --name coupling_cost_4000s
+        --repeat 2 --name coupling_cost_4000s
 
 ``--checkpoints``: the cumulative CPU seconds of each run at these times of the same run
 (output times), so one run gives the ratios at several ends (written as
