@@ -15,16 +15,26 @@ steps, coupled / solve and coupled / (solve + offline track) ratios; and
 coupling_cost_parts{.md,.csv}: the coupled run's CPU time per part (the solver's steps, the
 flow's node values, the tracker's sub-steps, the hand-over of the logs' reaction, the flow
 file, the rest: setup, spin-up, trajectory file), in total and per solver step.  The full flood is
-4000 s (about 15 min per solve on 2 cores); ``--end 300`` (the default) is labelled as a
-shortened run.
+4000 s (the three runs about 330 CPU s per repetition: 10 min wall on the shared 2 cores); a
+shorter ``--end`` (300 s by default) is labelled as a shortened run.
 
     python benchmarks/coupling_cost.py --end 120 --logs 1000 --repeat 3
+    python benchmarks/coupling_cost.py --end 4000 --logs 1000 --checkpoints 600,1800 \
+        --repeat 2 --name coupling_cost_4000s
+
+``--checkpoints``: the cumulative CPU seconds of each run at these times of the same run
+(output times), so one run gives the ratios at several ends (written as
+``<name>_evolution{.md,.csv}``).  The json also holds SHA-256 digests of the coupled run's
+trajectories and flow file (state arrays), to check that a faster coupling gives the same
+results bit for bit.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
+import shutil
 import sys
 import tempfile
 import time
@@ -33,6 +43,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+import numpy as np  # noqa: E402
 from _common import RESULTS, machine, write_table  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -71,6 +82,61 @@ def scenario(end, n_logs, coupled, flow_path=None):
     return scen
 
 
+class Checkpoints:
+    """Cumulative CPU seconds of a run at chosen times (its flow or trajectory writes).
+
+    Wraps, for the runs of this script only, the two places every run passes at its output
+    times: ``Tracker._record`` (the offline and the coupled tracker: the coupled run's CPU
+    parts are copied too) and the solver's flow-file write ``driftlog.solver.run._write``.
+    """
+
+    def __init__(self, times):
+        import driftlog.solver.run as run
+        from driftlog.tracker import Tracker
+
+        self.times = sorted(times)
+        self.log = {}  # time -> (CPU s, coupling parts or None)
+        self.c0 = time.process_time()
+        rec, write = Tracker._record, run._write
+        cp = self
+
+        def _record(tracker):
+            rec(tracker)
+            c = getattr(tracker, "coupling", None)
+            cp.hit(tracker.t, None if c is None else (
+                {k.replace(" ", "_").replace("-", ""): v for k, v in c.cpu.items()},
+                c.solver_steps))
+
+        def _write(w, solver):
+            write(w, solver)
+            cp.hit(solver.t, None)
+
+        Tracker._record, run._write = _record, _write
+
+    def start(self):
+        """A new run starts now."""
+        self.log = {}
+        self.c0 = time.process_time()
+
+    def hit(self, t, extra):
+        c = time.process_time() - self.c0
+        for tc in self.times:
+            if abs(t - tc) < 1e-6 and tc not in self.log:
+                self.log[tc] = (c, extra)
+
+
+def digest(path, names):
+    """SHA-256 of the named variables of a netCDF file (their bytes, in order)."""
+    import netCDF4
+
+    h = hashlib.sha256()
+    with netCDF4.Dataset(path) as ds:
+        for n in names:
+            if n in ds.variables:
+                h.update(np.ascontiguousarray(ds.variables[n][:].filled(np.nan)).tobytes())
+    return h.hexdigest()
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--end", type=float, default=300.0, help="end of the flood run (s)")
@@ -78,7 +144,15 @@ def main(argv=None):
     ap.add_argument("--name", default="coupling_cost")
     ap.add_argument("--repeat", type=int, default=1,
                     help="repetitions of the three runs; the fastest (CPU) of each is kept")
+    ap.add_argument("--checkpoints", default="",
+                    help="comma-separated times (s, multiples of 10) at which the ratios are "
+                    "also reported, from the same runs")
     a = ap.parse_args(argv)
+    cps = sorted({float(v) for v in a.checkpoints.split(",") if v.strip()} - {a.end})
+    if any(t <= 0.0 or t > a.end or abs(t / 10.0 - round(t / 10.0)) > 1e-9 for t in cps):
+        raise SystemExit(f"--checkpoints {a.checkpoints}: times in (0, {a.end:g}] s, "
+                         "multiples of the 10-s output interval")
+    check = Checkpoints(cps)
     from driftlog.api import track
     from driftlog.solver.config import build_solver
     from driftlog.solving import solve_scenario
@@ -93,20 +167,35 @@ def main(argv=None):
     cscen = scenario(a.end, a.logs, True)
     import netCDF4
 
-    best = {}  # run -> (CPU s, wall s, extra): the fastest of the repetitions (machine shared)
+    best = {}  # run -> (CPU s, wall s, extra, checkpoints): the fastest of the repetitions
 
-    def keep(key, cpu, wall, extra=None):
+    def keep(key, cpu, wall, extra=None, at=None):
         if key not in best or cpu < best[key][0]:
-            best[key] = (cpu, wall, extra)
+            best[key] = (cpu, wall, extra, at)
+
+    def solve_alone(s):
+        at = {}
+        c0 = time.process_time()
+        for t in cps:  # the same steps as one advance_to(end) but landing on the checkpoints
+            s.advance_to(t)
+            at[t] = (time.process_time() - c0, None)
+        s.advance_to(a.end)
+        return at
 
     for _ in range(a.repeat):  # the three runs side by side, interleaved
         s = build_solver(scen["solver"])
-        _, w, c = timed(lambda s=s: s.advance_to(a.end))
-        keep("solve", c, w)
+        at, w, c = timed(lambda s=s: solve_alone(s))
+        keep("solve", c, w, None, at)
+        check.start()
         _, w_out, c_out = timed(lambda: solve_scenario(scen, output=tmp / "flow.nc"))
+        at_out = check.log
+        check.start()
         off, w_track, c_track = timed(lambda: track(scen, output=tmp / "offline.nc"))
-        keep("offline", c_out + c_track, w_out + w_track, (c_track, off.stats["substeps"]))
+        at = {t: (at_out[t][0] + check.log[t][0], None) for t in cps}
+        keep("offline", c_out + c_track, w_out + w_track, (c_track, off.stats["substeps"]), at)
+        check.start()
         res, w, c = timed(lambda: track(cscen, output=tmp / "coupled.nc"))
+        at = dict(check.log)
         with netCDF4.Dataset(tmp / "coupled.nc") as ds:
             steps = int(ds.getncattr("coupling_solver_steps"))
             given = float(ds.getncattr("coupling_momentum_given_x")), \
@@ -114,10 +203,17 @@ def main(argv=None):
             region = float(ds.getncattr("coupling_region_nodes"))
             widened = int(ds.getncattr("coupling_region_widenings"))
             parts = {k: float(ds.getncattr(f"coupling_cpu_{k}_s")) for k in PARTS}
-        keep("coupled", c, w, parts)
-    c_solve, w_solve, _ = best["solve"]
-    c_off, w_off, (c_track, substeps) = best["offline"]
-    c_c, w_c, parts = best["coupled"]
+        digests = dict(
+            trajectories=digest(tmp / "coupled.nc", ["time", "trajectory_index", "x", "y",
+                                                      "theta", "u", "v", "omega", "status",
+                                                      "water_depth", "flow_u", "flow_v"]),
+            flow=digest(tmp / "coupled_flow.nc", ["time", "water_depth", "velocity_x",
+                                                  "velocity_y", "restart_momentum_x",
+                                                  "restart_momentum_y"]))
+        keep("coupled", c, w, (parts, digests), at)
+    c_solve, w_solve, _, at_solve = best["solve"]
+    c_off, w_off, (c_track, substeps), at_off = best["offline"]
+    c_c, w_c, (parts, digests), at_c = best["coupled"]
     rows.append(dict(run="solve (solver alone, no output)", wall_s=w_solve, cpu_s=c_solve,
                      solver_steps=s.steps, cpu_ratio_to_solve=1.0))
     rows.append(dict(run="offline: solve with output + track", wall_s=w_off, cpu_s=c_off,
@@ -148,6 +244,28 @@ def main(argv=None):
     write_table(f"{a.name}_parts", prow, ["part", "cpu_s", "ms_per_solver_step",
                                           "share_of_solve"],
                 f"Where the coupled run's time goes{label}", pnotes)
+    evo = []
+    for t in cps + [a.end]:
+        cs, co, cc = ((v[0], None) if t == a.end else at[t] for v, at in
+                      ((best["solve"], at_solve), (best["offline"], at_off),
+                       (best["coupled"], at_c)))
+        row = dict(end_s=t, solve_cpu_s=cs[0], offline_cpu_s=co[0], coupled_cpu_s=cc[0],
+                   coupled_over_solve=cc[0] / cs[0], coupled_over_offline=cc[0] / co[0])
+        cparts, csteps = (parts, steps) if t == a.end else cc[1]
+        row["solver_steps"] = csteps
+        for k in PARTS:
+            row[f"{k}_cpu_s"] = cparts[k]
+        evo.append(row)
+    if cps:
+        write_table(f"{a.name}_evolution", evo,
+                    ["end_s", "solver_steps", "solve_cpu_s", "offline_cpu_s", "coupled_cpu_s",
+                     "coupled_over_solve", "coupled_over_offline"]
+                    + [f"{k}_cpu_s" for k in PARTS],
+                    f"Cost of coupling as the flood goes on: Malpasset with {a.logs} logs",
+                    f"The same runs as {a.name}.md, cumulative CPU seconds from their start "
+                    "to each time (the coupled run and the one-way track include their "
+                    "setup); the last columns are the coupled run's parts (see "
+                    f"{a.name}_parts.md).")
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / f"{a.name}.json").write_text(json.dumps(dict(
         machine=machine(), end=a.end, logs=a.logs, solve_cpu_s=c_solve, solve_wall_s=w_solve,
@@ -155,7 +273,9 @@ def main(argv=None):
         coupled_wall_s=w_c, coupled_over_solve=c_c / c_solve,
         coupled_over_offline=c_c / c_off, repeat=a.repeat, floating_at_end=floating,
         momentum_given=given, region_nodes=region, n_nodes=s.mesh.n_nodes,
-        region_widenings=widened, coupled_parts_cpu_s=parts), indent=1))
+        region_widenings=widened, coupled_parts_cpu_s=parts, coupled_digests=digests,
+        evolution=evo), indent=1))
+    shutil.rmtree(tmp, ignore_errors=True)  # the flow files: 175 MB each over the whole flood
 
 
 if __name__ == "__main__":

@@ -75,6 +75,44 @@ def _weight(ts, T0, gap):
 
 
 @nb.njit(cache=True, inline="always")
+def _pair_at(ts, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, own):
+    """The snapshot pair read at time ts: weight, 1 / gap and its node values.
+
+    From t_split on, the next pair; with ``own``, a stage at t_split itself still reads the
+    current pair (the last stage of a step ending on that snapshot: dU/dt's left limit,
+    docs/model.md 11).
+    """
+    if ts > t_split or (ts == t_split and not own):
+        a, inv = _weight(ts, T0n, gap_n)
+        return a, inv, vals_n
+    a, inv = _weight(ts, T0c, gap_c)
+    return a, inv, vals_c
+
+
+@nb.njit(cache=True, inline="always")
+def _free_step(s, d0, hint, t, dt, method, p, opt, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
+               t_split, dry_depth, recovered, loc):
+    """One RK4 / Euler step of one log from t (first stage d0), each stage reading its pair.
+
+    Returns the new state and the pair its end is sampled on (weight, 1 / gap, node values).
+    """
+    te = t + dt
+    a_s, inv_s, vals_s = _pair_at(te, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, True)
+    a_e, inv_e, vals_e = _pair_at(te, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, False)
+    if method == RK4:
+        a_m, inv_m, vals_m = _pair_at(t + 0.5 * dt, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
+                                      t_split, False)
+        d1 = _rk4_stage(s, 1, dt, d0, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p,
+                        opt)
+        d2 = _rk4_stage(s, 2, dt, d1, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p,
+                        opt)
+        d3 = _rk4_stage(s, 3, dt, d2, hint, a_s, inv_s, vals_s, dry_depth, recovered, loc, p,
+                        opt)
+        return rk4_final_row(s, dt, d0, d1, d2, d3), a_e, inv_e, vals_e
+    return euler_row(s, dt, d0), a_e, inv_e, vals_e
+
+
+@nb.njit(cache=True, inline="always")
 def _own_bound(s, length, ln, lf, ang, drag_fraction, explicit, max_step):
     """One log's sub-step bound: ``StepOptions.max_step`` then ``stepping.step_bound``."""
     dt = max_step
@@ -160,12 +198,8 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t_from, t0, t_stop,
         t = t_from[i]
         if restart:
             s = (s[X], s[Y], s[THETA], 0.0, 0.0, 0.0)
-            if t >= t_split:
-                a_r, inv_r = _weight(t, T0n, gap_n)
-                vals_r = vals_n
-            else:
-                a_r, inv_r = _weight(t, T0c, gap_c)
-                vals_r = vals_c
+            a_r, inv_r, vals_r = _pair_at(t, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split,
+                                          False)
             f, fg, fl = sample_point(s[X], s[Y], face[i], a_r, inv_r, vals_r, dry_depth,
                                      recovered, loc)
             face[i] = f
@@ -191,37 +225,9 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t_from, t0, t_stop,
                 break
             hint = face[i]
             d0 = row(D0, i)
-            te = t + dt
-            # the last stage of a step ending on the snapshot t_split reads the step's own pair
-            # (dU/dt's left limit); the flow at the new state, the next pair (docs/model.md 11)
-            if te > t_split:
-                a_s, inv_s = _weight(te, T0n, gap_n)
-                vals_s = vals_n
-            else:
-                a_s, inv_s = _weight(te, T0c, gap_c)
-                vals_s = vals_c
-            if te >= t_split:
-                a_e, inv_e = _weight(te, T0n, gap_n)
-                vals_e = vals_n
-            else:
-                a_e, inv_e, vals_e = a_s, inv_s, vals_s
-            if method == RK4:
-                tm = t + 0.5 * dt
-                if tm >= t_split:
-                    a_m, inv_m = _weight(tm, T0n, gap_n)
-                    vals_m = vals_n
-                else:
-                    a_m, inv_m = _weight(tm, T0c, gap_c)
-                    vals_m = vals_c
-                d1 = _rk4_stage(s, 1, dt, d0, hint, a_m, inv_m, vals_m, dry_depth, recovered,
-                                loc, p, opt)
-                d2 = _rk4_stage(s, 2, dt, d1, hint, a_m, inv_m, vals_m, dry_depth, recovered,
-                                loc, p, opt)
-                d3 = _rk4_stage(s, 3, dt, d2, hint, a_s, inv_s, vals_s, dry_depth, recovered,
-                                loc, p, opt)
-                s = rk4_final_row(s, dt, d0, d1, d2, d3)
-            else:
-                s = euler_row(s, dt, d0)
+            s, a_e, inv_e, vals_e = _free_step(s, d0, hint, t, dt, method, p, opt, vals_c,
+                                               T0c, gap_c, vals_n, T0n, gap_n, t_split,
+                                               dry_depth, recovered, loc)
             f, fg, fl = sample_point(s[X], s[Y], hint, a_e, inv_e, vals_e, dry_depth,
                                      recovered, loc)
             face[i] = f
@@ -271,12 +277,7 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t_from, t0, t_stop,
 def _idle_floats(x, y, th, hint, t, p, opt, thr, friction, vals_c, T0c, gap_c, vals_n, T0n,
                  gap_n, t_split, dry_depth, recovered, loc):
     """Whether an idle log at (x, y, th) floats at time t (``stepping.classify``'s rules)."""
-    if t >= t_split:
-        a, inv = _weight(t, T0n, gap_n)
-        vals = vals_n
-    else:
-        a, inv = _weight(t, T0c, gap_c)
-        vals = vals_c
+    a, inv, vals = _pair_at(t, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, False)
     f, fg, fl = sample_point(x, y, hint, a, inv, vals, dry_depth, recovered, loc)
     return _floats(fg, fl, (x, y, th, 0.0, 0.0, 0.0), p, thr, friction, opt)
 

@@ -30,10 +30,11 @@ from pathlib import Path
 
 import numpy as np
 
-from driftlog.columns import NQ, THETA, UB, VB, X, Y
+from driftlog.columns import NQ, UB, VB, X, Y
 from driftlog.coupling_kernels import (
     account_advance,
     account_contacts,
+    gather_reaction,
     held_drag,
     keep_linearisation,
     mark_region,
@@ -388,6 +389,7 @@ class Coupling:
         nf = solver.mesh.n_faces
         self._sx, self._sy = np.zeros(nf), np.zeros(nf)
         self._touched = np.empty(0, np.int64)
+        self._rows = (np.empty((0, 2)),)  # hand-over buffers (``gather_reaction``)
         self._dt = 0.0  # recent solver steps (s), for the region's margin
         self._widenings = 0
 
@@ -468,27 +470,27 @@ class Coupling:
         Returns True when the solver's state changed.
         """
         tracker._contact_changes()
-        got = tracker.received
-        idx = np.flatnonzero((got[:, 0] != 0.0) | (got[:, 1] != 0.0))
-        if idx.size == 0:
-            return False
-        if tracker.act.size:
-            tracker._scatter()
         L = tracker.logs
-        S = L.state[idx]
-        need = idx.size * self.points
-        if self._touched.size < need:
-            self._touched = np.empty(need, np.int64)
+        b = self._rows
+        if b[0].shape[0] < len(L):
+            n = len(L)
+            b = self._rows = (np.empty((n, 2)), np.empty(n), np.empty(n), np.empty(n),
+                              np.empty(n), np.empty(n, np.int64), np.full(n, -1, np.int64))
+            self._touched = np.empty(n * self.points, np.int64)
+        g, x, y, theta, length, hint, where = b
+        m = gather_reaction(tracker.received, tracker.act, tracker.state, tracker.face,
+                            L.state, L.face, L.length, where, g, x, y, theta, length, hint)
+        if m == 0:
+            return False
         s = self.solver
         h, hu, hv = _arrays(s)
+        th = theta[:m]
         gx, gy, ux, uy = scatter_reaction(
-            got[idx], np.ascontiguousarray(S[:, X]), np.ascontiguousarray(S[:, Y]),
-            np.cos(S[:, THETA]), np.sin(S[:, THETA]), L.length[idx], L.face[idx], self.points,
+            g[:m], x[:m], y[:m], np.cos(th), np.sin(th), length[:m], hint[:m], self.points,
             s.mesh.locator(), h, self.flow._state_face, s.mesh.face_area, self.rho,
             s.dry_depth, hu, hv, self._sx, self._sy, self._touched)
         self.given += (gx, gy)
         self.undelivered += (ux, uy)
-        got[idx] = 0.0
         self.handovers += 1
         return True
 

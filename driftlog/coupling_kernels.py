@@ -7,6 +7,8 @@
   products, so the values are those of the whole-mesh projection bit for bit;
 - ``shift_rows``: a new step's interval starts where the last one ended: the end columns of
   the region's nodes become its start columns, nodes that left the region are poisoned (NaN);
+- ``gather_reaction``: the logs with a reaction to hand over and their rows, from the
+  tracker's compact arrays (floating logs) or the full ones (the others), without scattering;
 - ``scatter_reaction``: the logs' reaction spread over points along their axes and added to
   the water of the faces under them (``driftlog.solver.momentum.add_face_momentum``'s
   arithmetic); a log whose two ends lie well inside its centre's face has every point there,
@@ -20,10 +22,28 @@
 import numba as nb
 import numpy as np
 
-from driftlog.columns import NQ, Q_ETA, Q_EX, Q_EY, Q_H, Q_U, Q_UX, Q_UY, Q_V, Q_VX, Q_VY, UB, VB
+from driftlog.columns import (
+    NQ,
+    Q_ETA,
+    Q_EX,
+    Q_EY,
+    Q_H,
+    Q_U,
+    Q_UX,
+    Q_UY,
+    Q_V,
+    Q_VX,
+    Q_VY,
+    THETA,
+    UB,
+    VB,
+    X,
+    Y,
+)
 from driftlog.locate import _edge_side, locate_one
 
 __all__ = ["mark_region", "node_rows", "shift_rows", "poison_rows", "scatter_reaction",
+           "gather_reaction",
            "account_advance", "account_contacts", "keep_linearisation", "held_drag"]
 
 
@@ -249,6 +269,43 @@ def scatter_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h, stat
         gx += px
         gy += py
     return gx, gy, ux, uy
+
+
+@nb.njit(cache=True)
+def gather_reaction(got, act, state, face, all_state, all_face, length, where, g, x, y, theta,
+                    ln, hint):
+    """The logs with a reaction to hand over, in their order, and their rows; ``got`` cleared.
+
+    ``act``: the floating logs, whose current state and face hint are the compact rows
+    ``state``, ``face``; the others' are ``all_state``, ``all_face`` (what
+    ``Tracker._scatter`` would make of them).  ``where``: -1 for every log on entry and on
+    return (a buffer).  Writes, for each log with ``got`` not zero, its reaction, centre,
+    angle, length and face hint into ``g``, ``x``, ``y``, ``theta``, ``ln``, ``hint``;
+    returns their count.
+    """
+    for p in range(act.shape[0]):
+        where[act[p]] = p
+    m = 0
+    for j in range(got.shape[0]):
+        gx, gy = got[j, 0], got[j, 1]
+        if gx == 0.0 and gy == 0.0:
+            continue
+        p = where[j]
+        if p >= 0:
+            x[m], y[m], theta[m] = state[p, X], state[p, Y], state[p, THETA]
+            hint[m] = face[p]
+        else:
+            x[m], y[m], theta[m] = all_state[j, X], all_state[j, Y], all_state[j, THETA]
+            hint[m] = all_face[j]
+        g[m, 0] = gx
+        g[m, 1] = gy
+        ln[m] = length[j]
+        got[j, 0] = 0.0
+        got[j, 1] = 0.0
+        m += 1
+    for p in range(act.shape[0]):
+        where[act[p]] = -1
+    return m
 
 
 @nb.njit(cache=True)

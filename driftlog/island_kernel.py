@@ -29,7 +29,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from driftlog.clock_kernel import RK4, _floats, _own_bound, _weight
+from driftlog.clock_kernel import _floats, _free_step, _own_bound, _pair_at
 from driftlog.columns import (
     CX,
     CY,
@@ -54,8 +54,7 @@ from driftlog.contact.geometry import capsule_gap, capsule_row, log_endpoints
 from driftlog.contact.impulses import pair_impulse, separate_resting
 from driftlog.contact.toi import conservative_step
 from driftlog.flow import sample_point
-from driftlog.fused import _rk4_stage
-from driftlog.integrators import euler_row, put_row, rk4_final_row, row
+from driftlog.integrators import put_row, row
 from driftlog.physics import log_rhs
 
 __all__ = ["island_advance", "OK", "TOO_SMALL", "DIVERGED", "JAM", "NSTAT", "HIT_FULL"]
@@ -185,11 +184,8 @@ def _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx,
 @nb.njit(cache=True, inline="always")
 def _sample_at(x, y, hint, ts, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
                recovered, loc):
-    if ts >= t_split:
-        a, inv = _weight(ts, T0n, gap_n)
-        return sample_point(x, y, hint, a, inv, vals_n, dry_depth, recovered, loc)
-    a, inv = _weight(ts, T0c, gap_c)
-    return sample_point(x, y, hint, a, inv, vals_c, dry_depth, recovered, loc)
+    a, inv, vals = _pair_at(ts, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, False)
+    return sample_point(x, y, hint, a, inv, vals, dry_depth, recovered, loc)
 
 
 @nb.njit(cache=True)
@@ -199,37 +195,9 @@ def _step_one(S, D0, F, flag, face, lin0, i, p, opt, t, dt, method, tracer, rota
     s = row(S, i)
     d0 = row(D0, i)
     hint = face[i]
-    te = t + dt
-    # the last stage of a step ending on the snapshot t_split reads the step's own pair
-    # (dU/dt's left limit); the flow at the new state, the next pair (docs/model.md 11)
-    if te > t_split:
-        a_s, inv_s = _weight(te, T0n, gap_n)
-        vals_s = vals_n
-    else:
-        a_s, inv_s = _weight(te, T0c, gap_c)
-        vals_s = vals_c
-    if te >= t_split:
-        a_e, inv_e = _weight(te, T0n, gap_n)
-        vals_e = vals_n
-    else:
-        a_e, inv_e, vals_e = a_s, inv_s, vals_s
-    if method == RK4:
-        tm = t + 0.5 * dt
-        if tm >= t_split:
-            a_m, inv_m = _weight(tm, T0n, gap_n)
-            vals_m = vals_n
-        else:
-            a_m, inv_m = _weight(tm, T0c, gap_c)
-            vals_m = vals_c
-        d1 = _rk4_stage(s, 1, dt, d0, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p,
-                        opt)
-        d2 = _rk4_stage(s, 2, dt, d1, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p,
-                        opt)
-        d3 = _rk4_stage(s, 3, dt, d2, hint, a_s, inv_s, vals_s, dry_depth, recovered, loc, p,
-                        opt)
-        s = rk4_final_row(s, dt, d0, d1, d2, d3)
-    else:
-        s = euler_row(s, dt, d0)
+    s, a_e, inv_e, vals_e = _free_step(s, d0, hint, t, dt, method, p, opt, vals_c, T0c,
+                                       gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
+                                       recovered, loc)
     f, fg, fl = sample_point(s[X], s[Y], hint, a_e, inv_e, vals_e, dry_depth, recovered, loc)
     face[i] = f
     flag[i] = fg

@@ -51,6 +51,7 @@ from driftlog.fused import (
     aligned_rows,
     euler_mesh_step,
     euler_tracer_step,
+    kept_positions,
     pack_tracer_nodes,
     rk4_mesh_step,
     rk4_tracer_step,
@@ -143,6 +144,8 @@ class Tracker:
         self._kernel = flow.mesh_kernel() if fused and method in FUSED_METHODS else None
         self.fused = self._kernel is not None
         self._d0_valid = False
+        self._F_t = np.nan  # time of the fused step's flow sample (``advance``)
+        self._stop = -np.inf  # the stop ``_global_steps`` is heading for
         self.step_options = step or StepOptions()
         self.contact = contact
         self.clock = self.step_options.clock
@@ -234,17 +237,26 @@ class Tracker:
         self._settled = None
         if kept is not None:
             # logs that stay floating keep their flow sample and first stage: the same numbers
-            # as sampling them again from their faces, without the pass
+            # as sampling them again from their faces, without the pass; logs new to the set
+            # (lifted, released) get theirs from their own faces, row by row as the pass would
             pos = kept[0]
+            new = np.flatnonzero(pos < 0)
+            if new.size:
+                pos = np.where(pos < 0, 0, pos)
             for src, out in zip(kept[1:4], (self.F, self.D0, self.lin0), strict=True):
                 take_rows(pos, src, out)
             self.flag[:] = kept[-1][pos]
+            if new.size:
+                self._stage_new(new)
             self._F_valid = self._d0_valid = True
 
     def _kept_stage(self, idx):
         """Where the logs ``idx`` stand in the compact arrays, and the rows there.
 
-        The positions, then F, D0, lin0 and flag; None unless all were already floating.
+        The positions (-1 for a log not floating before), then F, D0, lin0 and flag; None
+        when nothing is kept: no valid first stage, or logs new to the set while the stage
+        was not sampled at this very time (a landing moved the clock by round-off) or the
+        time is the current stop (where a coupled flow changes before the next sub-step).
         """
         old = getattr(self, "act", None)
         if not (self.fused and self._d0_valid and self._F_valid and old is not None
@@ -252,8 +264,36 @@ class Tracker:
             return None
         pos = np.empty(idx.size, np.int64)
         if not subset_positions(old, idx, pos):
-            return None
+            # the pass would sample at the next step bound: here, unless the flow changes
+            # first (a coupled run's solver steps at the end of the current stop)
+            if self._F_t != self.t or not self.t < self._stop:
+                return None
+            kept_positions(old, idx, pos)
+            # copies: the integrator's buffers for as many logs are the same arrays, and
+            # rows move up past logs new to the set
+            return pos, self.F, self.D0.copy(), self.lin0.copy(), self.flag
         return pos, self.F, self.D0, self.lin0, self.flag
+
+    def _stage_new(self, rows):
+        """Flow sample and first stage of the compact rows ``rows`` (logs new to the set).
+
+        What ``_rhs`` at the current state computes for every row, for these rows only: each
+        log's sample and derivative depend on its own row alone.
+        """
+        S = self.state[rows]
+        face = self.face[rows]
+        F = np.empty((rows.size, NVAR))
+        flag = np.empty(rows.size, np.int8)
+        self.flow.sample_into(np.ascontiguousarray(S[:, X]), np.ascontiguousarray(S[:, Y]),
+                              self.t, face, F, flag)
+        D = np.empty((rows.size, self.D0.shape[1]))
+        lin = np.empty((rows.size, self.lin0.shape[1]))
+        rhs_kernel(S, F, self.P[rows], self.opt, D, lin, True)
+        self.face[rows] = face
+        self.F[rows] = F
+        self.flag[rows] = flag
+        self.D0[rows] = D
+        self.lin0[rows] = lin
 
     def _scatter(self):
         """Write the compact state back into the full arrays."""
@@ -344,6 +384,7 @@ class Tracker:
                     self.flow.step_interval(None)
             self.state, self._next = self._next, self.state
         self.t += dt
+        self._F_t = self.t  # when the fused step's sample below was taken
         # the fused step sampled the flow at the new state and computed its first stage; at a
         # snapshot its dU/dt was the ending pair's, and full physics reads dU/dt (the
         # pressure gradient and added mass): sampled again, from the next pair
@@ -677,6 +718,7 @@ class Tracker:
         ``swept`` (len(pool), 4) grows to the bounding box of their centres.
         """
         so = self.step_options
+        self._stop = stop
         while self.t < stop:
             t_before = self.t
             dt = min(self.max_step(), stop - self.t)
