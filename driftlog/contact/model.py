@@ -480,8 +480,8 @@ class ContactModel:
         tol = self._tol(bodies)
         S0 = bodies.state.copy()
         t0 = bodies.t
-        # near contacts, no log moves more than a share of the smallest radius per step: the
-        # contact geometry is linearised at the start of the step
+        # near contacts, no pair moves against each other by more than a share of the smallest
+        # radius per step (eq. (81)): the contact geometry is linearised at the step's start
         near = self.detect(bodies, motion_margin(S0, bodies.length, bodies.radius, dt, tol))
         if len(near):
             speed = self._near_speed(S0, bodies, near)
