@@ -59,33 +59,50 @@ def kernel(func=None, *, size_arg=0):
 # compiled, 45 CPU s for the whole run against about 10 s warm; numba writes the kernels to
 # __pycache__ and loads them on the next runs)
 COMPILE_SECONDS = {"tracking": 20, "solver": 20, "contacts": 15}
-_PROBES = {"tracking": ("", "physics.rhs_kernel"), "solver": ("solver", "fluxes.edge_fluxes_1"),
-           "contacts": ("contact", "geometry.capsule_gap")}
+# the tracker's multi-threaded kernels (from PARALLEL_MIN floating logs on: the fused steps of
+# the global clock, the per-log kernels) take far longer (measured: a 1e4-log Malpasset run on
+# per-log clocks with Moreau contacts, 900 s of flood, 652 CPU s, nearly all compiling them, at
+# load 2); any of them cached counts
+_PROBES = {"tracking": ("", ("physics.rhs_kernel",)),
+           "solver": ("solver", ("fluxes.edge_fluxes_1",)),
+           "contacts": ("contact", ("geometry.capsule_gap",)),
+           "parallel": ("", ("fused.*_parallel", "clock_kernel.*_parallel"))}
+PARALLEL_COMPILE = "the multi-threaded ones (over 2,048 logs) up to about 10 min"
 
 
 def kernels_cached(part: str) -> bool:
-    """Whether numba's cache holds the kernels of ``part`` ('tracking', 'solver', 'contacts')."""
+    """Whether numba's cache holds the kernels of ``part``.
+
+    'tracking', 'solver', 'contacts', or 'parallel' (the tracker's multi-threaded kernels).
+    """
     from pathlib import Path
 
-    sub, probe = _PROBES[part]
+    sub, probes = _PROBES[part]
     here = Path(__file__).resolve().parent
     env = os.environ.get("NUMBA_CACHE_DIR")
     d = Path(env) if env else (here / sub / "__pycache__" if sub else here / "__pycache__")
     # numba caches beside the sources (or in NUMBA_CACHE_DIR): an index there means compiled
-    return d.is_dir() and any(d.rglob(f"{probe}-*.nbi") if env else d.glob(f"{probe}-*.nbi"))
+    if not d.is_dir():
+        return False
+    return any(any(d.rglob(f"{p}-*.nbi") if env else d.glob(f"{p}-*.nbi")) for p in probes)
 
 
-def announce_compile(parts, stream=None) -> int:
+def announce_compile(parts, stream=None, many=False) -> int:
     """Print "compiling kernels, once, about N s" when ``parts`` are not in numba's cache yet.
 
     The first run after an install compiles them, and a progress bar standing at 0 for that
-    long is explained.  Returns N (0: all cached, nothing printed).
+    long is explained.  ``many``: the run has at least ``PARALLEL_MIN`` logs, so it may also
+    compile the tracker's multi-threaded kernels, said when none is cached.  Returns N (0:
+    all of ``parts`` cached).
     """
     import sys
 
     missing = [p for p in parts if not kernels_cached(p)]
     n = sum(COMPILE_SECONDS[p] for p in missing)
-    if missing:
-        print(f"driftlog: compiling kernels, once, about {n} s ({', '.join(missing)}; cached "
-              "for the next runs)", file=stream or sys.stderr, flush=True)
+    said = [f"about {n} s ({', '.join(missing)})"] if missing else []
+    if many and not kernels_cached("parallel"):
+        said.append(PARALLEL_COMPILE)
+    if said:
+        print(f"driftlog: compiling kernels, once, {'; '.join(said)}; cached for the next runs",
+              file=stream or sys.stderr, flush=True)
     return n

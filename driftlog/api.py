@@ -266,10 +266,11 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     else:
         tracker = Tracker(flow, logs, physics, **opts)
     if progress:
-        from driftlog._numba import announce_compile
+        from driftlog._numba import PARALLEL_MIN, announce_compile
 
         announce_compile((["solver"] if coupling is not None else []) + ["tracking"]
-                         + (["contacts"] if contact is not None else []))
+                         + (["contacts"] if contact is not None else []),
+                         many=len(logs.state) >= PARALLEL_MIN)
     if resume:
         from driftlog.trajectory import last_states
 

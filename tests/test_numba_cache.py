@@ -44,3 +44,33 @@ def test_cache_dir_set_once_and_user_value_wins(tmp_path, monkeypatch):
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "mine"))
     assert _cache.set_numba_cache_dir(PACKAGE) is None
     assert os.environ["NUMBA_CACHE_DIR"] == str(tmp_path / "mine")
+
+
+def test_first_run_announces_the_multi_threaded_kernels(tmp_path, monkeypatch):
+    # a run of 2,048 logs or more compiles the tracker's parallel kernels the first time, for
+    # minutes (652 CPU s measured on a 1e4-log Malpasset run): said once, not after they are
+    # cached
+    import io
+
+    from driftlog import _numba
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    out = io.StringIO()
+    assert _numba.announce_compile(["tracking", "contacts"], out, many=True) == 35
+    said = out.getvalue()
+    assert "about 35 s (tracking, contacts)" in said and "multi-threaded" in said
+    out = io.StringIO()
+    assert _numba.announce_compile(["tracking"], out) == 20
+    assert "multi-threaded" not in out.getvalue()
+    # the kernels cached (numba's index files, in the cache folder's tree)
+    sub = tmp_path / "driftlog_abc"
+    sub.mkdir()
+    for name in ("physics.rhs_kernel-497.py311.nbi", "geometry.capsule_gap-12.py311.nbi"):
+        (sub / name).touch()
+    out = io.StringIO()
+    assert _numba.announce_compile(["tracking", "contacts"], out, many=True) == 0
+    assert " s (" not in out.getvalue() and "multi-threaded" in out.getvalue()
+    (sub / "clock_kernel.per_log_mesh_advance_parallel-146.py311.nbi").touch()
+    out = io.StringIO()
+    assert _numba.announce_compile(["tracking", "contacts"], out, many=True) == 0
+    assert out.getvalue() == ""
