@@ -389,7 +389,7 @@ class Coupling:
         nf = solver.mesh.n_faces
         self._sx, self._sy = np.zeros(nf), np.zeros(nf)
         self._touched = np.empty(0, np.int64)
-        self._rows = (np.empty((0, 2)),)  # hand-over buffers (``gather_reaction``)
+        self._rows = None  # hand-over buffers (``gather_reaction``), one row per log
         self._dt = 0.0  # recent solver steps (s), for the region's margin
         self._widenings = 0
 
@@ -472,7 +472,7 @@ class Coupling:
         tracker._contact_changes()
         L = tracker.logs
         b = self._rows
-        if b[0].shape[0] < len(L):
+        if b is None or b[0].shape[0] < len(L):
             n = len(L)
             b = self._rows = (np.empty((n, 2)), np.empty(n), np.empty(n), np.empty(n),
                               np.empty(n), np.empty(n, np.int64), np.full(n, -1, np.int64))

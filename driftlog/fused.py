@@ -73,7 +73,7 @@ from driftlog.physics import O_LEVEL, O_MOTION, O_ROT, TRACER, log_rhs, stage_co
 __all__ = ["euler_mesh_step", "rk4_mesh_step", "rk4_tracer_step", "euler_tracer_step",
            "sample_tracer",
            "pack_tracer_nodes", "aligned_rows", "settle_summary", "FUSED_METHODS", "NCTL",
-           "take_rows", "subset_positions", "kept_positions",
+           "take_rows", "subset_positions",
            "PK_N", "PR_N"]
 
 FUSED_METHODS = ("euler", "rk4")
@@ -262,30 +262,22 @@ def take_rows(pos, src, out):
 
 @nb.njit(cache=True)
 def subset_positions(old, idx, pos):
-    """Where each of ``idx`` stands in ``old`` (both ascending), into ``pos``.
+    """Where each of ``idx`` stands in ``old`` (both ascending), into ``pos`` (-1: not there).
 
-    False when one of ``idx`` is not in ``old`` (``pos`` is then incomplete).
+    True when every one of ``idx`` is in ``old``.
     """
     j, n = 0, old.shape[0]
+    found = True
     for i in range(idx.shape[0]):
         v = idx[i]
         while j < n and old[j] < v:
             j += 1
-        if j == n or old[j] != v:
-            return False
-        pos[i] = j
-    return True
-
-
-@nb.njit(cache=True)
-def kept_positions(old, idx, pos):
-    """Where each of ``idx`` stands in ``old`` (both ascending), -1 where it is not there."""
-    j, n = 0, old.shape[0]
-    for i in range(idx.shape[0]):
-        v = idx[i]
-        while j < n and old[j] < v:
-            j += 1
-        pos[i] = j if j < n and old[j] == v else -1
+        if j < n and old[j] == v:
+            pos[i] = j
+        else:
+            pos[i] = -1
+            found = False
+    return found
 
 
 def aligned_rows(n, m):

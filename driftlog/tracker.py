@@ -51,7 +51,6 @@ from driftlog.fused import (
     aligned_rows,
     euler_mesh_step,
     euler_tracer_step,
-    kept_positions,
     pack_tracer_nodes,
     rk4_mesh_step,
     rk4_tracer_step,
@@ -268,7 +267,6 @@ class Tracker:
             # first (a coupled run's solver steps at the end of the current stop)
             if self._F_t != self.t or not self.t < self._stop:
                 return None
-            kept_positions(old, idx, pos)
             # copies: the integrator's buffers for as many logs are the same arrays, and
             # rows move up past logs new to the set
             return pos, self.F, self.D0.copy(), self.lin0.copy(), self.flag
