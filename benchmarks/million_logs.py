@@ -88,28 +88,50 @@ def overrides(flow, n, end, output_interval, method, flush_interval, clock="per_
 
 
 class RSSMonitor(threading.Thread):
-    """Samples this process's resident memory (bytes) every ``interval`` s."""
+    """Samples this process's resident memory (bytes) every ``interval`` s.
 
-    def __init__(self, interval=0.2):
+    With ``ledger`` (a path) it also writes, every ``every`` s, this segment's wall and CPU
+    time and peak memory after the ``before`` segments of earlier, interrupted attempts
+    (``--resume``), so that a run killed without warning still counts what it spent.
+    """
+
+    def __init__(self, interval=0.2, ledger=None, before=(), every=30.0):
         super().__init__(daemon=True)
         self.interval, self.peak, self.samples = interval, 0, []
+        self.ledger, self.before, self.every = ledger, list(before), every
+        self.w0, self.c0 = time.perf_counter(), time.process_time()
         self._halt = threading.Event()
 
     def rss(self):
         with open("/proc/self/statm") as f:
             return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
 
+    def segment(self):
+        """This attempt so far: wall and CPU seconds, peak RSS (MB)."""
+        return dict(wall_s=time.perf_counter() - self.w0, cpu_s=time.process_time() - self.c0,
+                    peak_rss_mb=self.peak / 2**20, load=os.getloadavg()[0])
+
+    def write(self):
+        if self.ledger is not None:
+            tmp = Path(str(self.ledger) + ".tmp")
+            tmp.write_text(json.dumps({"segments": [*self.before, self.segment()]}))
+            tmp.replace(self.ledger)
+
     def run(self):
-        t0 = time.perf_counter()
+        last = time.perf_counter()
         while not self._halt.is_set():
             r = self.rss()
             self.peak = max(self.peak, r)
-            self.samples.append((time.perf_counter() - t0, r))
+            self.samples.append((time.perf_counter() - self.w0, r))
+            if time.perf_counter() - last >= self.every:
+                self.write()
+                last = time.perf_counter()
             self._halt.wait(self.interval)
 
     def stop(self):
         self._halt.set()
         self.join()
+        self.write()
 
 
 def check_output(path, n, flow):
@@ -152,19 +174,25 @@ def run_one(a):
     from driftlog.contact.model import ContactModel
 
     ContactModel.relative_motion = a.motion == "relative"
-    mon = RSSMonitor()
-    mon.start()
-    rss0 = mon.rss()
     out = Path(a.out)
-    for p in (out, Path(str(out) + ".partial")):
-        p.unlink(missing_ok=True)
+    ledger = Path(str(out) + ".run.json")  # time and memory of each attempt (--resume)
+    before = []
+    if a.resume and Path(str(out) + ".partial").is_file() and ledger.is_file():
+        before = json.loads(ledger.read_text())["segments"]
+    else:
+        for p in (out, Path(str(out) + ".partial"), ledger):
+            p.unlink(missing_ok=True)
+    mon = RSSMonitor(ledger=ledger, before=before)
+    rss0 = mon.rss()
+    mon.start()
     load0 = os.getloadavg()[0]
-    c0, w0 = time.process_time(), time.perf_counter()
     scen = as_scenario(CASE, overrides(a.flow, a.logs, a.end, a.output_interval, a.method,
                                        a.flush_interval, a.clock))
-    res = track(scen, output=out, progress=a.progress)
-    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    res = track(scen, output=out, progress=a.progress, resume=a.resume)
     mon.stop()
+    segments = [*before, mon.segment()]
+    wall = sum(g["wall_s"] for g in segments)
+    cpu = sum(g["cpu_s"] for g in segments)
     facts = check_output(out, a.logs, a.flow)
     floating = [r for r in res.stats.items() if r[0] in (
         "substeps", "rhs_evaluations", "log_substeps", "windows", "islands", "largest_island",
@@ -172,8 +200,10 @@ def run_one(a):
     row = dict(logs=a.logs, end_s=a.end, output_interval_s=a.output_interval,
                contact_method=a.method, clock=a.clock, motion=a.motion, wall_s=wall, cpu_s=cpu,
                rss_start_mb=rss0 / 2**20,
-               peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-               sampled_peak_mb=mon.peak / 2**20,
+               peak_rss_mb=max([resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024]
+                               + [g["peak_rss_mb"] for g in before]),
+               sampled_peak_mb=max(g["peak_rss_mb"] for g in segments),
+               attempts=len(segments),
                output_mb=out.stat().st_size / 2**20, physics=res.physics["level"],
                load_start=load0, load_end=os.getloadavg()[0],
                **dict(floating), **facts)
@@ -234,7 +264,9 @@ def write_results(a, rows):
         fin = ", ".join(f"{k} {v}" for k, v in r["final_status"].items() if v)
         load = (f"{r['load_start']:.1f} / {r['load_end']:.1f}" if "load_start" in r
                 else "?")
-        lines.append(f"| {r['logs']:.0f} | {r.get('motion', 'absolute')} | {r['wall_s']:.0f} | "
+        tries = f" ({r['attempts']} attempts)" if r.get("attempts", 1) > 1 else ""
+        lines.append(f"| {r['logs']:.0f} | {r.get('motion', 'absolute')} | "
+                     f"{r['wall_s']:.0f}{tries} | "
                      f"{r['cpu_s']:.0f} | {load} | "
                      f"{r['rss_start_mb']:.0f} | {r['peak_rss_mb']:.0f} | {r['output_mb']:.1f} | "
                      f"{r['observations']} | {r.get('substeps', '?')} | "
@@ -265,6 +297,9 @@ def main(argv=None):
     p.add_argument("--name", help="results name (default million_logs)")
     p.add_argument("--keep", action="store_true", help="keep the trajectory file")
     p.add_argument("--progress", action="store_true")
+    p.add_argument("--resume", action="store_true",
+                   help="continue a stopped run of the same arguments from its last record "
+                        "(the .partial file); wall and CPU time add up over the attempts")
     p.add_argument("--results-from", nargs="+", metavar="LOG",
                    help="write the results table from the RESULT lines of these run logs "
                    "(runs made with --logs N, e.g. to watch --progress)")

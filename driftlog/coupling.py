@@ -30,18 +30,17 @@ from pathlib import Path
 
 import numpy as np
 
-from driftlog.columns import NQ, UB, VB, X, Y
+from driftlog.columns import NQ, UB, VB
 from driftlog.coupling_kernels import (
     account_advance,
     account_contacts,
     gather_reaction,
     held_drag,
     keep_linearisation,
-    mark_region,
     node_rows,
-    poison_rows,
+    refocus,
+    region_points,
     scatter_reaction,
-    shift_rows,
 )
 from driftlog.errors import ScenarioError
 from driftlog.flow import InMemorySnapshots, MeshFlowField
@@ -124,16 +123,18 @@ class SolverFlow(MeshFlowField):
         solver's state (the start of the coming step); nodes that leave it get NaN.
         """
         old, stamp = self._stamp, self._stamp + 1
-        rows, self._spare = self._spare, self._rows
-        n = mark_region(np.ascontiguousarray(x), np.ascontiguousarray(y), float(margin),
-                        self.mesh.locator(), self._bin_mark, self._face_mark, self._node_mark,
-                        stamp, old, rows, self._fresh)
-        todo = shift_rows(rows, n, self._fresh, self._vals)
-        self._compute(todo, todo.size, 0)
-        poison_rows(self._spare, self._count, self._node_mark, stamp, self._vals)
+        rows, spare = self._spare, self._rows
+        h, hu, hv = _arrays(self.solver)
+        vp, vx, vy, indptr, face, state_face = self._ops
+        # the start state is kept in case the step must widen the region (``widen``)
+        n = refocus(np.ascontiguousarray(x, dtype=np.float64),
+                    np.ascontiguousarray(y, dtype=np.float64), float(margin),
+                    self.mesh.locator(), self._bin_mark, self._face_mark, self._node_mark,
+                    stamp, old, rows, self._fresh, spare, self._count, self._vals, vp, vx, vy,
+                    indptr, face, state_face, h, hu, hv, self.bed, self.dry_depth,
+                    self.gradient == "recovered", *self._start)
+        self._spare = spare
         self._rows, self._count, self._stamp = rows, n, stamp
-        for a, b in zip(self._start, _arrays(self.solver), strict=True):
-            np.copyto(a, b)  # kept in case the step must widen the region (``widen``)
 
     def focus_all(self):
         """Before a step: every node (the end columns of the last step become start columns)."""
@@ -391,6 +392,8 @@ class Coupling:
         self._touched = np.empty(0, np.int64)
         self._rows = None  # hand-over buffers (``gather_reaction``), one row per log
         self._dt = 0.0  # recent solver steps (s), for the region's margin
+        self._xy = None  # the region's points (``focus``), one column per log
+        self._length = 0.0  # the longest log (m)
         self._widenings = 0
 
     def stops(self, tracker, fixed):
@@ -451,18 +454,21 @@ class Coupling:
         the current region, covers in a recent solver step, plus half the longest log.
         """
         L = tracker.logs
-        S = tracker.state
-        rest = np.flatnonzero((L.status != FLOATING) & ~tracker._recorded_left)
-        x = np.concatenate([S[:, X], L.state[rest, X]])
-        y = np.concatenate([S[:, Y], L.state[rest, Y]])
+        n = len(L)
+        if self._xy is None or self._xy.shape[1] < n:
+            self._xy = np.empty((2, n))
+            self._length = float(L.length.max()) if n else 0.0
+        x, y = self._xy[0], self._xy[1]
+        m, v2 = region_points(tracker.state, L.state, L.status, tracker._recorded_left,
+                              FLOATING, x, y)
         speed = self.flow.speed
-        if S.shape[0]:
-            speed = max(speed, float(np.sqrt((S[:, UB] ** 2 + S[:, VB] ** 2).max())))
-        length = float(L.length.max()) if len(L) else 0.0
+        if v2 >= 0.0 or v2 != v2:  # a floating log (max ignores a NaN speed, as before)
+            speed = max(speed, float(np.sqrt(v2)))
         if self.flow.widenings > self._widenings:  # a log strayed out: a wider margin
             self._widenings = self.flow.widenings
             self.margin_factor *= 2.0
-        self.flow.focus(x, y, self.margin_factor * self._dt * speed + 0.5 * length)
+        self.flow.focus(x[:m], y[:m], self.margin_factor * self._dt * speed
+                        + 0.5 * self._length)
 
     def handover(self, tracker):
         """Give the water the opposite of what the logs received since the last call.

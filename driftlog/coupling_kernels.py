@@ -7,6 +7,8 @@
   products, so the values are those of the whole-mesh projection bit for bit;
 - ``shift_rows``: a new step's interval starts where the last one ended: the end columns of
   the region's nodes become its start columns, nodes that left the region are poisoned (NaN);
+- ``region_points`` and ``refocus``: the points the logs may be sampled at, and the whole
+  change of region before a step in one call (the kernels above and the copy of the state);
 - ``gather_reaction``: the logs with a reaction to hand over and their rows, from the
   tracker's compact arrays (floating logs) or the full ones (the others), without scattering;
 - ``scatter_reaction``: the logs' reaction spread over points along their axes and added to
@@ -43,6 +45,7 @@ from driftlog.columns import (
 from driftlog.locate import _edge_side, locate_one
 
 __all__ = ["mark_region", "node_rows", "shift_rows", "poison_rows", "scatter_reaction",
+           "region_points", "refocus",
            "gather_reaction",
            "account_advance", "account_contacts", "keep_linearisation", "held_drag"]
 
@@ -179,6 +182,57 @@ def poison_rows(rows, count, node_mark, stamp, vals):
         if node_mark[r] != stamp:
             for q in range(2 * NQ):
                 vals[r, q] = np.nan
+
+
+@nb.njit(cache=True)
+def region_points(state, all_state, status, recorded_left, floating, x, y):
+    """The points the tracker may sample in a step: every floating log, then the others.
+
+    The floating logs' centres from their compact rows ``state``; the other logs' (resting,
+    stranded, waiting, gone and not recorded yet: ``status != floating`` and not
+    ``recorded_left``) from ``all_state``, in their order, into ``x``, ``y``.  Returns their
+    count and the largest squared speed of the floating logs (-1.0 with none).
+    """
+    n = 0
+    v2 = -1.0
+    for i in range(state.shape[0]):
+        x[n] = state[i, X]
+        y[n] = state[i, Y]
+        n += 1
+        w = state[i, UB] * state[i, UB] + state[i, VB] * state[i, VB]
+        if w > v2 or w != w:
+            v2 = w
+    for j in range(status.shape[0]):
+        if status[j] != floating and not recorded_left[j]:
+            x[n] = all_state[j, X]
+            y[n] = all_state[j, Y]
+            n += 1
+    return n, v2
+
+
+@nb.njit(cache=True)
+def refocus(x, y, margin, loc, bin_mark, face_mark, node_mark, stamp, old_stamp, rows, fresh,
+            spare, spare_count, vals, vp, vx, vy, indptr, face, state_face, h, hu, hv, bed,
+            dry_depth, recovered, start_h, start_hu, start_hv):
+    """A new step's region, in one call: what ``SolverFlow.focus`` does.
+
+    The region's nodes (``mark_region`` into ``rows``), the end columns of those that were
+    in the old one become start columns and the start columns of the others are computed
+    from the state (``shift_rows``, ``node_rows``), the nodes of the old region ``spare[:
+    spare_count]`` that left it are poisoned (``poison_rows``), and the state is copied to
+    ``start_*`` (the interval's start, for ``widen``).  Returns the region's node count.
+    """
+    n = mark_region(x, y, margin, loc, bin_mark, face_mark, node_mark, stamp, old_stamp, rows,
+                    fresh)
+    todo = shift_rows(rows, n, fresh, vals)
+    node_rows(todo, todo.shape[0], 0, vp, vx, vy, indptr, face, state_face, h, hu, hv, bed,
+              dry_depth, recovered, vals)
+    poison_rows(spare, spare_count, node_mark, stamp, vals)
+    for f in range(h.shape[0]):
+        start_h[f] = h[f]
+        start_hu[f] = hu[f]
+        start_hv[f] = hv[f]
+    return n
 
 
 @nb.njit(cache=True)

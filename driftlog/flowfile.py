@@ -129,6 +129,7 @@ class FlowFileWriter:
                  compress=True, dtype="f8"):
         self.path = Path(path)
         self.mesh = mesh
+        self._last_t = None  # the last snapshot's time (read from the file when appending)
         if append:
             self.ds = netCDF4.Dataset(self.path, "a")
             self.n = len(self.ds.dimensions["time"])
@@ -167,8 +168,12 @@ class FlowFileWriter:
             v.setncatts(_attrs_for_netcdf(a))
         ds.sync()
 
-    def write(self, t, h, hu=None, hv=None, u=None, v=None, dry_depth=1e-3, **series):
-        """Append the snapshot at time t (give hu, hv or u, v); flushed to disk at once."""
+    def write(self, t, h, hu=None, hv=None, u=None, v=None, dry_depth=1e-3, sync=True,
+              **series):
+        """Append the snapshot at time t (give hu, hv or u, v); flushed to disk at once.
+
+        ``sync=False``: not flushed (the caller writes more beside it, then syncs ``ds``).
+        """
         h = np.asarray(h, dtype=float)
         if u is None:
             wet = h > dry_depth
@@ -176,17 +181,21 @@ class FlowFileWriter:
             u = np.where(wet, np.asarray(hu) / safe, 0.0)
             v = np.where(wet, np.asarray(hv) / safe, 0.0)
         i = self.n
-        if i > 0 and not t > self.ds.variables["time"][i - 1]:
+        if i > 0 and self._last_t is None:
+            self._last_t = float(self.ds.variables["time"][i - 1])
+        if i > 0 and not t > self._last_t:
             raise FlowFileError(f"{self.path}: snapshot time {t} s is not after the last "
-                                f"written, {self.ds.variables['time'][i - 1]} s")
+                                f"written, {self._last_t} s")
         self.ds.variables["time"][i] = t
+        self._last_t = float(t)
         self.ds.variables["water_depth"][i, :] = h
         self.ds.variables["velocity_x"][i, :] = u
         self.ds.variables["velocity_y"][i, :] = v
         for k, val in series.items():
             self.ds.variables[k][i] = val
         self.n += 1
-        self.ds.sync()
+        if sync:
+            self.ds.sync()
 
     def set_attrs(self, **attrs):
         """Add or replace global attributes of the file."""

@@ -81,7 +81,8 @@ def _series(solver):
 
 
 def _series_values(solver):
-    vals = {"volume": solver.volume(), "volume_error": solver.volume_error(),
+    vol = solver.volume()
+    vals = {"volume": vol, "volume_error": solver.volume_error(vol),
             "time_steps": float(solver.steps)}
     for tag in solver.boundaries.open_tags:
         i = solver.mesh.tag_names.index(tag)
@@ -114,7 +115,10 @@ def _create(path, solver, attrs):
 
 
 def _write(w, solver):
-    for name, arr in (("h", solver.h), ("hu", solver.hu), ("hv", solver.hv)):
+    # the state once (on a renumbered mesh each read is a copy), one flush for the snapshot
+    # and the fields beside it
+    h, hu, hv = solver.h, solver.hu, solver.hv
+    for name, arr in (("h", h), ("hu", hu), ("hv", hv)):
         if not np.all(np.isfinite(arr)):
             bad = np.flatnonzero(~np.isfinite(arr))
             x, y = solver.mesh.face_x[bad[0]], solver.mesh.face_y[bad[0]]
@@ -122,15 +126,15 @@ def _write(w, solver):
                                 f"{solver.t:.6g} s on {bad.size} faces (first at x = {x:.6g}, "
                                 f"y = {y:.6g} m); nothing non-finite is written: check the "
                                 "boundary values, the initial state and cfl")
-    w.write(solver.t, solver.h, hu=solver.hu, hv=solver.hv, dry_depth=solver.dry_depth,
+    w.write(solver.t, h, hu=hu, hv=hv, dry_depth=solver.dry_depth, sync=False,
             **_series_values(solver))
     ex = solver.extremes.arrays()
     ex["max_water_level"] = np.where(np.isfinite(ex["max_water_level"]),
                                      ex["max_water_level"], np.nan)
     for name, arr in ex.items():
         w.ds.variables[name][:] = arr
-    w.ds.variables[RESTART_FIELDS[0]][:] = solver.hu
-    w.ds.variables[RESTART_FIELDS[1]][:] = solver.hv
+    w.ds.variables[RESTART_FIELDS[0]][:] = hu
+    w.ds.variables[RESTART_FIELDS[1]][:] = hv
     w.ds.setncatts({"restart_time": solver.t, "restart_steps": solver.steps,
                     "initial_volume": solver.initial_volume})
     w.ds.sync()
