@@ -69,11 +69,23 @@ def valley_polygon(mesh):
     return np.asarray(clipped.exterior.coords)[:-1].tolist()
 
 
-def overrides(flow, n, end, output_interval, method, flush_interval, clock="per_log"):
-    """The malpasset case with N logs on a grid over the valley, contacts on."""
+def overrides(flow, n, end, output_interval, method, flush_interval, clock="per_log",
+              density=None):
+    """The malpasset case with N logs on a grid over the valley, contacts on.
+
+    ``density``: seed them as densely as that many logs over the whole valley floor (the
+    polygon shrunk about its centroid by sqrt(n / density)), e.g. 2000 logs at the spacing of
+    1e5 (3.4 m) in a twentieth of the area.
+    """
     from driftlog.flowfile import open_flow
 
     poly = valley_polygon(open_flow(flow).mesh)
+    if density:
+        import shapely
+
+        xy = np.asarray(poly)
+        c = np.asarray(shapely.Polygon(xy).centroid.coords[0])
+        poly = ((xy - c) * np.sqrt(n / density) + c).tolist()
     return {
         "flow": {"source": "file", "path": str(flow)},
         "time": {"start": 0.0, "end": float(end), "output_interval": float(output_interval)},
@@ -187,13 +199,17 @@ def run_one(a):
     mon.start()
     load0 = os.getloadavg()[0]
     scen = as_scenario(CASE, overrides(a.flow, a.logs, a.end, a.output_interval, a.method,
-                                       a.flush_interval, a.clock))
+                                       a.flush_interval, a.clock, a.density))
     res = track(scen, output=out, progress=a.progress, resume=a.resume)
     mon.stop()
     segments = [*before, mon.segment()]
     wall = sum(g["wall_s"] for g in segments)
     cpu = sum(g["cpu_s"] for g in segments)
     facts = check_output(out, a.logs, a.flow)
+    import netCDF4
+
+    with netCDF4.Dataset(out) as ds:  # the contacts' statistics (least gap: deepest overlap)
+        cs = json.loads(ds.getncattr("contact_stats")) if "contact_stats" in ds.ncattrs() else {}
     floating = [r for r in res.stats.items() if r[0] in (
         "substeps", "rhs_evaluations", "log_substeps", "windows", "islands", "largest_island",
         "contact_set", "clock_retries", "lifted")]
@@ -203,7 +219,9 @@ def run_one(a):
                peak_rss_mb=max([resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024]
                                + [g["peak_rss_mb"] for g in before]),
                sampled_peak_mb=max(g["peak_rss_mb"] for g in segments),
-               attempts=len(segments),
+               attempts=len(segments), density=a.density,
+               contact_min_gap_m=cs.get("min_gap"), contact_steps=cs.get("substeps"),
+               contact_sweeps=cs.get("pgs_iterations"), max_contacts=cs.get("max_contacts"),
                output_mb=out.stat().st_size / 2**20, physics=res.physics["level"],
                load_start=load0, load_end=os.getloadavg()[0],
                **dict(floating), **facts)
@@ -219,6 +237,7 @@ def sweep(a):
         cmd = [sys.executable, __file__, "--flow", str(a.flow), "--logs", str(int(n)), "--end",
                str(a.end), "--output-interval", str(a.output_interval), "--method", a.method,
                "--flush-interval", str(a.flush_interval), "--clock", a.clock, "--out", a.out,
+               *(["--density", str(a.density)] if a.density else []),
                "--motion", a.motion]
         print(" ".join(cmd), flush=True)
         p = subprocess.run(cmd, capture_output=True, text=True)
@@ -230,6 +249,18 @@ def sweep(a):
         rows.append(json.loads(line[-1][7:]))
         print(rows[-1], flush=True)
     write_results(a, rows)
+
+
+def recreate(a, rows):
+    """The command(s) that make these rows."""
+    tail = f"--end {a.end:g} --output-interval {a.output_interval:g}"
+    if not any(r.get("density") for r in rows):
+        return (f"`python benchmarks/million_logs.py --flow F --sweep "
+                f"{' '.join(str(int(r['logs'])) for r in rows)} {tail}`.")
+    runs = [f"--logs {int(r['logs'])}" + (f" --density {r['density']:g}" if r.get("density")
+                                         else "") for r in rows]
+    return (f"`python benchmarks/million_logs.py --flow F {tail} ARGS` with ARGS "
+            + ", ".join(f"`{q}`" for q in runs) + " (one run each).")
 
 
 def write_results(a, rows):
@@ -246,17 +277,18 @@ def write_results(a, rows):
              "full physics, "
              f"RK4 ({a.clock} clock), contacts ({a.method}), records every "
              f"{a.output_interval:g} s.  "
-             f"Re-create: `python benchmarks/million_logs.py --flow F --sweep "
-             f"{' '.join(str(int(r['logs'])) for r in rows)} --end {a.end:g} "
-             f"--output-interval {a.output_interval:g}`.", "",
+             "Re-create: " + recreate(a, rows), "",
              "Moreau bound: the step near contacts bounded by each near pair's relative "
              "motion (docs/model.md eq. (81)) or, before 2026-12-02, by each log's own "
              "(`--motion absolute`).  Wall and CPU time include numba's compilation when the "
              "kernels were not cached yet.", "",
-             "| logs | Moreau bound | wall (s) | CPU (s) | load avg start/end "
+             "Seeded as: the density of that many logs over the whole valley floor (`--density`;"
+             " the logs themselves fill a proportionally smaller area).  Deepest overlap: the "
+             "least capsule gap after any contact step (the contacts' `min_gap`).", "",
+             "| logs | seeded as | Moreau bound | wall (s) | CPU (s) | load avg start/end "
              "| RSS after imports (MB) | peak RSS (MB) | output (MB) | observations | sub-steps "
-             "| windows | lifted | hits | final status |",
-             "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+             "| windows | lifted | hits | deepest overlap (m) | final status |",
+             "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     for r in rows:
         if "error" in r:
             lines.append(f"| {r['logs']} | failed: {r['error'][-200:]!r} |")
@@ -265,13 +297,16 @@ def write_results(a, rows):
         load = (f"{r['load_start']:.1f} / {r['load_end']:.1f}" if "load_start" in r
                 else "?")
         tries = f" ({r['attempts']} attempts)" if r.get("attempts", 1) > 1 else ""
-        lines.append(f"| {r['logs']:.0f} | {r.get('motion', 'absolute')} | "
+        gap = r.get("contact_min_gap_m")
+        gap = f"{-gap:.3f}" if gap is not None and gap < 0 else ("none" if gap else "?")
+        lines.append(f"| {r['logs']:.0f} | {r.get('density') or r['logs']:.0f} | "
+                     f"{r.get('motion', 'absolute')} | "
                      f"{r['wall_s']:.0f}{tries} | "
                      f"{r['cpu_s']:.0f} | {load} | "
                      f"{r['rss_start_mb']:.0f} | {r['peak_rss_mb']:.0f} | {r['output_mb']:.1f} | "
                      f"{r['observations']} | {r.get('substeps', '?')} | "
                      f"{r.get('windows', '?')} | {r.get('lifted', '?')} | {r['hits']} | "
-                     f"{fin} |")
+                     f"{gap} | {fin} |")
     text = "\n".join(lines) + "\n"
     (RESULTS / f"{name}.md").write_text(text)
     print(text)
@@ -296,6 +331,9 @@ def main(argv=None):
     p.add_argument("--out", default="/tmp/million_logs.nc", help="trajectory file")
     p.add_argument("--name", help="results name (default million_logs)")
     p.add_argument("--keep", action="store_true", help="keep the trajectory file")
+    p.add_argument("--density", type=float,
+                   help="seed the logs as densely as this many over the valley floor (the "
+                        "polygon shrunk about its centroid)")
     p.add_argument("--progress", action="store_true")
     p.add_argument("--resume", action="store_true",
                    help="continue a stopped run of the same arguments from its last record "

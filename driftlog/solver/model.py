@@ -16,10 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from driftlog._blas import dot
 from driftlog.errors import ScenarioError
 from driftlog.solver.boundaries import DEPTH, DISCHARGE, LEVEL, WALL, BoundarySet
-from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes
+from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes, volume_sum
 from driftlog.solver.fluxes import edge_fluxes_1, edge_fluxes_2, face_residuals, face_sides
 from driftlog.solver.friction import corrector_stage, euler_stage, predictor_stage
 from driftlog.solver.layout import ORDERINGS, active_set, edge_order, face_order, mark_active
@@ -338,8 +337,8 @@ class ShallowWaterSolver:
     def volume(self) -> float:
         """Water volume in the domain (m3)."""
         # in the mesh's numbering: the sum's order, hence its round-off, does not depend on
-        # the internal one; np.dot's sum without waking the BLAS's threads (driftlog._blas)
-        return dot(self.h, self.mesh.face_area)
+        # the internal one (nor on the machine's threads: a compensated serial sum)
+        return float(volume_sum(self.h, self.mesh.face_area))
 
     def volume_error(self, volume=None) -> float:
         """Volume now (or ``volume``, m3, if given) minus (initial + inflow - outflow), m3.
