@@ -51,8 +51,8 @@ from driftlog.columns import (
 )
 from driftlog.contact.geometry import log_endpoints
 from driftlog.flow import sample_point
-from driftlog.fused import _rk4_stage
-from driftlog.integrators import euler_row, put_row, rk4_final_row, row
+from driftlog.fused import rk4_row
+from driftlog.integrators import euler_row, put_row, row
 from driftlog.physics import log_rhs, rest_drive
 
 __all__ = ["CLOCKS", "per_log_mesh_advance", "idle_lift", "OK", "TOO_SMALL", "DIVERGED",
@@ -102,13 +102,8 @@ def _free_step(s, d0, hint, t, dt, method, p, opt, vals_c, T0c, gap_c, vals_n, T
     if method == RK4:
         a_m, inv_m, vals_m = _pair_at(t + 0.5 * dt, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
                                       t_split, False)
-        d1 = _rk4_stage(s, 1, dt, d0, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p,
-                        opt)
-        d2 = _rk4_stage(s, 2, dt, d1, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p,
-                        opt)
-        d3 = _rk4_stage(s, 3, dt, d2, hint, a_s, inv_s, vals_s, dry_depth, recovered, loc, p,
-                        opt)
-        return rk4_final_row(s, dt, d0, d1, d2, d3), a_e, inv_e, vals_e
+        return (rk4_row(s, d0, dt, hint, a_m, inv_m, vals_m, a_s, inv_s, vals_s, dry_depth,
+                        recovered, loc, p, opt), a_e, inv_e, vals_e)
     return euler_row(s, dt, d0), a_e, inv_e, vals_e
 
 

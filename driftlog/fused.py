@@ -175,6 +175,20 @@ def _rk4_stage(s0, k, dt, d, hint, a, inv_dt, vals, dry_depth, recovered, loc, p
 
 
 @nb.njit(cache=True, inline="always")
+def rk4_row(s0, d0, dt, hint, a_m, inv_m, vals_m, a_3, inv_3, vals_3, dry_depth, recovered,
+            loc, p, opt):
+    """One log's classical RK4 step from s0 with first stage d0 (eq. (46)).
+
+    Stages 1 and 2 read the flow at t0 + dt/2 (``a_m``, ``inv_m``, ``vals_m``), stage 3 at
+    t0 + dt (``a_3``, ...); every stage's point location starts from the face ``hint``.
+    """
+    d1 = _rk4_stage(s0, 1, dt, d0, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p, opt)
+    d2 = _rk4_stage(s0, 2, dt, d1, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p, opt)
+    d3 = _rk4_stage(s0, 3, dt, d2, hint, a_3, inv_3, vals_3, dry_depth, recovered, loc, p, opt)
+    return rk4_final_row(s0, dt, d0, d1, d2, d3)
+
+
+@nb.njit(cache=True, inline="always")
 def _stage_rhs(s, hint, a, inv_dt, vals, dry_depth, recovered, loc, p, opt):
     """The derivative at stage state s: the flow there (the columns the forces read), forces."""
     depth, rot, full, slope = stage_columns(opt)
@@ -214,17 +228,9 @@ def rk4_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
     """
     for i in nb.prange(S0.shape[0]):
         hint = face[i]
-        p = P[i]
-        s0 = row(S0, i)
-        d0 = row(D0, i)
         # stages 1 and 2 at t0 + dt/2, stage 3 at t0 + dt (RK4_C)
-        d1 = _rk4_stage(s0, 1, dt, d0, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p,
-                        opt)
-        d2 = _rk4_stage(s0, 2, dt, d1, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p,
-                        opt)
-        d3 = _rk4_stage(s0, 3, dt, d2, hint, a_e, inv_e, vals_e, dry_depth, recovered, loc, p,
-                        opt)
-        s = rk4_final_row(s0, dt, d0, d1, d2, d3)
+        s = rk4_row(row(S0, i), row(D0, i), dt, hint, a_m, inv_m, vals_m, a_e, inv_e, vals_e,
+                    dry_depth, recovered, loc, P[i], opt)
         _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a_e, inv_e,
                 vals_e, dry_depth, recovered, loc, settle, ctl, length, status, bound)
 
