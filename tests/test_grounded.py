@@ -109,7 +109,9 @@ def test_fcl_backend_stops_the_floating_log_too():
     pytest.importorskip("fcl")
     tr, logs = run("global", "event", backend="fcl")
     _, ref = run("global", "event")
-    np.testing.assert_allclose(logs.state[1, :2], ref.state[1, :2], atol=1e-6)
+    # held at the same place, within the contact tolerance (1e-4 r = 8 um): FCL's distances
+    # far from contact and the native ones near it end the steps at other points
+    np.testing.assert_allclose(logs.state[1, :2], ref.state[1, :2], atol=2e-5)
     assert set(tr.contact.drain_hits()["other"].tolist()) == {0}
 
 
@@ -118,8 +120,7 @@ def test_a_stranded_log_is_grounded_and_a_lifted_one_is_not():
     logs = scene()
     tr = Tracker(FLOW, logs, PhysicsOptions(level="full"), "rk4", StepOptions(),
                  contact=model, t_end=1.0)
-    tr._release()
-    tr._update_status()
+    tr._release()  # classifies the released logs: the heavy one rests
     np.testing.assert_array_equal(model.ground_rows, [0])
     caps0 = model.capsules.copy()
     # stranded: still fixed; lifted (floating): a body, no longer a capsule
