@@ -20,8 +20,20 @@ file holds N trajectories and N final states; every log is in the mesh or report
     python benchmarks/million_logs.py --flow /tmp/malpasset_o1_4000.nc --logs 10000 --end 300
     python benchmarks/million_logs.py --flow F --sweep 1e4 1e5 1e6 --end 120   # a table
 
-writes benchmarks/results/million_logs.{json,md} (sweep).  The flow file comes from
-``python benchmarks/malpasset.py --flow F --solve-only`` (4000 s, about 10 min).
+writes benchmarks/results/million_logs.{json,md} (sweep).
+
+``--threads 1 2``: the same run once per thread count, each in its own process with
+``NUMBA_NUM_THREADS`` set, one after the other: wall and CPU time, cores used (CPU / wall),
+the time in the Moreau-Jean island kernel (``moreau_kernel.moreau_islands`` or, from 2,048
+logs in the contact set and two threads on, ``moreau_islands_parallel``), the load average,
+and a digest of the trajectory file's records and hits (the same for every thread count: the
+parallel kernels give the serial results bit for bit); writes
+benchmarks/results/<name or million_logs_threads>.{json,md}:
+
+    python benchmarks/million_logs.py --logs 10000 --density 100000 --end 900 --threads 1 2
+
+The flow file comes from ``python benchmarks/malpasset.py --flow F --solve-only`` (4000 s,
+about 10 min).
 """
 
 from __future__ import annotations
@@ -181,6 +193,50 @@ def check_output(path, n, flow):
                 final_status={s: int(np.sum(status[has] == k)) for k, s in enumerate(STATUS)})
 
 
+def time_island_kernels():
+    """Wall and CPU time in the Moreau-Jean island kernels (and calls of each), from now on.
+
+    Wraps ``moreau_kernel.moreau_islands`` and ``moreau_islands_parallel`` (looked up by
+    ``clocks.contact_window`` at each call); returns the dict the wrappers add to.
+    """
+    import driftlog.moreau_kernel as mk
+
+    acc = dict(kernel_wall_s=0.0, kernel_cpu_s=0.0, kernel_calls_serial=0,
+               kernel_calls_parallel=0)
+    for name, key in (("moreau_islands", "kernel_calls_serial"),
+                      ("moreau_islands_parallel", "kernel_calls_parallel")):
+        f = getattr(mk, name)
+
+        def timed(*args, _f=f, _key=key):
+            w, c = time.perf_counter(), time.process_time()
+            try:
+                return _f(*args)
+            finally:
+                acc["kernel_wall_s"] += time.perf_counter() - w
+                acc["kernel_cpu_s"] += time.process_time() - c
+                acc[_key] += 1
+
+        setattr(mk, name, timed)
+    return acc
+
+
+def records_digest(path):
+    """sha256 (first 16 hex digits) of the trajectory file's records and hits."""
+    import hashlib
+
+    import netCDF4
+
+    h = hashlib.sha256()
+    with netCDF4.Dataset(path) as ds:
+        ds.set_auto_maskandscale(False)
+        for name in sorted(ds.variables):
+            v = ds[name]
+            if v.dimensions and v.dimensions[0] in ("obs", "hit", "trajectory"):
+                h.update(name.encode())
+                h.update(np.ascontiguousarray(v[:]).tobytes())
+    return h.hexdigest()[:16]
+
+
 def run_one(a):
     """One run in this process; prints one JSON line of facts."""
     from driftlog.api import as_scenario, track
@@ -202,6 +258,7 @@ def run_one(a):
     scen = as_scenario(CASE, overrides(a.flow, a.logs, a.end, a.output_interval, a.method,
                                        a.flush_interval, a.clock, a.density,
                                        a.grounded == "on"))
+    kern = time_island_kernels()
     res = track(scen, output=out, progress=a.progress, resume=a.resume)
     mon.stop()
     segments = [*before, mon.segment()]
@@ -214,7 +271,7 @@ def run_one(a):
         cs = json.loads(ds.getncattr("contact_stats")) if "contact_stats" in ds.ncattrs() else {}
     floating = [r for r in res.stats.items() if r[0] in (
         "substeps", "rhs_evaluations", "log_substeps", "windows", "islands", "largest_island",
-        "contact_set", "clock_retries", "lifted")]
+        "contact_set", "clock_retries", "lifted", "island_reruns")]
     row = dict(logs=a.logs, end_s=a.end, output_interval_s=a.output_interval,
                contact_method=a.method, clock=a.clock, motion=a.motion, grounded=a.grounded,
                wall_s=wall, cpu_s=cpu,
@@ -227,6 +284,8 @@ def run_one(a):
                contact_sweeps=cs.get("pgs_iterations"), max_contacts=cs.get("max_contacts"),
                output_mb=out.stat().st_size / 2**20, physics=res.physics["level"],
                load_start=load0, load_end=os.getloadavg()[0],
+               threads=int(os.environ.get("NUMBA_NUM_THREADS", os.cpu_count())),
+               records_digest=records_digest(out), **kern,
                **dict(floating), **facts)
     print("RESULT " + json.dumps(row), flush=True)
     if not a.keep:
@@ -252,6 +311,80 @@ def sweep(a):
         rows.append(json.loads(line[-1][7:]))
         print(rows[-1], flush=True)
     write_results(a, rows)
+
+
+def threads(a):
+    """The same run once per thread count in ``a.threads``, each in its own process."""
+    rows = []
+    for t in a.threads:
+        cmd = [sys.executable, __file__, "--flow", str(a.flow), "--logs", str(a.logs), "--end",
+               str(a.end), "--output-interval", str(a.output_interval), "--method", a.method,
+               "--flush-interval", str(a.flush_interval), "--clock", a.clock, "--out", a.out,
+               *(["--density", str(a.density)] if a.density else []), "--motion", a.motion,
+               "--grounded", a.grounded]
+        env = dict(os.environ, NUMBA_NUM_THREADS=str(t))
+        print(f"NUMBA_NUM_THREADS={t} " + " ".join(cmd), flush=True)
+        p = subprocess.run(cmd, capture_output=True, text=True, env=env)
+        line = [q for q in p.stdout.splitlines() if q.startswith("RESULT ")]
+        if p.returncode or not line:
+            print(p.stdout[-3000:], p.stderr[-3000:])
+            rows.append(dict(logs=a.logs, threads=t, error=(p.stderr or p.stdout)[-500:]))
+            continue
+        rows.append(json.loads(line[-1][7:]))
+        print({k: rows[-1].get(k) for k in ("threads", "wall_s", "cpu_s", "kernel_wall_s",
+                                             "kernel_cpu_s", "records_digest")}, flush=True)
+    write_threads(a, rows)
+
+
+def write_threads(a, rows):
+    """benchmarks/results/<name>.{json,md}: the thread counts side by side."""
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    name = a.name or "million_logs_threads"
+    info = dict(machine=machine(), flow=str(a.flow), logs=a.logs, density=a.density,
+                end_s=a.end, output_interval_s=a.output_interval, contact_method=a.method,
+                clock=a.clock, motion=a.motion)
+    (RESULTS / f"{name}.json").write_text(json.dumps({"info": info, "runs": rows}, indent=1))
+    ok = [r for r in rows if "error" not in r]
+    # against the last 1-thread run (a first run may compile the kernels: ``--threads 2 1 2``)
+    base = next((r for r in ok[::-1] if r["threads"] == 1), ok[-1] if ok else None)
+    seeded = f", seeded as {a.density:g} over the valley" if a.density else ""
+    args = (f"--logs {a.logs} " + (f"--density {a.density:g} " if a.density else "")
+            + f"--end {a.end:g} --output-interval {a.output_interval:g} --threads "
+            + " ".join(str(t) for t in a.threads))
+    lines = [f"### {a.logs:,} logs on the Malpasset flood{seeded} (first {a.end:g} s): "
+             "threads side by side", "",
+             f"Measured on {info['machine']}.  Each thread count in its own process "
+             "(`NUMBA_NUM_THREADS`), one after the other, cached kernels unless said; RK4 "
+             f"({a.clock} clock), contacts ({a.method}, bound on the {a.motion} motion).  "
+             "Cores used: CPU / wall.  Island kernel: the time inside "
+             "`moreau_kernel.moreau_islands` (serial) and `moreau_islands_parallel` (from "
+             "2,048 logs in a window's contact set, two threads or more).  Speed-up: the "
+             "last 1-thread run's wall time over this one's.  Re-create: `python "
+             f"benchmarks/million_logs.py --flow F {args}`.", "",
+             "| run | threads | wall (s) | CPU (s) | cores used | speed-up (wall) | island "
+             "kernel wall (s) | island kernel CPU (s) | kernel cores used | kernel speed-up "
+             "(wall) | kernel calls serial / parallel | share of wall in the kernel | load avg "
+             "start / end | sub-steps | hits | records digest |",
+             "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    for k, r in enumerate(rows, 1):
+        if "error" in r:
+            lines.append(f"| {k} | {r['threads']} | failed: {r['error'][-200:]!r} |")
+            continue
+        kw, kc = r["kernel_wall_s"], r["kernel_cpu_s"]
+        lines.append(
+            f"| {k} | {r['threads']} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | "
+            f"{r['cpu_s'] / r['wall_s']:.2f} | {base['wall_s'] / r['wall_s']:.2f} | "
+            f"{kw:.1f} | {kc:.1f} | {kc / max(kw, 1e-9):.2f} | "
+            f"{base['kernel_wall_s'] / max(kw, 1e-9):.2f} | "
+            f"{r['kernel_calls_serial']} / {r['kernel_calls_parallel']} | "
+            f"{kw / r['wall_s']:.0%} | {r['load_start']:.1f} / {r['load_end']:.1f} | "
+            f"{r.get('substeps', '?')} | {r['hits']} | `{r['records_digest']}` |")
+    same = len({r["records_digest"] for r in ok}) == 1
+    lines += ["", "Records and hits " + ("identical for every thread count (same digest)."
+                                        if same else "DIFFER between thread counts.")]
+    text = "\n".join(lines) + "\n"
+    (RESULTS / f"{name}.md").write_text(text)
+    print(text)
 
 
 def recreate(a, rows):
@@ -345,6 +478,9 @@ def main(argv=None):
     p.add_argument("--density", type=float,
                    help="seed the logs as densely as this many over the valley floor (the "
                         "polygon shrunk about its centroid)")
+    p.add_argument("--threads", type=int, nargs="+",
+                   help="the run once per thread count (NUMBA_NUM_THREADS), each in a new "
+                        "process, side by side in one table")
     p.add_argument("--progress", action="store_true")
     p.add_argument("--resume", action="store_true",
                    help="continue a stopped run of the same arguments from its last record "
@@ -363,6 +499,8 @@ def main(argv=None):
             rows += [json.loads(q[7:]) for q in Path(path).read_text().splitlines()
                      if q.startswith("RESULT ")]
         write_results(a, rows)
+    elif a.threads:
+        threads(a)
     elif a.sweep:
         sweep(a)
     else:

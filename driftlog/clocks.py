@@ -253,6 +253,14 @@ def relift_advance(tr, stop):
 # the contact islands stay small.
 WINDOW = 0.5
 HIT_BUFFER = 4096
+# Moreau-Jean islands on several threads (``moreau_kernel.moreau_islands_parallel``, the same
+# results bit for bit) from this many logs in the contact set on, as the per-log kernels
+# (``driftlog._numba.PARALLEL_MIN``), when numba has more than one thread and there are at
+# least two islands; None: so, True / False: always / never (tests)
+ISLANDS_PARALLEL = None
+# moreau_islands_parallel's room per island in its own buffers, scaled (tests: 0 runs every
+# island with a hit, a pair in touch or an obstacle impulse again, alone)
+ISLAND_ROOM = 1.0
 
 
 def contact_advance(tr, stop, max_tries=3):
@@ -403,9 +411,10 @@ def contact_window(tr, stop, max_tries=3):
     3. Every island restarts from the window's start and runs the contact steps among its own
        logs, on its own clock, all islands in one kernel: event-driven
        (``island_kernel.island_advance``: impulses, conservative advancement, rejected
-       steps) or Moreau-Jean (``moreau_kernel.moreau_islands``), as ``ContactModel``; its next
-       contact ends only its step.  ``ContactModel.island_kernel = False`` runs the same
-       islands through the Python contact model instead, one after another
+       steps) or Moreau-Jean (``moreau_kernel.moreau_islands``; on several threads for large
+       contact sets: ``moreau_islands_parallel``, ``ISLANDS_PARALLEL``), as ``ContactModel``;
+       its next contact ends only its step.  ``ContactModel.island_kernel = False`` runs the
+       same islands through the Python contact model instead, one after another
        (``_reference_islands``: the reference the kernels are tested against).
     4. Closure: if an island's actual sweep reaches a free log's box or another island's, those
        join and the window is computed again; after ``max_tries``, the whole contact set and
@@ -498,9 +507,15 @@ def contact_window(tr, stop, max_tries=3):
                 _reference_islands(tr, members, start, S, face, F, flag, sw, frame, t0, stop,
                                    active_in, code, t_code, active_out, nactive)
             elif moreau:
-                mk.moreau_islands(*head, C.tolerance, C.restitution, C.iterations,
-                                  C.motion_share, bool(C.relative_motion), bool(C.island_stop),
-                                  active_in, *tail)
+                args = (*head, C.tolerance, C.restitution, C.iterations, C.motion_share,
+                        bool(C.relative_motion), bool(C.island_stop), active_in, *tail)
+                if _islands_parallel(pool.size, start.size - 1):
+                    import numba
+
+                    mk.moreau_islands_parallel(*args, float(ISLAND_ROOM),
+                                               numba.get_num_threads())
+                else:
+                    mk.moreau_islands(*args)
             else:
                 ik.island_advance(*head, C.tolerance, C.restitution, C.rest_speed, C.near,
                                   C.max_events, active_in, *tail)
@@ -565,6 +580,8 @@ def contact_window(tr, stop, max_tries=3):
         cs["pgs_max_iterations"] = max(cs["pgs_max_iterations"], int(stats[mk.ST_PGS_MAX]))
         cs["max_contacts"] = max(cs["max_contacts"], int(stats[mk.ST_MAX_CONTACTS]))
         cs["min_gap"] = min(cs["min_gap"], float(dt_lim[2]))
+        if stats[mk.ST_RERUNS]:
+            st["island_reruns"] = st.get("island_reruns", 0) + int(stats[mk.ST_RERUNS])
         steps, log_steps = int(stats[mk.ST_STEPS]), int(stats[mk.ST_LOG_STEPS])
     elif in_kernel:
         cs["substeps"] += int(stats[ik.ST_STEPS])
@@ -587,6 +604,17 @@ def contact_window(tr, stop, max_tries=3):
     st["islands"] = st.get("islands", 0) + int(start.size - 1)
     st["largest_island"] = max(st.get("largest_island", 0), int(np.diff(start).max()))
     st["windows"] = st.get("windows", 0) + 1
+
+
+def _islands_parallel(nlogs, nislands):
+    """Whether a window's Moreau-Jean islands run on several threads (``ISLANDS_PARALLEL``)."""
+    if ISLANDS_PARALLEL is not None:
+        return bool(ISLANDS_PARALLEL)
+    import numba
+
+    from driftlog._numba import PARALLEL_MIN
+
+    return nlogs >= PARALLEL_MIN and nislands >= 2 and numba.get_num_threads() > 1
 
 
 def _reference_islands(tr, members, start, S, face, F, flag, sw, frame, t0, stop, active_in,

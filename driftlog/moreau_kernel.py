@@ -21,7 +21,10 @@ the island's own logs, the island on its own clock (docs/model.md 11.1, eqs. (81
    contacts moved the logs;
 5. the statuses (a log that stops floating leaves its island).
 
-An island's contacts never shorten another island's step.  Islands are flat CSR arrays
+An island's contacts never shorten another island's step, and islands share no log: on
+several threads (``moreau_islands_parallel``) each island runs on one of them and writes to its
+own range of the kernel's buffers, gathered afterwards in the islands' order (the serial
+kernel's results bit for bit).  Islands are flat CSR arrays
 (``members[start[q]:start[q + 1]]``, obstacle capsules ``ocaps[ostart[q]:ostart[q + 1]]``), its
 bodies in local arrays (``moreau_solve`` on the island alone); the candidate pairs of an island
 are found by testing all pairs (small islands) or by sorting the boxes along x and sweeping
@@ -59,12 +62,13 @@ from driftlog.island_kernel import (
     add_hit,
 )
 
-__all__ = ["moreau_islands", "island_pairs", "NSTAT", "OK", "TOO_SMALL", "DIVERGED",
-           "HIT_FULL"]
+__all__ = ["moreau_islands", "moreau_islands_parallel", "island_pairs", "NSTAT", "OK",
+           "TOO_SMALL", "DIVERGED", "HIT_FULL"]
 
-# moreau_islands' statistics (stats[k])
-ST_STEPS, ST_ADVANCES, ST_PGS, ST_PGS_MAX, ST_MAX_CONTACTS, ST_LOG_STEPS = range(6)
-NSTAT = 6
+# moreau_islands' statistics (stats[k]); ST_RERUNS: islands that moreau_islands_parallel ran
+# again, alone, because they filled their range of its buffers
+ST_STEPS, ST_ADVANCES, ST_PGS, ST_PGS_MAX, ST_MAX_CONTACTS, ST_LOG_STEPS, ST_RERUNS = range(7)
+NSTAT = 7
 # islands of at most this many bodies (logs and capsules) test all their pairs
 ALL_PAIRS = 24
 
@@ -280,6 +284,197 @@ def _grow(a, n):
 
 
 @nb.njit(cache=True)
+def _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radius, mass,
+            inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol, method, lf, ang,
+            drag_fraction, explicit, max_step, min_step, tracer, rotation, thr, friction, vals_c,
+            T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc, tolerance, eps,
+            iterations, motion_share, relative_motion, island_stop, active_in, fx, fy, box,
+            obst_impulse, direct, rec_o, rec_j, nrec, hit_t, hit_log, hit_other, hit_j, hit_x,
+            hit_y, nhit, active_out, nactive, stats, lim, code, t_code, mem, S0l, Sl, ln, rd,
+            lm, li, margin, near):
+    """Island q of ``moreau_islands`` from t0 to t_stop; False when an output buffer is full.
+
+    Writes its logs' rows, code[q], t_code[q], its hits from ``nhit[0]`` on, its pairs in touch
+    from ``nactive[0]`` on and adds to ``stats`` and ``lim``.  The impulses on the fixed
+    obstacles go to ``obst_impulse`` (``direct``) or, in the order they are made, to the
+    records ``rec_o`` (obstacle), ``rec_j`` (impulse) from ``nrec[0]`` on, so that they can be
+    added to ``obst_impulse`` later in the serial kernel's order.  mem .. near: work arrays of
+    at least the island's size.
+    """
+    code[q] = OK
+    t_code[q] = t0
+    na = start[q + 1] - start[q]
+    for a in range(na):
+        mem[a] = members[start[q] + a]
+    oc = ocaps[ostart[q]:ostart[q + 1]]
+    # pairs touching or pushing at t0 (a hit is a contact that starts pushing)
+    prev = np.empty(16, np.int64)
+    npv = 0
+    for a in range(na):
+        lo = np.searchsorted(active_in, _pair_key(ids[mem[a]], 0))
+        hi = np.searchsorted(active_in, _pair_key(ids[mem[a]] + 1, 0))
+        prev = _grow(prev, npv + hi - lo)
+        for k in range(lo, hi):
+            prev[npv] = active_in[k]
+            npv += 1
+    t = t0
+    while t < t_stop and na > 0:
+        # the island's own bound (Tracker.max_step over its logs)
+        _first_stage(S, F, D0, lin0, P, opt, mem, na)
+        dt = max_step
+        rmin = np.inf
+        for a in range(na):
+            i = mem[a]
+            lnr = (lin0[i, 0], lin0[i, 1], lin0[i, 2], lin0[i, 3], lin0[i, 4])
+            dt = min(dt, _own_bound(row(S, i), length[i], lnr, lf, ang, drag_fraction,
+                                    explicit, np.inf))
+            rmin = min(rmin, radius[i])
+            for k in range(6):
+                S0l[a, k] = S[i, k]
+            ln[a], rd[a] = length[i], radius[i]
+            lm[a], li[a] = 1.0 / mass[i], 1.0 / inertia[i]
+        dt = min(dt, t_stop - t)
+        if dt < min_step and t_stop - t > min_step:
+            code[q], t_code[q] = TOO_SMALL, t
+            break
+        tol = tolerance * rmin
+        # near contacts: no pair moves against each other by more than motion_share r_min
+        # (eq. (81))
+        for a in range(na):
+            sp = (np.hypot(S0l[a, UB], S0l[a, VB])
+                  + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
+            margin[a] = sp * dt + tol
+            near[a] = False
+        pairs, _ = island_pairs(S0l, ln, rd, na, margin, caps, oc)
+        if pairs.shape[0]:
+            speed = 0.0
+            if relative_motion:
+                # the speed at which each near pair's geometry changes (eq. (81))
+                for c in range(pairs.shape[0]):
+                    a, e = pairs[c, 0], pairs[c, 1]
+                    speed = max(speed, _pair_speed(S0l, ln, rd, a, e))
+            else:
+                for c in range(pairs.shape[0]):
+                    near[pairs[c, 0]] = True
+                    if pairs[c, 1] >= 0:
+                        near[pairs[c, 1]] = True
+                for a in range(na):
+                    if near[a]:
+                        speed = max(speed, np.hypot(S0l[a, UB], S0l[a, VB])
+                                    + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
+            if speed > 0.0:
+                dt = min(dt, motion_share * rmin / speed)
+        # the free step
+        for a in range(na):
+            _step_one(S, D0, F, flag, face, lin0, mem[a], P[mem[a]], opt, t, dt, method,
+                      tracer, rotation, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split,
+                      dry_depth, recovered, loc)
+        stats[ST_ADVANCES] += 1
+        vmax = 0.0
+        for a in range(na):
+            i = mem[a]
+            for k in range(6):
+                Sl[a, k] = S[i, k]
+            vmax = max(vmax, max(abs(Sl[a, UB]), abs(Sl[a, VB])))
+            # candidates over the motion of the step: the larger of the two speeds
+            fu = max(abs(S0l[a, UB]), abs(Sl[a, UB]))
+            fv = max(abs(S0l[a, VB]), abs(Sl[a, VB]))
+            fo = max(abs(S0l[a, OMEGA]), abs(Sl[a, OMEGA]))
+            margin[a] = (np.hypot(fu, fv) + fo * (0.5 * ln[a] + rd[a])) * dt + tol
+        t_prev = t
+        t = t + dt
+        if t_stop - t <= time_tol:
+            t = t_stop
+        pairs, _ = island_pairs(S0l, ln, rd, na, margin, caps, oc)
+        b1, b2, cap, res = _manifold(S0l, ln, rd, pairs, caps, oc, margin)
+        nc = b1.size
+        if nc:
+            Pc = np.zeros(nc)
+            it, _ = moreau_solve(S0l[:na], Sl[:na], lm[:na], li[:na], b1, b2, res, dt, eps,
+                                 tol, tol, 1e-9 * (vmax + 1e-3), iterations, Pc, 0.2,
+                                 island_stop)
+            stats[ST_PGS] += it
+            stats[ST_PGS_MAX] = max(stats[ST_PGS_MAX], it)
+            stats[ST_MAX_CONTACTS] = max(stats[ST_MAX_CONTACTS], nc)
+            for c in range(nc):
+                if b2[c] < 0 and Pc[c] != 0.0 and obst_impulse.shape[0]:
+                    o = owner[cap[c]]
+                    if direct:
+                        obst_impulse[o, 0] -= Pc[c] * res[c, NX]
+                        obst_impulse[o, 1] -= Pc[c] * res[c, NY]
+                    else:
+                        if nrec[0] == rec_o.size:
+                            return False
+                        rec_o[nrec[0]] = o
+                        rec_j[nrec[0], 0] = Pc[c] * res[c, NX]
+                        rec_j[nrec[0], 1] = Pc[c] * res[c, NY]
+                        nrec[0] += 1
+            # the contacts moved the logs: the flow sampled again where they are
+            for a in range(na):
+                i = mem[a]
+                for k in range(6):
+                    S[i, k] = Sl[a, k]
+                f, fg, fl = _sample_at(S[i, X], S[i, Y], face[i], t, vals_c, T0c, gap_c,
+                                       vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc)
+                face[i], flag[i] = f, fg
+                for k in range(NVAR):
+                    F[i, k] = fl[k]
+            lim[2] = min(lim[2], _min_gap(Sl, ln, rd, na, caps, oc, tol))
+            # hits: contacts that start pushing, one per (log, other body) at the step's
+            # start, impulses summed, point impulse-weighted
+            first = nhit[0]
+            for c in range(nc):
+                if not Pc[c] > 0.0:
+                    continue
+                lid = ids[mem[b1[c]]]
+                other = ids[mem[b2[c]]] if b2[c] >= 0 else OBST_BIT + owner[cap[c]]
+                key = _pair_key(lid, other)
+                seen = False
+                for k in range(npv):
+                    if prev[k] == key:
+                        seen = True
+                        break
+                if seen:
+                    continue
+                oth = ids[mem[b2[c]]] if b2[c] >= 0 else -(owner[cap[c]] + 1)
+                if not add_hit(first, nhit, hit_t, hit_log, hit_other, hit_j, hit_x, hit_y,
+                               t_prev, lid, oth, Pc[c], res[c, CX], res[c, CY]):
+                    return False
+            for k in range(first, nhit[0]):
+                hit_x[k] /= hit_j[k]
+                hit_y[k] /= hit_j[k]
+            # touching or pushing: a contact that flickers within the tolerance is one hit
+            npv = 0
+            prev = _grow(prev, nc)
+            for c in range(nc):
+                if Pc[c] > 0.0 or res[c, GAP] <= tol:
+                    other = ids[mem[b2[c]]] if b2[c] >= 0 else OBST_BIT + owner[cap[c]]
+                    prev[npv] = _pair_key(ids[mem[b1[c]]], other)
+                    npv += 1
+        else:
+            npv = 0
+        taken = t - t_prev
+        lim[0] = min(lim[0], taken)
+        lim[1] = max(lim[1], taken)
+        stats[ST_STEPS] += 1
+        stats[ST_LOG_STEPS] += na
+        if _diverged(S, mem, na):
+            code[q], t_code[q] = DIVERGED, t
+            break
+        # swept boxes; statuses: a log that stops floating leaves the island
+        na = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx,
+                             fy, t - t0)
+    # the pairs touching or pushing at the end, each once
+    keys = np.unique(prev[:npv])
+    if nactive[0] + keys.size > active_out.size:
+        return False
+    for k in range(keys.size):
+        active_out[nactive[0]] = keys[k]
+        nactive[0] += 1
+    return True
+
+
+@nb.njit(cache=True)
 def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, inertia, ids,
                    members, start, caps, owner, ocaps, ostart, t0, t_stop, time_tol, method,
                    lf, ang, drag_fraction, explicit, max_step, min_step, tracer, rotation,
@@ -289,6 +484,9 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                    hit_other, hit_j, hit_x, hit_y, nhit, active_out, nactive, stats, lim, code,
                    t_code):
     """Run each island of ``members``/``start`` from t0 to t_stop with Moreau-Jean steps.
+
+    One island after another (``moreau_islands_parallel``: the same results on several
+    threads).
 
     Parameters
     ----------
@@ -324,169 +522,180 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
     li = np.empty(nmax)
     margin = np.empty(nmax)
     near = np.empty(nmax, np.bool_)
-    prev = np.empty(16, np.int64)
+    rec_o = np.empty(0, np.int64)
+    rec_j = np.empty((0, 2))
+    nrec = np.zeros(1, np.int64)
+    nh, na_ = hit_t.size, active_out.size
     for q in range(start.size - 1):
-        code[q] = OK
-        t_code[q] = t0
-        na = start[q + 1] - start[q]
-        for a in range(na):
-            mem[a] = members[start[q] + a]
-        oc = ocaps[ostart[q]:ostart[q + 1]]
-        # pairs touching or pushing at t0 (a hit is a contact that starts pushing)
-        npv = 0
-        for a in range(na):
-            lo = np.searchsorted(active_in, _pair_key(ids[mem[a]], 0))
-            hi = np.searchsorted(active_in, _pair_key(ids[mem[a]] + 1, 0))
-            prev = _grow(prev, npv + hi - lo)
-            for k in range(lo, hi):
-                prev[npv] = active_in[k]
-                npv += 1
-        t = t0
-        while t < t_stop and na > 0:
-            # the island's own bound (Tracker.max_step over its logs)
-            _first_stage(S, F, D0, lin0, P, opt, mem, na)
-            dt = max_step
-            rmin = np.inf
-            for a in range(na):
-                i = mem[a]
-                lnr = (lin0[i, 0], lin0[i, 1], lin0[i, 2], lin0[i, 3], lin0[i, 4])
-                dt = min(dt, _own_bound(row(S, i), length[i], lnr, lf, ang, drag_fraction,
-                                        explicit, np.inf))
-                rmin = min(rmin, radius[i])
-                for k in range(6):
-                    S0l[a, k] = S[i, k]
-                ln[a], rd[a] = length[i], radius[i]
-                lm[a], li[a] = 1.0 / mass[i], 1.0 / inertia[i]
-            dt = min(dt, t_stop - t)
-            if dt < min_step and t_stop - t > min_step:
-                code[q], t_code[q] = TOO_SMALL, t
-                break
-            tol = tolerance * rmin
-            # near contacts: no pair moves against each other by more than motion_share r_min
-            # (eq. (81))
-            for a in range(na):
-                sp = (np.hypot(S0l[a, UB], S0l[a, VB])
-                      + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
-                margin[a] = sp * dt + tol
-                near[a] = False
-            pairs, _ = island_pairs(S0l, ln, rd, na, margin, caps, oc)
-            if pairs.shape[0]:
-                speed = 0.0
-                if relative_motion:
-                    # the speed at which each near pair's geometry changes (eq. (81))
-                    for c in range(pairs.shape[0]):
-                        a, e = pairs[c, 0], pairs[c, 1]
-                        speed = max(speed, _pair_speed(S0l, ln, rd, a, e))
-                else:
-                    for c in range(pairs.shape[0]):
-                        near[pairs[c, 0]] = True
-                        if pairs[c, 1] >= 0:
-                            near[pairs[c, 1]] = True
-                    for a in range(na):
-                        if near[a]:
-                            speed = max(speed, np.hypot(S0l[a, UB], S0l[a, VB])
-                                        + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
-                if speed > 0.0:
-                    dt = min(dt, motion_share * rmin / speed)
-            # the free step
-            for a in range(na):
-                _step_one(S, D0, F, flag, face, lin0, mem[a], P[mem[a]], opt, t, dt, method,
-                          tracer, rotation, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split,
-                          dry_depth, recovered, loc)
-            stats[ST_ADVANCES] += 1
-            vmax = 0.0
-            for a in range(na):
-                i = mem[a]
-                for k in range(6):
-                    Sl[a, k] = S[i, k]
-                vmax = max(vmax, max(abs(Sl[a, UB]), abs(Sl[a, VB])))
-                # candidates over the motion of the step: the larger of the two speeds
-                fu = max(abs(S0l[a, UB]), abs(Sl[a, UB]))
-                fv = max(abs(S0l[a, VB]), abs(Sl[a, VB]))
-                fo = max(abs(S0l[a, OMEGA]), abs(Sl[a, OMEGA]))
-                margin[a] = (np.hypot(fu, fv) + fo * (0.5 * ln[a] + rd[a])) * dt + tol
-            t_prev = t
-            t = t + dt
-            if t_stop - t <= time_tol:
-                t = t_stop
-            pairs, _ = island_pairs(S0l, ln, rd, na, margin, caps, oc)
-            b1, b2, cap, res = _manifold(S0l, ln, rd, pairs, caps, oc, margin)
-            nc = b1.size
-            if nc:
-                Pc = np.zeros(nc)
-                it, _ = moreau_solve(S0l[:na], Sl[:na], lm[:na], li[:na], b1, b2, res, dt, eps,
-                                     tol, tol, 1e-9 * (vmax + 1e-3), iterations, Pc, 0.2,
-                                     island_stop)
-                stats[ST_PGS] += it
-                stats[ST_PGS_MAX] = max(stats[ST_PGS_MAX], it)
-                stats[ST_MAX_CONTACTS] = max(stats[ST_MAX_CONTACTS], nc)
-                for c in range(nc):
-                    if b2[c] < 0 and Pc[c] != 0.0 and obst_impulse.shape[0]:
-                        o = owner[cap[c]]
-                        obst_impulse[o, 0] -= Pc[c] * res[c, NX]
-                        obst_impulse[o, 1] -= Pc[c] * res[c, NY]
-                # the contacts moved the logs: the flow sampled again where they are
-                for a in range(na):
-                    i = mem[a]
-                    for k in range(6):
-                        S[i, k] = Sl[a, k]
-                    f, fg, fl = _sample_at(S[i, X], S[i, Y], face[i], t, vals_c, T0c, gap_c,
-                                           vals_n, T0n, gap_n, t_split, dry_depth, recovered,
-                                           loc)
-                    face[i], flag[i] = f, fg
-                    for k in range(NVAR):
-                        F[i, k] = fl[k]
-                lim[2] = min(lim[2], _min_gap(Sl, ln, rd, na, caps, oc, tol))
-                # hits: contacts that start pushing, one per (log, other body) at the step's
-                # start, impulses summed, point impulse-weighted
-                first = nhit[0]
-                for c in range(nc):
-                    if not Pc[c] > 0.0:
-                        continue
-                    lid = ids[mem[b1[c]]]
-                    other = ids[mem[b2[c]]] if b2[c] >= 0 else OBST_BIT + owner[cap[c]]
-                    key = _pair_key(lid, other)
-                    seen = False
-                    for k in range(npv):
-                        if prev[k] == key:
-                            seen = True
-                            break
-                    if seen:
-                        continue
-                    oth = ids[mem[b2[c]]] if b2[c] >= 0 else -(owner[cap[c]] + 1)
-                    if not add_hit(first, nhit, hit_t, hit_log, hit_other, hit_j, hit_x, hit_y,
-                                   t_prev, lid, oth, Pc[c], res[c, CX], res[c, CY]):
-                        code[q] = HIT_FULL
-                        return
-                for k in range(first, nhit[0]):
-                    hit_x[k] /= hit_j[k]
-                    hit_y[k] /= hit_j[k]
-                # touching or pushing: a contact that flickers within the tolerance is one hit
-                npv = 0
-                prev = _grow(prev, nc)
-                for c in range(nc):
-                    if Pc[c] > 0.0 or res[c, GAP] <= tol:
-                        other = ids[mem[b2[c]]] if b2[c] >= 0 else OBST_BIT + owner[cap[c]]
-                        prev[npv] = _pair_key(ids[mem[b1[c]]], other)
-                        npv += 1
-            else:
-                npv = 0
-            taken = t - t_prev
-            lim[0] = min(lim[0], taken)
-            lim[1] = max(lim[1], taken)
-            stats[ST_STEPS] += 1
-            stats[ST_LOG_STEPS] += na
-            if _diverged(S, mem, na):
-                code[q], t_code[q] = DIVERGED, t
-                break
-            # swept boxes; statuses: a log that stops floating leaves the island
-            na = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx,
-                                 fy, t - t0)
-        # the pairs touching or pushing at the end, each once
-        keys = np.unique(prev[:npv])
-        if nactive[0] + keys.size > active_out.size:
+        if not _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radius,
+                       mass, inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol,
+                       method, lf, ang, drag_fraction, explicit, max_step, min_step, tracer,
+                       rotation, thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
+                       t_split, dry_depth, recovered, loc, tolerance, eps, iterations,
+                       motion_share, relative_motion, island_stop, active_in, fx, fy, box,
+                       obst_impulse, True, rec_o, rec_j, nrec, hit_t[0:nh], hit_log[0:nh],
+                       hit_other[0:nh], hit_j[0:nh], hit_x[0:nh], hit_y[0:nh], nhit,
+                       active_out[0:na_], nactive, stats, lim, code, t_code, mem, S0l, Sl, ln,
+                       rd, lm, li, margin, near):
             code[q] = HIT_FULL
             return
-        for k in range(keys.size):
-            active_out[nactive[0]] = keys[k]
-            nactive[0] += 1
+
+
+# the parallel kernel's room per island in its own buffers: hits and pairs in touch, twice
+# the island's share (by its logs) of the caller's buffers plus ROOM_EXTRA; impulses on the
+# obstacles (islands near one): ROOM_OBST per log plus ROOM_EXTRA_OBST.  An island that fills
+# one is run again afterwards, alone, into the caller's buffers (stats[ST_RERUNS]).
+ROOM_EXTRA = 16
+ROOM_OBST = 64
+ROOM_EXTRA_OBST = 512
+
+
+@nb.njit(cache=True, parallel=True)
+def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, inertia,
+                            ids, members, start, caps, owner, ocaps, ostart, t0, t_stop,
+                            time_tol, method, lf, ang, drag_fraction, explicit, max_step,
+                            min_step, tracer, rotation, thr, friction, vals_c, T0c, gap_c,
+                            vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc, tolerance,
+                            eps, iterations, motion_share, relative_motion, island_stop,
+                            active_in, fx, fy, box, obst_impulse, hit_t, hit_log, hit_other,
+                            hit_j, hit_x, hit_y, nhit, active_out, nactive, stats, lim, code,
+                            t_code, room, nthreads):
+    """``moreau_islands`` with the islands on numba's threads: the same results, bit for bit.
+
+    Each island runs on one thread (the islands share no log), the largest first, each
+    thread given islands until it holds its share of the logs (longest processing time
+    first); an island writes its hits, pairs in touch, obstacle impulses (in the order they
+    are made) and statistics to its own range of the kernel's buffers, laid out beforehand
+    (prefix sums of each island's room).  Afterwards, island by island in order, these are
+    copied to the caller's buffers and the obstacle impulses added up: the same numbers in
+    the same order as ``moreau_islands`` for any number of threads.  An island that fills its
+    range runs again afterwards from its saved start, alone, into the caller's buffers.
+    Parameters and outputs as ``moreau_islands``; stats[ST_RERUNS] counts the islands run
+    again.  ``room``: the rooms (``ROOM_*``) scaled by it (1; 0: every island with a hit, a
+    pair in touch or an obstacle impulse runs again, tests); ``nthreads``: numba's threads
+    (``numba.get_num_threads()``, given: called in the kernel it keeps numba from caching it).
+    """
+    nisl = start.size - 1
+    nlog = start[nisl] - start[0]
+    size = np.empty(nisl, np.int64)
+    hoff = np.zeros(nisl + 1, np.int64)
+    aoff = np.zeros(nisl + 1, np.int64)
+    roff = np.zeros(nisl + 1, np.int64)
+    for q in range(nisl):
+        na = start[q + 1] - start[q]
+        size[q] = na
+        hoff[q + 1] = hoff[q] + int(room * ((2 * hit_t.size * na) // max(nlog, 1) + ROOM_EXTRA))
+        aoff[q + 1] = aoff[q] + int(room * ((2 * active_out.size * na) // max(nlog, 1)
+                                            + ROOM_EXTRA))
+        near_obst = ostart[q + 1] > ostart[q] and obst_impulse.shape[0] > 0
+        roff[q + 1] = roff[q] + (int(room * (ROOM_OBST * na + ROOM_EXTRA_OBST)) if near_obst
+                                 else 0)
+    h_t = np.empty(hoff[nisl])
+    h_log = np.empty(hoff[nisl], np.int64)
+    h_other = np.empty(hoff[nisl], np.int64)
+    h_j = np.empty(hoff[nisl])
+    h_x = np.empty(hoff[nisl])
+    h_y = np.empty(hoff[nisl])
+    act = np.empty(aoff[nisl], np.int64)
+    rec_o = np.empty(roff[nisl], np.int64)
+    rec_j = np.empty((roff[nisl], 2))
+    # counts per island: hits, pairs in touch, obstacle impulses
+    cnt = np.zeros((nisl, 3), np.int64)
+    st = np.zeros((nisl, NSTAT), np.int64)
+    lm_ = np.empty((nisl, 3))
+    for q in range(nisl):
+        lm_[q, 0], lm_[q, 1], lm_[q, 2] = lim[0], lim[1], lim[2]
+    done = np.zeros(nisl, np.bool_)
+    # the members' rows at t0, for an island run again
+    pool = members[start[0]:start[nisl]]
+    S_0, F_0, flag_0, face_0 = S[pool], F[pool], flag[pool], face[pool]
+    D0_0, lin0_0, box_0 = D0[pool], lin0[pool], box[pool]
+    # longest processing time first: the islands by size, each to the least loaded thread
+    nw = max(1, min(nthreads, nisl))
+    order = np.argsort(-size, kind="mergesort")
+    load = np.zeros(nw, np.int64)
+    worker = np.empty(nisl, np.int64)
+    for k in range(nisl):
+        w = np.argmin(load)
+        worker[order[k]] = w
+        load[w] += size[order[k]] + 1
+    wstart = np.zeros(nw + 1, np.int64)
+    for q in range(nisl):
+        wstart[worker[q] + 1] += 1
+    for w in range(nw):
+        wstart[w + 1] += wstart[w]
+    wlist = np.empty(nisl, np.int64)
+    fill = wstart[:nw].copy()
+    for k in range(nisl):
+        q = order[k]
+        wlist[fill[worker[q]]] = q
+        fill[worker[q]] += 1
+    for w in nb.prange(nw):
+        for k in range(wstart[w], wstart[w + 1]):
+            q = wlist[k]
+            n = max(size[q], 1)
+            h0, h1, a0, a1 = hoff[q], hoff[q + 1], aoff[q], aoff[q + 1]
+            r0, r1 = roff[q], roff[q + 1]
+            done[q] = _island(
+                q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radius, mass,
+                inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol, method, lf, ang,
+                drag_fraction, explicit, max_step, min_step, tracer, rotation, thr, friction,
+                vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc,
+                tolerance, eps, iterations, motion_share, relative_motion, island_stop,
+                active_in, fx, fy, box, obst_impulse, False, rec_o[r0:r1], rec_j[r0:r1],
+                cnt[q, 2:3], h_t[h0:h1], h_log[h0:h1], h_other[h0:h1], h_j[h0:h1], h_x[h0:h1],
+                h_y[h0:h1], cnt[q, 0:1], act[a0:a1], cnt[q, 1:2], st[q], lm_[q], code, t_code,
+                np.empty(n, np.int64), np.empty((n, 6)), np.empty((n, 6)), np.empty(n),
+                np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.bool_))
+    # island by island in order: into the caller's buffers, as moreau_islands
+    nmax = max(1, size.max()) if nisl else 1
+    rec_none = np.empty(0, np.int64)
+    recj_none = np.empty((0, 2))
+    nrec = np.zeros(1, np.int64)
+    nh, na_ = hit_t.size, active_out.size
+    for q in range(nisl):
+        if done[q]:
+            if nhit[0] + cnt[q, 0] > hit_t.size or nactive[0] + cnt[q, 1] > active_out.size:
+                code[q] = HIT_FULL
+                return
+            for k in range(cnt[q, 0]):
+                s, d = hoff[q] + k, nhit[0] + k
+                hit_t[d], hit_log[d], hit_other[d] = h_t[s], h_log[s], h_other[s]
+                hit_j[d], hit_x[d], hit_y[d] = h_j[s], h_x[s], h_y[s]
+            nhit[0] += cnt[q, 0]
+            for k in range(cnt[q, 1]):
+                active_out[nactive[0] + k] = act[aoff[q] + k]
+            nactive[0] += cnt[q, 1]
+            for k in range(roff[q], roff[q] + cnt[q, 2]):
+                obst_impulse[rec_o[k], 0] -= rec_j[k, 0]
+                obst_impulse[rec_o[k], 1] -= rec_j[k, 1]
+            for k in range(NSTAT):
+                if k == ST_PGS_MAX or k == ST_MAX_CONTACTS:
+                    stats[k] = max(stats[k], st[q, k])
+                else:
+                    stats[k] += st[q, k]
+            lim[0] = min(lim[0], lm_[q, 0])
+            lim[1] = max(lim[1], lm_[q, 1])
+            lim[2] = min(lim[2], lm_[q, 2])
+            continue
+        # its range was full: again from the start, alone, into the caller's buffers
+        for j in range(start[q] - start[0], start[q + 1] - start[0]):
+            i = pool[j]
+            S[i], F[i], flag[i], face[i] = S_0[j], F_0[j], flag_0[j], face_0[j]
+            D0[i], lin0[i], box[i] = D0_0[j], lin0_0[j], box_0[j]
+        stats[ST_RERUNS] += 1
+        n = nmax
+        if not _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radius,
+                       mass, inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol,
+                       method, lf, ang, drag_fraction, explicit, max_step, min_step, tracer,
+                       rotation, thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
+                       t_split, dry_depth, recovered, loc, tolerance, eps, iterations,
+                       motion_share, relative_motion, island_stop, active_in, fx, fy, box,
+                       obst_impulse, True, rec_none, recj_none, nrec, hit_t[0:nh],
+                       hit_log[0:nh], hit_other[0:nh], hit_j[0:nh], hit_x[0:nh], hit_y[0:nh],
+                       nhit, active_out[0:na_], nactive, stats, lim, code, t_code,
+                       np.empty(n, np.int64), np.empty((n, 6)), np.empty((n, 6)), np.empty(n),
+                       np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+                       np.empty(n, np.bool_)):
+            code[q] = HIT_FULL
+            return
