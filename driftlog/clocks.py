@@ -338,8 +338,18 @@ def _pending_lifts(tr, idx, stop, dt_check, pairs):
 
 
 def _window_end(tr, stop):
-    """The next contact window's end: WINDOW median L / |U| ahead (the last one reaches stop)."""
-    sp = np.hypot(tr.state[:, 3], tr.state[:, 4]) + np.abs(tr.state[:, 5]) * 0.5 * tr.length
+    """The next contact window's end: WINDOW median L / |U| ahead (the last one reaches stop).
+
+    |U|: a log's own speed (translation and turning), or the flow's at its centre where that
+    is faster: logs lifted from rest start moving at once (before 2026-12-02 their own speed
+    alone, so a window that started with every log at rest lasted to ``stop``, up to a whole
+    interval, and idle logs lifted only at its end).
+    """
+    from driftlog.columns import U, V
+
+    tr._sample_current()
+    sp = np.maximum(np.hypot(tr.state[:, 3], tr.state[:, 4]) + np.abs(tr.state[:, 5]) * 0.5
+                    * tr.length, np.hypot(tr.F[:, U], tr.F[:, V]))
     moving = sp > 0.0
     if not moving.any():
         return stop
