@@ -44,9 +44,10 @@ from driftlog.mesh import read_mesh  # noqa: E402
 POINTS = ("P1", "G6", "P2", "G7", "P4")  # the level points nearest the dam, in order
 HEAD_DEPTH = 1.0  # m: faces deeper than this count in the largest head
 HEAD_MARGIN = 1.0  # m: a head this much above the reservoir's level is counted as made
+LATE = 30.0  # s: the dam break's first rarefaction is over (``late_head``)
 
 
-def run(order, refine, end, every):
+def run(order, refine, end, every, every_step=False):
     """One run; returns its record (levels over time at ``POINTS``, their peaks, heads).
 
     ``order``: 1 or 2 (driftlog), or ANUGA's flow algorithm ('DE0', 'DE1': ANUGA 4.2 on the
@@ -71,10 +72,17 @@ def run(order, refine, end, every):
     peak = np.full(len(POINTS), np.nan)
     peak_t = np.full(len(POINTS), np.nan)
     series, heads = [], []
+    # the largest head at any step (m, s, face, depth, speed), and after ``LATE`` s
+    top = [-np.inf, np.nan, -1, np.nan, np.nan]
+    late = list(top)
     nxt = every
     cpu = time.process_time()
     while s.t < end - 1e-9:
         s.step(min(end, nxt) - s.t)
+        if every_step:
+            top = _top_head(s, top)
+            if s.t >= LATE:
+                late = _top_head(s, late)
         lev = s._h[idx] + s._z[idx]
         wet = s._h[idx] > s.arrival_depth
         up = wet & ~(lev <= peak)  # NaN (never wet) or higher
@@ -93,7 +101,22 @@ def run(order, refine, end, every):
             "steps": s.steps, "cpu_s": cpu, "points": list(POINTS),
             "observed_m": observed.tolist(), "peak_error_m": (peak - observed).tolist(),
             "peak_t_s": peak_t.tolist(), "series": series, "heads": heads,
+            "top_head": top if every_step else None, "late_head": late if every_step else None,
             "machine": machine()}
+
+
+def _top_head(s, top):
+    """``top`` updated with this step's largest head over faces deeper than ``HEAD_DEPTH``."""
+    deep = np.flatnonzero(s._h > HEAD_DEPTH)
+    h = s._h[deep]
+    sp2 = (s._hu[deep] ** 2 + s._hv[deep] ** 2) / h ** 2
+    head = h + s._z[deep] + sp2 / (2.0 * s.gravity)
+    k = int(np.argmax(head))
+    if head[k] > top[0]:
+        f = int(deep[k])
+        top = [float(head[k]), float(s.t), int(f if s._identity else s._order[f]),
+               float(h[k]), float(np.sqrt(sp2[k]))]
+    return top
 
 
 def run_anuga(algorithm, refine, end, every):
@@ -159,10 +182,13 @@ def table(runs):
     for key in sorted(runs, key=lambda k: (runs[k]["refine"], str(runs[k]["order"]))):
         r = runs[key]
         hd = np.array(r["heads"]) if r["heads"] else np.zeros((0, 3))
-        row = {"order": r["order"], "triangles": r["faces"], "end_s": r["end_s"],
+        tag = r.get("tag", "")
+        row = {"order": f"{r['order']} {tag}".strip(), "triangles": r["faces"], "end_s": r["end_s"],
                "steps": r["steps"], "cpu_s": r["cpu_s"],
                "max_head_m": float(hd[:, 1].max()) if hd.size else np.nan,
-               "faces_head_over_101m": int(hd[:, 2].max()) if hd.size else 0}
+               "faces_head_over_101m": int(hd[:, 2].max()) if hd.size else 0,
+               "max_head_any_step_m": r["top_head"][0] if r.get("top_head") else np.nan,
+               "after_30s_m": r["late_head"][0] if r.get("late_head") else np.nan}
         ser = np.array(r["series"]) if r["series"] else np.zeros((0, len(POINTS) + 1))
         for k, (p, e, t) in enumerate(zip(r["points"], r["peak_error_m"], r["peak_t_s"],
                                           strict=True)):
@@ -174,7 +200,7 @@ def table(runs):
         rows.append(row)
     cols = (["order", "triangles", "end_s", "steps", "cpu_s"]
             + [c for p in POINTS for c in (f"{p}_m", f"{p}_t_s")]
-            + ["max_head_m", "faces_head_over_101m"])
+            + ["max_head_m", "faces_head_over_101m", "max_head_any_step_m", "after_30s_m"])
     write_table("malpasset_overshoot", rows, cols, "Malpasset: peak levels below the dam "
                 "against order and mesh", "Set-up of malpasset.py; the mesh split in four "
                 "0, 1 or 2 times (46,691, 186,764, 747,056 triangles). <P>_m: the highest "
@@ -182,7 +208,9 @@ def table(runs):
                 "peak (m); <P>_t_s: when (ANUGA: the record, every 10 s, at its highest). "
                 "max_head_m: the largest eta + |u|^2/(2 g) over faces deeper than 1 m every "
                 "10 s (the reservoir is at 100 m); faces_head_over_101m: "
-                "the most faces at one time whose head is over 101 m. One thread each.")
+                "the most faces at one time whose head is over 101 m; max_head_any_step_m, "
+                "after_30s_m (--every-step): the largest such head at any step, and after the "
+                "first 30 s. One thread each.")
 
 
 def main(argv=None):
@@ -192,6 +220,9 @@ def main(argv=None):
     p.add_argument("--refine", type=int, default=1, choices=(0, 1, 2))
     p.add_argument("--end", type=float, default=240.0, help="end time (s)")
     p.add_argument("--every", type=float, default=10.0, help="record interval (s)")
+    p.add_argument("--every-step", action="store_true",
+                   help="also the largest head at any step (its time, face, depth, speed)")
+    p.add_argument("--tag", default="", help="suffix of the run's key (a variant)")
     p.add_argument("--report-only", action="store_true", help="table the stored runs only")
     a = p.parse_args(argv)
     if not (a.end > 0 and a.every > 0):
@@ -200,7 +231,17 @@ def main(argv=None):
     runs = json.loads(path.read_text()) if path.exists() else {}
     if not a.report_only:
         order = int(a.order) if a.order in ("1", "2") else a.order
-        runs[f"o{a.order}_r{a.refine}"] = run(order, a.refine, a.end, a.every)
+        key = f"o{a.order}_r{a.refine}" + (f"_{a.tag}" if a.tag else "")
+        runs[key] = run(order, a.refine, a.end, a.every, a.every_step)
+        runs[key]["tag"] = a.tag
+        top = runs[key]["top_head"]
+        if top:
+            print(f"largest head at any step {top[0]:.2f} m at {top[1]:.1f} s, face {top[2]}, "
+                  f"{top[3]:.2f} m deep, {top[4]:.1f} m/s; CPU {runs[key]['cpu_s']:.1f} s, "
+                  f"{runs[key]['steps']} steps")
+            late = runs[key]["late_head"]
+            print(f"after {LATE:g} s: {late[0]:.2f} m at {late[1]:.1f} s, face {late[2]}, "
+                  f"{late[3]:.2f} m deep, {late[4]:.1f} m/s")
         RESULTS.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(runs, indent=1, default=float))
     table(runs)

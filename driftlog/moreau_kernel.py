@@ -541,6 +541,69 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
             return
 
 
+@nb.njit(cache=True)
+def _island_apart(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radius, mass,
+                  inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol, method, lf,
+                  ang, drag_fraction, explicit, max_step, min_step, tracer, rotation, thr,
+                  friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
+                  recovered, loc, tolerance, eps, iterations, motion_share, relative_motion,
+                  island_stop, active_in, fx, fy, box, obst_impulse, rec_o, rec_j, hit_t,
+                  hit_log, hit_other, hit_j, hit_x, hit_y, act, cnt, st, lm, code, t_code):
+    """``_island`` q on copies of its logs' rows (a thread's own memory), then copied back.
+
+    Islands on other threads write, every step, the rows of their own logs; neighbouring
+    islands' logs are neighbouring rows, so working in place would share cache lines between
+    threads.  The rows go back only when the island fitted its ranges (True); its counts of
+    hits, pairs in touch and obstacle impulses go to cnt, its statistics to st, lm.
+    """
+    na = start[q + 1] - start[q]
+    g = members[start[q]:start[q + 1]]
+    Sx, Fx, flagx, facex, D0x, lin0x, boxx = S[g], F[g], flag[g], face[g], D0[g], lin0[g], box[g]
+    Px, lnx, rdx, msx, inx, idx, thx = (P[g], length[g], radius[g], mass[g], inertia[g], ids[g],
+                                        thr[g])
+    mem0 = np.arange(na)
+    st0 = np.array([0, na])
+    oc = ocaps[ostart[q]:ostart[q + 1]].copy()
+    ost0 = np.array([0, oc.size])
+    cx = np.zeros(1, np.int64)
+    tx = np.zeros(1)
+    stl = np.zeros(NSTAT, np.int64)
+    lml = lm.copy()
+    c3 = np.zeros(3, np.int64)
+    n = max(na, 1)
+    ok = _island(0, mem0, st0, Sx, Fx, flagx, facex, D0x, lin0x, Px, opt, lnx, rdx, msx, inx, idx,
+                 caps, owner, oc, ost0, t0, t_stop, time_tol, method, lf, ang, drag_fraction,
+                 explicit, max_step, min_step, tracer, rotation, thx, friction, vals_c, T0c,
+                 gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc, tolerance, eps,
+                 iterations, motion_share, relative_motion, island_stop, active_in, fx, fy, boxx,
+                 obst_impulse, False, rec_o, rec_j, c3[2:3], hit_t, hit_log, hit_other, hit_j,
+                 hit_x, hit_y, c3[0:1], act, c3[1:2], stl, lml, cx, tx,
+                 np.empty(n, np.int64), np.empty((n, 6)), np.empty((n, 6)), np.empty(n),
+                 np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.bool_))
+    if not ok:
+        return False
+    for a in range(na):
+        i = g[a]
+        for k in range(Sx.shape[1]):
+            S[i, k] = Sx[a, k]
+        for k in range(Fx.shape[1]):
+            F[i, k] = Fx[a, k]
+        for k in range(D0x.shape[1]):
+            D0[i, k] = D0x[a, k]
+        for k in range(lin0x.shape[1]):
+            lin0[i, k] = lin0x[a, k]
+        for k in range(boxx.shape[1]):
+            box[i, k] = boxx[a, k]
+        flag[i], face[i] = flagx[a], facex[a]
+    code[q], t_code[q] = cx[0], tx[0]
+    for k in range(3):
+        cnt[k] = c3[k]
+        lm[k] = lml[k]
+    for k in range(NSTAT):
+        st[k] = stl[k]
+    return True
+
+
 # the parallel kernel's room per island in its own buffers: hits and pairs in touch, twice
 # the island's share (by its logs) of the caller's buffers plus ROOM_EXTRA; impulses on the
 # obstacles (islands near one): ROOM_OBST per log plus ROOM_EXTRA_OBST.  An island that fills
@@ -562,14 +625,15 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
                             t_code, room, nthreads):
     """``moreau_islands`` with the islands on numba's threads: the same results, bit for bit.
 
-    Each island runs on one thread (the islands share no log), the largest first, each
-    thread given islands until it holds its share of the logs (longest processing time
-    first); an island writes its hits, pairs in touch, obstacle impulses (in the order they
-    are made) and statistics to its own range of the kernel's buffers, laid out beforehand
-    (prefix sums of each island's room).  Afterwards, island by island in order, these are
-    copied to the caller's buffers and the obstacle impulses added up: the same numbers in
-    the same order as ``moreau_islands`` for any number of threads.  An island that fills its
-    range runs again afterwards from its saved start, alone, into the caller's buffers.
+    Each island runs on one thread (the islands share no log), on copies of its logs' rows
+    (``_island_apart``), the largest first, each thread given islands until it holds its
+    share of the logs (longest processing time first); an island writes its hits, pairs in
+    touch, obstacle impulses (in the order they are made) and statistics to its own range of
+    the kernel's buffers, laid out beforehand (prefix sums of each island's room).
+    Afterwards, island by island in order, these are copied to the caller's buffers and the
+    obstacle impulses added up: the same numbers in the same order as ``moreau_islands`` for
+    any number of threads.  An island that fills its range (its rows left as they were) runs
+    again afterwards, alone, into the caller's buffers.
     Parameters and outputs as ``moreau_islands``; stats[ST_RERUNS] counts the islands run
     again.  ``room``: the rooms (``ROOM_*``) scaled by it (1; 0: every island with a hit, a
     pair in touch or an obstacle impulse runs again, tests); ``nthreads``: numba's threads
@@ -606,10 +670,6 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
     for q in range(nisl):
         lm_[q, 0], lm_[q, 1], lm_[q, 2] = lim[0], lim[1], lim[2]
     done = np.zeros(nisl, np.bool_)
-    # the members' rows at t0, for an island run again
-    pool = members[start[0]:start[nisl]]
-    S_0, F_0, flag_0, face_0 = S[pool], F[pool], flag[pool], face[pool]
-    D0_0, lin0_0, box_0 = D0[pool], lin0[pool], box[pool]
     # longest processing time first: the islands by size, each to the least loaded thread
     nw = max(1, min(nthreads, nisl))
     order = np.argsort(-size, kind="mergesort")
@@ -633,20 +693,17 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
     for w in nb.prange(nw):
         for k in range(wstart[w], wstart[w + 1]):
             q = wlist[k]
-            n = max(size[q], 1)
             h0, h1, a0, a1 = hoff[q], hoff[q + 1], aoff[q], aoff[q + 1]
             r0, r1 = roff[q], roff[q + 1]
-            done[q] = _island(
+            done[q] = _island_apart(
                 q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radius, mass,
                 inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol, method, lf, ang,
                 drag_fraction, explicit, max_step, min_step, tracer, rotation, thr, friction,
                 vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc,
                 tolerance, eps, iterations, motion_share, relative_motion, island_stop,
-                active_in, fx, fy, box, obst_impulse, False, rec_o[r0:r1], rec_j[r0:r1],
-                cnt[q, 2:3], h_t[h0:h1], h_log[h0:h1], h_other[h0:h1], h_j[h0:h1], h_x[h0:h1],
-                h_y[h0:h1], cnt[q, 0:1], act[a0:a1], cnt[q, 1:2], st[q], lm_[q], code, t_code,
-                np.empty(n, np.int64), np.empty((n, 6)), np.empty((n, 6)), np.empty(n),
-                np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.bool_))
+                active_in, fx, fy, box, obst_impulse, rec_o[r0:r1], rec_j[r0:r1], h_t[h0:h1],
+                h_log[h0:h1], h_other[h0:h1], h_j[h0:h1], h_x[h0:h1], h_y[h0:h1], act[a0:a1],
+                cnt[q], st[q], lm_[q], code, t_code)
     # island by island in order: into the caller's buffers, as moreau_islands
     nmax = max(1, size.max()) if nisl else 1
     rec_none = np.empty(0, np.int64)
@@ -678,11 +735,7 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
             lim[1] = max(lim[1], lm_[q, 1])
             lim[2] = min(lim[2], lm_[q, 2])
             continue
-        # its range was full: again from the start, alone, into the caller's buffers
-        for j in range(start[q] - start[0], start[q + 1] - start[0]):
-            i = pool[j]
-            S[i], F[i], flag[i], face[i] = S_0[j], F_0[j], flag_0[j], face_0[j]
-            D0[i], lin0[i], box[i] = D0_0[j], lin0_0[j], box_0[j]
+        # its range was full (its rows untouched): again, alone, into the caller's buffers
         stats[ST_RERUNS] += 1
         n = nmax
         if not _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radius,
