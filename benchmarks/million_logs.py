@@ -82,12 +82,13 @@ def valley_polygon(mesh):
 
 
 def overrides(flow, n, end, output_interval, method, flush_interval, clock="per_log",
-              density=None):
+              density=None, grounded=True):
     """The malpasset case with N logs on a grid over the valley, contacts on.
 
     ``density``: seed them as densely as that many logs over the whole valley floor (the
     polygon shrunk about its centroid by sqrt(n / density)), e.g. 2000 logs at the spacing of
-    1e5 (3.4 m) in a twentieth of the area.
+    1e5 (3.4 m) in a twentieth of the area.  ``grounded``: resting and stranded logs are
+    fixed obstacles to the floating ones (docs/model.md 13; False: as before 2026-12-02).
     """
     from driftlog.flowfile import open_flow
 
@@ -106,7 +107,7 @@ def overrides(flow, n, end, output_interval, method, flush_interval, clock="per_
                   "radius": 0.08, "density": 700.0, "velocity": "rest"}],
         "physics": {"level": "full"},
         "integrator": {"method": "rk4", "clock": clock},
-        "contact": {"enabled": True, "method": method},
+        "contact": {"enabled": True, "method": method, "grounded": bool(grounded)},
         "output": {"flush_interval": int(flush_interval)},
     }
 
@@ -255,7 +256,8 @@ def run_one(a):
     mon.start()
     load0 = os.getloadavg()[0]
     scen = as_scenario(CASE, overrides(a.flow, a.logs, a.end, a.output_interval, a.method,
-                                       a.flush_interval, a.clock, a.density))
+                                       a.flush_interval, a.clock, a.density,
+                                       a.grounded == "on"))
     kern = time_island_kernels()
     res = track(scen, output=out, progress=a.progress, resume=a.resume)
     mon.stop()
@@ -271,7 +273,8 @@ def run_one(a):
         "substeps", "rhs_evaluations", "log_substeps", "windows", "islands", "largest_island",
         "contact_set", "clock_retries", "lifted", "island_reruns")]
     row = dict(logs=a.logs, end_s=a.end, output_interval_s=a.output_interval,
-               contact_method=a.method, clock=a.clock, motion=a.motion, wall_s=wall, cpu_s=cpu,
+               contact_method=a.method, clock=a.clock, motion=a.motion, grounded=a.grounded,
+               wall_s=wall, cpu_s=cpu,
                rss_start_mb=rss0 / 2**20,
                peak_rss_mb=max([resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024]
                                + [g["peak_rss_mb"] for g in before]),
@@ -297,7 +300,7 @@ def sweep(a):
                str(a.end), "--output-interval", str(a.output_interval), "--method", a.method,
                "--flush-interval", str(a.flush_interval), "--clock", a.clock, "--out", a.out,
                *(["--density", str(a.density)] if a.density else []),
-               "--motion", a.motion]
+               "--motion", a.motion, "--grounded", a.grounded]
         print(" ".join(cmd), flush=True)
         p = subprocess.run(cmd, capture_output=True, text=True)
         line = [q for q in p.stdout.splitlines() if q.startswith("RESULT ")]
@@ -317,7 +320,8 @@ def threads(a):
         cmd = [sys.executable, __file__, "--flow", str(a.flow), "--logs", str(a.logs), "--end",
                str(a.end), "--output-interval", str(a.output_interval), "--method", a.method,
                "--flush-interval", str(a.flush_interval), "--clock", a.clock, "--out", a.out,
-               *(["--density", str(a.density)] if a.density else []), "--motion", a.motion]
+               *(["--density", str(a.density)] if a.density else []), "--motion", a.motion,
+               "--grounded", a.grounded]
         env = dict(os.environ, NUMBA_NUM_THREADS=str(t))
         print(f"NUMBA_NUM_THREADS={t} " + " ".join(cmd), flush=True)
         p = subprocess.run(cmd, capture_output=True, text=True, env=env)
@@ -390,7 +394,8 @@ def recreate(a, rows):
         return (f"`python benchmarks/million_logs.py --flow F --sweep "
                 f"{' '.join(str(int(r['logs'])) for r in rows)} {tail}`.")
     runs = [f"--logs {int(r['logs'])}" + (f" --density {r['density']:g}" if r.get("density")
-                                         else "") for r in rows]
+                                         else "")
+            + (" --grounded off" if r.get("grounded", "off") == "off" else "") for r in rows]
     return (f"`python benchmarks/million_logs.py --flow F {tail} ARGS` with ARGS "
             + ", ".join(f"`{q}`" for q in runs) + " (one run each).")
 
@@ -412,15 +417,18 @@ def write_results(a, rows):
              "Re-create: " + recreate(a, rows), "",
              "Moreau bound: the step near contacts bounded by each near pair's relative "
              "motion (docs/model.md eq. (81)) or, before 2026-12-02, by each log's own "
-             "(`--motion absolute`).  Wall and CPU time include numba's compilation when the "
-             "kernels were not cached yet.", "",
+             "(`--motion absolute`).  Grounded logs: resting and stranded logs fixed "
+             "obstacles to the floating ones (docs/model.md 13), or passed over (`--grounded "
+             "off`, before 2026-12-02).  Wall and CPU time include numba's compilation when "
+             "the kernels were not cached yet.", "",
              "Seeded as: the density of that many logs over the whole valley floor (`--density`;"
              " the logs themselves fill a proportionally smaller area).  Deepest overlap: the "
              "least capsule gap after any contact step (the contacts' `min_gap`).", "",
-             "| logs | seeded as | Moreau bound | wall (s) | CPU (s) | load avg start/end "
+             "| logs | seeded as | Moreau bound | grounded logs | wall (s) | CPU (s) "
+             "| load avg start/end "
              "| RSS after imports (MB) | peak RSS (MB) | output (MB) | observations | sub-steps "
              "| windows | lifted | hits | deepest overlap (m) | final status |",
-             "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+             "|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     for r in rows:
         if "error" in r:
             lines.append(f"| {r['logs']} | failed: {r['error'][-200:]!r} |")
@@ -433,6 +441,7 @@ def write_results(a, rows):
         gap = f"{-gap:.3f}" if gap is not None and gap < 0 else ("none" if gap else "?")
         lines.append(f"| {r['logs']:.0f} | {r.get('density') or r['logs']:.0f} | "
                      f"{r.get('motion', 'absolute')} | "
+                     f"{'fixed' if r.get('grounded', 'off') == 'on' else 'passed over'} | "
                      f"{r['wall_s']:.0f}{tries} | "
                      f"{r['cpu_s']:.0f} | {load} | "
                      f"{r['rss_start_mb']:.0f} | {r['peak_rss_mb']:.0f} | {r['output_mb']:.1f} | "
@@ -460,6 +469,9 @@ def main(argv=None):
     p.add_argument("--motion", default="relative", choices=("relative", "absolute"),
                    help="Moreau's step bound near contacts on the pairs' relative motion "
                         "(docs/model.md eq. (81)) or, as before 2026-12-02, each log's own")
+    p.add_argument("--grounded", default="on", choices=("on", "off"),
+                   help="resting and stranded logs fixed obstacles to the floating ones "
+                        "([contact] grounded; off: passed over, as before 2026-12-02)")
     p.add_argument("--out", default="/tmp/million_logs.nc", help="trajectory file")
     p.add_argument("--name", help="results name (default million_logs)")
     p.add_argument("--keep", action="store_true", help="keep the trajectory file")

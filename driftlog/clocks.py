@@ -338,8 +338,18 @@ def _pending_lifts(tr, idx, stop, dt_check, pairs):
 
 
 def _window_end(tr, stop):
-    """The next contact window's end: WINDOW median L / |U| ahead (the last one reaches stop)."""
-    sp = np.hypot(tr.state[:, 3], tr.state[:, 4]) + np.abs(tr.state[:, 5]) * 0.5 * tr.length
+    """The next contact window's end: WINDOW median L / |U| ahead (the last one reaches stop).
+
+    |U|: a log's own speed (translation and turning), or the flow's at its centre where that
+    is faster: logs lifted from rest start moving at once (before 2026-12-02 their own speed
+    alone, so a window that started with every log at rest lasted to ``stop``, up to a whole
+    interval, and idle logs lifted only at its end).
+    """
+    from driftlog.columns import U, V
+
+    tr._sample_current()
+    sp = np.maximum(np.hypot(tr.state[:, 3], tr.state[:, 4]) + np.abs(tr.state[:, 5]) * 0.5
+                    * tr.length, np.hypot(tr.F[:, U], tr.F[:, V]))
     moving = sp > 0.0
     if not moving.any():
         return stop
@@ -368,9 +378,7 @@ def _pairs(box, reach):
 
 def _obstacle_pairs(tr, box, reach, frame, span):
     """(log, capsule) pairs whose swept boxes (absolute frame) meet an obstacle's box."""
-    from driftlog.contact.broadphase import StaticGrid
-
-    caps = tr.contact.obstacles.capsules
+    caps = tr.contact.capsules
     if caps.shape[0] == 0 or box.shape[0] == 0:
         return np.empty((0, 2), np.int64)
     # the frame's drift over the window, added back: the boxes in the ground's frame
@@ -379,11 +387,7 @@ def _obstacle_pairs(tr, box, reach, frame, span):
     y0, y1 = box[:, 1] + min(dy, 0.0), box[:, 3] + max(dy, 0.0)
     cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
     ex, ey = 0.5 * (x1 - x0) + reach, 0.5 * (y1 - y0) + reach
-    cell = 2.0 * max(float(ex.max()), float(ey.max()))
-    g = getattr(tr, "_clock_grid", None)
-    if g is None or cell > 2.0 * g[0] or cell < 0.25 * g[0]:
-        g = tr._clock_grid = (cell, StaticGrid(caps, cell))
-    return g[1].query(cx, cy, ex, ey)
+    return _obstacle_grid(tr, 2.0 * max(float(ex.max()), float(ey.max()))).query(cx, cy, ex, ey)
 
 
 def _csr(labels, pool, lo):
@@ -460,8 +464,8 @@ def contact_window(tr, stop, max_tries=3):
 
     thr = (tr.P[:, P_HSTAR].copy() if friction
            else np.ascontiguousarray(tr.logs.float_depth[tr.act]))
-    caps = np.ascontiguousarray(C.obstacles.capsules, dtype=float)
-    owner = np.ascontiguousarray(C.obstacles.owner, dtype=np.int64)
+    caps = np.ascontiguousarray(C.capsules, dtype=float)
+    owner = np.ascontiguousarray(C.owner, dtype=np.int64)
     active_in = np.sort(np.asarray(C._active if isinstance(C._active, np.ndarray)
                                    else np.empty(0), dtype=np.int64))
     length = np.ascontiguousarray(tr.length, dtype=float)
@@ -475,7 +479,7 @@ def contact_window(tr, stop, max_tries=3):
     cap_hits = HIT_BUFFER
     act_room = 8
     one_pool = False
-    kept = (len(C._hits), C.obstacle_impulse.copy())
+    kept = (len(C._hits), C.obstacle_impulse.copy(), C.ground_impulse.copy())
     for attempt in range(max_tries + 1):
         labels = (np.where(pool_mask, 0, np.arange(1, n + 1)) if one_pool
                   else island_labels(n, np.ascontiguousarray(edges[:, 0]),
@@ -491,7 +495,7 @@ def contact_window(tr, stop, max_tries=3):
             sw = box.copy()
             ends = _axis_box(S0[pool], tr.length[pool])
             sw[pool] = ends
-            obst = np.zeros_like(C.obstacle_impulse)
+            obst = np.zeros((C.n_owners, 2))  # per obstacle, then per grounded log's row
             hits = [np.empty(cap_hits) for _ in range(6)]
             hits[1], hits[2] = np.empty(cap_hits, np.int64), np.empty(cap_hits, np.int64)
             nhit = np.zeros(1, np.int64)
@@ -529,7 +533,7 @@ def contact_window(tr, stop, max_tries=3):
                 break
             if not in_kernel:
                 del C._hits[kept[0]:]
-                C.obstacle_impulse[:] = kept[1]
+                C.obstacle_impulse[:], C.ground_impulse[:] = kept[1], kept[2]
             cap_hits *= 4
             act_room *= 4
         for kind, exc in ((ik.TOO_SMALL, StepTooSmallError), (ik.DIVERGED, IntegrationError),
@@ -551,7 +555,7 @@ def contact_window(tr, stop, max_tries=3):
         tr.stats["clock_retries"] = tr.stats.get("clock_retries", 0) + 1
         if not in_kernel:  # the Python model's hits and impulses of this try
             del C._hits[kept[0]:]
-            C.obstacle_impulse[:] = kept[1]
+            C.obstacle_impulse[:], C.ground_impulse[:] = kept[1], kept[2]
         pool_mask[cross.ravel()] = True
         pool_mask[new_lo[:, 0]] = True
         edges = np.vstack([edges, cross])
@@ -568,10 +572,13 @@ def contact_window(tr, stop, max_tries=3):
     tr._scatter()
     k = int(nhit[0])
     if k:
+        other = hits[2][:k].copy()
+        fixed = other < 0  # -(owner + 1): an obstacle, or a grounded log (its id)
+        other[fixed] = C.other_body(-other[fixed] - 1)
         C._hits.append(dict(time=hits[0][:k].copy(), log_id=hits[1][:k].copy(),
-                            other=hits[2][:k].copy(), impulse=hits[3][:k].copy(),
+                            other=other, impulse=hits[3][:k].copy(),
                             x=hits[4][:k].copy(), y=hits[5][:k].copy()))
-    C.obstacle_impulse += obst
+    C.pass_impulse(obst)
     keys = active_out[:int(nactive[0])]
     C._active = np.unique(np.concatenate([keys, active_in[~np.isin(
         active_in // (1 << 32), ids[pool])]]))
@@ -732,12 +739,16 @@ def _boxes(box, half):
 
 
 def _obstacle_grid(tr, cell):
-    """The contact model's obstacles binned for the swept boxes (kept while the cell fits)."""
+    """The contact model's fixed capsules binned for the swept boxes.
+
+    Kept while the cell fits and the grounded logs stay (``ContactModel.set_grounded``).
+    """
     from driftlog.contact.broadphase import StaticGrid
 
     g = getattr(tr, "_clock_grid", None)
-    if g is None or cell > 2.0 * g[0] or cell < 0.25 * g[0]:
-        g = tr._clock_grid = (cell, StaticGrid(tr.contact.obstacles.capsules, cell))
+    version = tr.contact.ground_version
+    if g is None or cell > 2.0 * g[0] or cell < 0.25 * g[0] or g[2] != version:
+        g = tr._clock_grid = (cell, StaticGrid(tr.contact.capsules, cell), version)
     return g[1]
 
 
@@ -749,7 +760,7 @@ def touching(tr, box, half):
     pairs = grid_pairs(cx, cy, ex, ey)
     hit = np.zeros(box.shape[0], bool)
     hit[pairs.ravel()] = True
-    caps = tr.contact.obstacles.capsules
+    caps = tr.contact.capsules
     if caps.shape[0] and box.shape[0]:
         lo = _obstacle_grid(tr, 2.0 * max(float(ex.max()), float(ey.max()))).query(cx, cy, ex,
                                                                                      ey)

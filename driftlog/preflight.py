@@ -35,9 +35,10 @@ __all__ = ["check_start", "check_scenario", "check_flow_values", "count_logs", "
 
 
 def _log_capsules(logs):
-    x, y, th = logs.state[:, X], logs.state[:, Y], logs.state[:, THETA]
-    hx, hy = 0.5 * logs.length * np.cos(th), 0.5 * logs.length * np.sin(th)
-    return np.column_stack([x - hx, y - hy, x + hx, y + hy, logs.radius])
+    from driftlog.contact.geometry import log_capsules
+
+    return log_capsules(logs.state[:, X], logs.state[:, Y], logs.state[:, THETA], logs.length,
+                        logs.radius)
 
 
 _PAIRS = 1 << 20  # (log, obstacle) pairs measured at a time: bounded memory

@@ -30,6 +30,7 @@ from driftlog.columns import (
     OUTSIDE,
     P_HSTAR,
     STATE_NAMES,
+    THETA,
     UB,
     VB,
     VELOCITY,
@@ -248,6 +249,19 @@ class Tracker:
             if new.size:
                 self._stage_new(new)
             self._F_valid = self._d0_valid = True
+        if self.contact is not None and getattr(self.contact, "grounded", False):
+            self._ground()
+
+    def _ground(self):
+        """Resting and stranded logs: fixed capsules of the contact model (docs/model.md 13)."""
+        from driftlog.contact.geometry import log_capsules
+
+        L = self.logs
+        rows = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
+        S = L.state[rows]
+        self.contact.set_grounded(rows, log_capsules(S[:, X], S[:, Y], S[:, THETA],
+                                                     L.length[rows], L.radius[rows]),
+                                  L.id[rows])
 
     def _kept_stage(self, idx):
         """Where the logs ``idx`` stand in the compact arrays, and the rows there.

@@ -14,7 +14,9 @@ advancement) or refuses the settings (ray shooting, polynomial solver).  When tw
 overlap, FCL's nearest points are witness points of the penetration (the normal is reversed,
 and undefined when the capsule axes cross; for capsule-mesh pairs the two points come in
 swapped order, put back by which one lies on the log): overlapping pairs take their normal
-and depth from the native kernel, which is exact there.
+and depth from the native kernel, which is exact there.  So do pairs touching within
+``_TOUCH``: FCL's penetration solver can throw an uncaught C++ exception there and abort the
+process (seen on two log capsules touching).
 
 Broad phase: the native hashed grid (the narrow phase is what differs between backends).
 """
@@ -31,6 +33,9 @@ from driftlog.contact.native import NativeBackend
 __all__ = ["FCLBackend", "horizontal_rotation", "log_object"]
 
 _HEIGHT = 20.0  # vertical extent of prisms standing for 2D obstacles, m
+# pairs whose native gap (exact for capsules; to the cut for a 3D mesh, which the mesh then
+# touches as well) is at most this are measured by the native kernel, never by FCL
+_TOUCH = 1e-5
 
 
 def horizontal_rotation(theta):
@@ -115,41 +120,59 @@ class FCLBackend:
         for k, (v, t, z) in obstacles.meshes.items():
             mesh_obj[k] = _mesh(v, t)
             self.z[k] = z
-        self._objects = []
-        for c, k in zip(obstacles.capsules, obstacles.owner, strict=True):
+        self._objects = self._capsule_objects(obstacles.capsules, obstacles.owner, mesh_obj)
+        self._static = list(self._objects)
+        self.capsules, self.owner = obstacles.capsules, obstacles.owner
+
+    def set_capsules(self, capsules, owner):
+        """The fixed capsules from now on: the obstacles', then the grounded logs'."""
+        ns = len(self._static)
+        self.native.set_capsules(capsules, owner)
+        self.capsules, self.owner = capsules, owner
+        self._objects = self._static + self._capsule_objects(capsules[ns:], owner[ns:], {})
+
+    @staticmethod
+    def _capsule_objects(capsules, owner, mesh_obj):
+        objects = []
+        for c, k in zip(capsules, owner, strict=True):
             if k in mesh_obj:
-                self._objects.append(mesh_obj[k])
+                objects.append(mesh_obj[k])
             elif c[4] > 0 and c[0] == c[2] and c[1] == c[3]:
                 # a standing capsule, not fcl.Cylinder: FCL's capsule-cylinder distance (GJK)
                 # is off by centimetres (BENCHMARKS.md, Contacts), capsule-capsule is exact
-                self._objects.append(fcl.CollisionObject(
+                objects.append(fcl.CollisionObject(
                     fcl.Capsule(float(c[4]), _HEIGHT), fcl.Transform([c[0], c[1], 0.0])))
             elif c[4] > 0:
                 x, y = 0.5 * (c[0] + c[2]), 0.5 * (c[1] + c[3])
                 length = float(np.hypot(c[2] - c[0], c[3] - c[1]))
                 th = float(np.arctan2(c[3] - c[1], c[2] - c[0]))
-                self._objects.append(log_object(x, y, th, length, c[4]))
+                objects.append(log_object(x, y, th, length, c[4]))
             else:
-                self._objects.append(_quad(*c[:4], 0.0))
+                objects.append(_quad(*c[:4], 0.0))
+        return objects
 
     def candidates(self, S, length, radius, margin, skin=None, ids=None):
         """The native broad phase (kept between calls with ``skin``: ``NativeBackend``)."""
         return self.native.candidates(S, length, radius, margin, skin, ids)
 
     def _measure(self, o1, o2, out, fallback, seg1, seg2):
+        fallback(out)
+        if out[0] <= _TOUCH:
+            # touching or overlapping: the native result.  FCL's penetration solver (EPA)
+            # may throw there, which python-fcl does not catch: the process aborts (fcl
+            # issues 390, 445, 493; seen on two capsules 1e-6 m apart)
+            return
         res = fcl.DistanceResult()
         d = fcl.distance(o1, o2, self.request, res)
         if d <= 0.0:
-            fallback(out)  # overlap: FCL's witness points give no normal (module doc)
-            return
+            return  # overlap: FCL's witness points give no normal (module doc)
         p1, p2 = res.nearest_points
         if _axis_distance(p1, seg1) > _axis_distance(p2, seg1):
             p1, p2 = p2, p1  # python-fcl 0.7 swaps them for shape-mesh pairs
         w = (p1 - p2)[:2]
         nrm = np.hypot(w[0], w[1])
         if nrm <= 1e-6 * d:
-            fallback(out)  # nearest above or below (a 3D mesh): no direction in the plane
-            return
+            return  # nearest above or below (a 3D mesh): no direction in the plane
         out[0] = d
         out[1], out[2] = w / nrm
         out[3], out[4] = 0.5 * (p1[:2] + p2[:2])
@@ -167,11 +190,10 @@ class FCLBackend:
             self._measure(logs[int(i)], logs[int(j)], r_ll[k], lambda o, i=i, j=j: capsule_gap(
                 *ends[int(i)], radius[i], *ends[int(j)], radius[j], o), ends[int(i)],
                 ends[int(j)])
-        caps = self.obstacles.capsules
-        owner = self.obstacles.owner
+        caps, owner = self.capsules, self.owner
         for k, (i, c) in enumerate(lo):
             obj = self._objects[c]
-            zi = self.z[owner[c]]
+            zi = self.z[owner[c]] if owner[c] < self.z.size else 0.0  # a grounded log: 0
             o1 = logs[int(i)]
             if zi != 0.0:  # a 3D mesh: the log lies at the cut height
                 o1 = log_object(S[i, X], S[i, Y], S[i, THETA], length[i], radius[i], zi)

@@ -19,7 +19,8 @@ import numpy as np
 
 from driftlog.columns import CAP_AX, CAP_AY, CAP_BX, CAP_BY, CAP_R, CX, CY, GAP, NRES, NX, NY
 
-__all__ = ["segment_closest_points", "capsule_gap", "log_endpoints", "capsule_pair_gaps",
+__all__ = ["segment_closest_points", "capsule_gap", "log_endpoints", "log_capsules",
+           "capsule_pair_gaps",
            "GAP", "NX", "NY", "CX", "CY", "NRES"]
 
 # columns of a contact result: driftlog.columns GAP, NX, NY, CX, CY (NRES); of a capsule: CAP_*
@@ -140,6 +141,12 @@ def log_endpoints(x, y, theta, length):
     """Axis ends (ax, ay, bx, by) of a log centred at (x, y) at angle theta."""
     hx, hy = 0.5 * length * np.cos(theta), 0.5 * length * np.sin(theta)
     return x - hx, y - hy, x + hx, y + hy
+
+
+def log_capsules(x, y, theta, length, radius):
+    """Capsules (n, 5) = ax, ay, bx, by, r of logs (arrays) in plan view."""
+    return np.column_stack([*log_endpoints(x, y, theta, length),
+                            np.broadcast_to(radius, np.shape(x))])
 
 
 @nb.njit(cache=True)

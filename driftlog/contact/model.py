@@ -106,6 +106,9 @@ class ContactModel:
         Approach speeds below this do not bounce (resting contact; 0: the paper).  Without it a
         log pushed on a wall by the flow bounces ever less, ever more often (Zeno) and the
         event-driven step collapses.
+    grounded : bool
+        Resting and stranded logs are fixed capsules for the floating ones (the tracker gives
+        them: ``set_grounded``); False: they take no part (before 2026-12-02).
     """
 
     # Moreau: the motion bounded per step near contacts is each near pair's relative motion
@@ -115,7 +118,7 @@ class ContactModel:
 
     def __init__(self, obstacles=None, method="event", time_of_impact="conservative",
                  restitution=1.0, backend="native", tolerance=1e-4, max_events=10000,
-                 iterations=200, rest_speed=0.01):
+                 iterations=200, rest_speed=0.01, grounded=True):
         if method not in ("event", "moreau"):
             raise ScenarioError("contact.method", method, "must be one of 'event', 'moreau'")
         if time_of_impact not in ("conservative", "dichotomy"):
@@ -124,6 +127,16 @@ class ContactModel:
         if not 0.0 <= restitution <= 1.0:
             raise ScenarioError("contact.restitution", restitution, "must be in [0, 1]")
         self.obstacles = obstacles or Obstacles()
+        # the capsules of the contact model: the obstacles', then the grounded logs' (resting
+        # and stranded logs, fixed for the floating ones: ``set_grounded``); owner: the
+        # obstacle index, or n_obstacles + the log's row (``ground_rows``) for a grounded log
+        self.capsules, self.owner = self.obstacles.capsules, self.obstacles.owner
+        self.grounded = bool(grounded)
+        self.ground_rows = np.empty(0, np.int64)
+        self._ground_ids = np.empty(0, np.int64)
+        self.ground_version = 0
+        # momentum passed to the bed through grounded logs by the contact impulses (x, y)
+        self.ground_impulse = np.zeros(2)
         self.method, self.time_of_impact = method, time_of_impact
         self.restitution = float(restitution)
         self.backend = _backend(backend, self.obstacles)
@@ -155,6 +168,56 @@ class ContactModel:
         self._last_step = None
 
     @property
+    def n_owners(self):
+        """Rows of a per-owner impulse array: the obstacles, then the grounded logs' rows."""
+        n = len(self.obstacles.names)
+        return n + (int(self.ground_rows[-1]) + 1 if self.ground_rows.size else 0)
+
+    def set_grounded(self, rows, capsules, ids):
+        """Resting and stranded logs as fixed capsules for the floating ones (section 13).
+
+        ``rows``: increasing rows of the logs in the tracker's arrays; ``capsules`` (k, 5)
+        their capsules; ``ids`` their ids (hit records name them).  Held by the bed, they take
+        a contact's impulse as an obstacle does (``ground_impulse``).  Nothing changes when
+        the set and its places are those already given.
+        """
+        rows = np.asarray(rows, np.int64)
+        caps = np.asarray(capsules, float).reshape(-1, 5)
+        ns = self.obstacles.capsules.shape[0]
+        if (rows.size == self.ground_rows.size and np.array_equal(rows, self.ground_rows)
+                and np.array_equal(caps, self.capsules[ns:])):
+            return
+        self.ground_rows = rows
+        self._ground_ids = np.asarray(ids, np.int64)
+        if rows.size:
+            self.capsules = np.vstack([self.obstacles.capsules, caps])
+            self.owner = np.concatenate([self.obstacles.owner,
+                                         len(self.obstacles.names) + rows])
+        else:
+            self.capsules, self.owner = self.obstacles.capsules, self.obstacles.owner
+        self.ground_version += 1
+        self._cache = None
+        self.backend.set_capsules(self.capsules, self.owner)
+
+    def other_body(self, owner):
+        """Hit records' ``other`` of contacts with capsule owners ``owner`` (arrays).
+
+        -(obstacle index + 1) for an obstacle, the log id for a grounded log.
+        """
+        owner = np.asarray(owner, np.int64)
+        n = len(self.obstacles.names)
+        k = np.searchsorted(self.ground_rows, np.maximum(owner - n, 0))
+        k = np.minimum(k, max(self.ground_rows.size - 1, 0))
+        ids = self._ground_ids[k] if self.ground_rows.size else np.zeros_like(owner)
+        return np.where(owner < n, -(owner + 1), ids)
+
+    def pass_impulse(self, per_owner):
+        """Add an impulse per owner (``n_owners``, 2) to the obstacles' and the bed's."""
+        n = len(self.obstacles.names)
+        self.obstacle_impulse += per_owner[:n]
+        self.ground_impulse += per_owner[n:].sum(axis=0)
+
+    @property
     def obstacle_names(self):
         """Names of the obstacles (hit records: other = -(index + 1))."""
         return list(self.obstacles.names)
@@ -170,7 +233,8 @@ class ContactModel:
         return cls(obs, method=contact["method"], time_of_impact=contact["time_of_impact"],
                    restitution=contact["restitution"], backend=contact["backend"],
                    tolerance=contact["tolerance"], max_events=contact["max_events"],
-                   iterations=contact["iterations"], rest_speed=contact["rest_speed"])
+                   iterations=contact["iterations"], rest_speed=contact["rest_speed"],
+                   grounded=contact["grounded"])
 
     # ----------------------------------------------------------------- detection
     def _candidates(self, bodies, margin, S):
@@ -191,7 +255,7 @@ class ContactModel:
         ll, lo = self._candidates(bodies, margin, S)
         r_ll, r_lo = self.backend.gaps(S, bodies.length, bodies.radius, ll, lo)
         self.stats["detections"] += 1
-        owner = self.obstacles.owner
+        owner = self.owner
         n = S.shape[0]
         b1 = np.concatenate([ll[:, 0], lo[:, 0]])
         other = np.concatenate([ll[:, 1], n + lo[:, 1]])
@@ -234,10 +298,9 @@ class ContactModel:
         n = S.shape[0]
         is_ll = C.body2 >= 0
         ll = np.column_stack([C.body1[is_ll], C.body2[is_ll]])
-        caps = C.key[~is_ll] % (n + self.obstacles.owner.size) - n
+        caps = C.key[~is_ll] % (n + self.owner.size) - n
         lo = np.column_stack([C.body1[~is_ll], caps])
-        e_ll, e_lo = end_contacts(S, bodies.length, bodies.radius, self.obstacles.capsules,
-                                  ll, lo)
+        e_ll, e_lo = end_contacts(S, bodies.length, bodies.radius, self.capsules, ll, lo)
         rep = lambda a: np.repeat(a, 4)  # noqa: E731
         ends = Contacts(np.concatenate([rep(ll[:, 0]), rep(lo[:, 0])]),
                         np.concatenate([rep(ll[:, 1]), np.full(4 * len(lo), -1, np.int64)]),
@@ -260,7 +323,7 @@ class ContactModel:
     def _touching(self, bodies, tol):
         """Contacts within tol at the current state (reusing the last step's end check)."""
         S = bodies.state
-        key = (bodies.t, S.shape[0])
+        key = (bodies.t, S.shape[0], self.ground_version)
         if self._cache is not None and self._cache[0] == key and np.array_equal(
                 self._cache[1], S[:, POSITION]):
             C = self._cache[2]
@@ -269,7 +332,8 @@ class ContactModel:
         return C.select(C.gap <= tol)
 
     def _remember(self, bodies, C):
-        self._cache = ((bodies.t, bodies.state.shape[0]), bodies.state[:, POSITION].copy(), C)
+        self._cache = ((bodies.t, bodies.state.shape[0], self.ground_version),
+                       bodies.state[:, POSITION].copy(), C)
 
     # ----------------------------------------------------------------- hits
     def _record(self, bodies, C, impulse, t):
@@ -278,7 +342,7 @@ class ContactModel:
             return
         ids = bodies.ids
         b2 = C.body2[hit]
-        other = np.where(b2 >= 0, ids[np.maximum(b2, 0)], -(C.obstacle[hit] + 1))
+        other = np.where(b2 >= 0, ids[np.maximum(b2, 0)], self.other_body(C.obstacle[hit]))
         log = ids[C.body1[hit]]
         # one hit per log and body at an instant (a log on two edges of a polygon, or on
         # a pier at two points, is one hit): impulses summed, point impulse-weighted
@@ -304,16 +368,17 @@ class ContactModel:
         """Add to ``obstacle_impulse`` what the contacts ``C`` with impulses passed on.
 
         A contact impulse j n on a log (n from the other body to the log) is -j n on a fixed
-        obstacle.
+        obstacle (on the bed, for a grounded log: ``ground_impulse``).
         """
         fixed = np.flatnonzero((C.body2 < 0) & (impulse != 0.0))
-        if fixed.size == 0 or self.obstacle_impulse.shape[0] == 0:
+        if fixed.size == 0:
             return
         j = impulse[fixed]
         o = C.obstacle[fixed]
-        n = self.obstacle_impulse.shape[0]
-        self.obstacle_impulse[:, 0] -= np.bincount(o, j * C.res[fixed, NX], n)
-        self.obstacle_impulse[:, 1] -= np.bincount(o, j * C.res[fixed, NY], n)
+        n = self.n_owners
+        per = np.column_stack([-np.bincount(o, j * C.res[fixed, NX], n),
+                               -np.bincount(o, j * C.res[fixed, NY], n)])
+        self.pass_impulse(per)
 
     # ----------------------------------------------------------------- stepping
     def substep(self, bodies, dt):
@@ -544,4 +609,6 @@ CONTACT_SECTION = Section("contact", [
         "ever more often, and stall the method; 0 = the paper)", "m/s", min=0.0),
     Key("iterations", "int", 200, "moreau: projected Gauss-Seidel sweeps at most per step",
         min=1),
+    Key("grounded", "bool", True, "resting and stranded logs are fixed obstacles to the "
+        "floating ones (held by the bed); false: floating logs pass over them"),
 ], doc="contacts (docs/model.md section 13)")

@@ -98,13 +98,19 @@ class NativeBackend:
 
     def __init__(self, obstacles):
         self.obstacles = obstacles
+        self.capsules = obstacles.capsules
         self._grid = None
         self._grid_cell = 0.0
         self.cache = PairCache()
 
+    def set_capsules(self, capsules, owner):
+        """The fixed capsules from now on: the obstacles', then the grounded logs'."""
+        self.capsules = capsules
+        self._grid = None  # a new grid: the kept broad phase searches again
+
     def _static(self, cell):
         if self._grid is None or cell > 2.0 * self._grid_cell or cell < 0.25 * self._grid_cell:
-            self._grid = StaticGrid(self.obstacles.capsules, cell)
+            self._grid = StaticGrid(self.capsules, cell)
             self._grid_cell = cell
         return self._grid
 
@@ -120,7 +126,7 @@ class NativeBackend:
         log_boxes(S, length, radius, margin, ex, ey)
         x = np.ascontiguousarray(S[:, X])
         y = np.ascontiguousarray(S[:, Y])
-        has_static = self.obstacles.capsules.shape[0] > 0 and n > 0
+        has_static = self.capsules.shape[0] > 0 and n > 0
         grid = self._static(2.0 * max(float(ex.max()), float(ey.max()))) if has_static else None
         if skin is not None:
             # skin: how far logs drift before the next call, or (drift, reach): and how far
@@ -141,5 +147,5 @@ class NativeBackend:
         if ll.shape[0]:
             _log_log_gaps(ll, S, length, radius, r_ll)
         if lo.shape[0]:
-            _log_obstacle_gaps(lo, S, length, radius, self.obstacles.capsules, r_lo)
+            _log_obstacle_gaps(lo, S, length, radius, self.capsules, r_lo)
         return r_ll, r_lo
