@@ -469,7 +469,7 @@ def main(argv=None):
     p.add_argument("--motion", default="relative", choices=("relative", "absolute"),
                    help="Moreau's step bound near contacts on the pairs' relative motion "
                         "(docs/model.md eq. (81)) or, as before 2026-12-02, each log's own")
-    p.add_argument("--grounded", default="on", choices=("on", "off"),
+    p.add_argument("--grounded", default="off", choices=("on", "off"),
                    help="resting and stranded logs fixed obstacles to the floating ones "
                         "([contact] grounded; off: passed over, as before 2026-12-02)")
     p.add_argument("--out", default="/tmp/million_logs.nc", help="trajectory file")

@@ -116,7 +116,7 @@ def test_fcl_backend_stops_the_floating_log_too():
 
 
 def test_a_stranded_log_is_grounded_and_a_lifted_one_is_not():
-    model = ContactModel(Obstacles())
+    model = ContactModel(Obstacles(), grounded=True)
     logs = scene()
     tr = Tracker(FLOW, logs, PhysicsOptions(level="full"), "rk4", StepOptions(),
                  contact=model, t_end=1.0)
