@@ -395,7 +395,7 @@ def recreate(a, rows):
                 f"{' '.join(str(int(r['logs'])) for r in rows)} {tail}`.")
     runs = [f"--logs {int(r['logs'])}" + (f" --density {r['density']:g}" if r.get("density")
                                          else "")
-            + (" --grounded off" if r.get("grounded", "off") == "off" else "") for r in rows]
+            + (" --grounded on" if r.get("grounded") == "on" else "") for r in rows]
     return (f"`python benchmarks/million_logs.py --flow F {tail} ARGS` with ARGS "
             + ", ".join(f"`{q}`" for q in runs) + " (one run each).")
 
