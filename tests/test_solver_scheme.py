@@ -374,3 +374,80 @@ def test_thacker_closed_forms_solve_the_shallow_water_equations():
         my = (g(dt=e)[3] - g(dt=-e)[3]) / (2 * e) + G * (g(dy=e)[0] + g(dy=e)[1] - g(dy=-e)[0]
                                                          - g(dy=-e)[1]) / (2 * e)
         assert max(abs(mass), abs(mx), abs(my)) < 1e-5, (x, y, mass, mx, my)
+
+
+def _steep_valley_head(order, energy_bound, t_end=6.0):
+    """A 5 m reservoir released down a V valley whose node bed falls 0.4 per m past a 2 m spur
+    (frictionless, free outflow, 1,868 triangles): the largest total head h + z + |u|^2/(2 g)
+    in faces deeper than 0.2 m once the front has left (3 s to ``t_end``), and the largest
+    reconstruction mark (``_fallback``) seen."""
+    mesh = channel_mesh(16.0, 4.0, 0.35)
+    x, y = mesh.node_x, mesh.node_y
+    mesh.node_z = (-0.4 * np.maximum(x - 4.0, 0.0) + 0.5 * np.abs(y - 2.0)
+                   + 2.0 * np.exp(-((x - 9.0) ** 2 + (y - 4.0) ** 2)))
+    s = ShallowWaterSolver(mesh, order=order, boundaries={"outflow": {"type": "free"}},
+                           energy_bound=energy_bound)
+    s.set_state(np.where(mesh.face_x < 4.0, np.maximum(5.0 - s.bed, 0.0), 0.0))
+    top, marks = -np.inf, 0
+    while s.t < t_end:
+        s.step(t_end - s.t)
+        if order == 2:
+            marks = max(marks, int(s._fallback.max()))
+        d = s._h > 0.2
+        if s.t >= 3.0 and d.any():
+            head = s._h[d] + s._z[d] + (s._hu[d] ** 2 + s._hv[d] ** 2) / s._h[d] ** 2 / (2 * G)
+            top = max(top, float(head.max()))
+    assert np.all(s._h >= 0.0)
+    return top, marks
+
+
+def test_second_order_energy_bound_down_a_steep_valley():
+    """docs/model.md eq. (85): at order 2 the continuous edge bed (84) leaves the edge depth
+    eta_e - z_e unbounded, so u_e = q_e / h_e is not bounded either and the flow gains energy
+    where the node bed rises within a face (here the reservoir's 5 m and the valley's fall
+    give heads of 1.5 m at order 1 once the front has left, 4.4 m at order 2).  With
+    ``energy_bound = "g2"`` a face whose edge speed or head exceeds the largest of its
+    neighbourhood falls back to first-order depth and discharges: 1.85 m."""
+    h1, _ = _steep_valley_head(1, "off")
+    h2, m2 = _steep_valley_head(2, "off")
+    hb, mb = _steep_valley_head(2, "g2")
+    assert h2 > h1 + 2.0  # the defect: order 2 makes energy
+    assert m2 <= 2  # without the bound nothing is marked as its fall-back
+    assert mb == 3  # the bound acted
+    assert hb < h1 + 0.6, (h1, h2, hb)
+
+
+def test_energy_bound_is_checked():
+    mesh = channel_mesh(1.0, 0.2, 0.1)
+    with pytest.raises(ScenarioError, match="solver.energy_bound"):
+        ShallowWaterSolver(mesh, order=2, energy_bound="yes")
+    with pytest.raises(ScenarioError, match="solver.energy_bound"):
+        ShallowWaterSolver(mesh, order=1, energy_bound="g2")
+
+
+def test_energy_bound_scenario_key():
+    """``[solver] energy_bound`` reaches the solver; at its default the section's hash is the
+    one from before the key (stored flows stay current); at order 1 it is refused."""
+    from pathlib import Path
+
+    from driftlog.schema import check_table
+    from driftlog.solver.config import (
+        SOLVER_SECTION,
+        build_solver,
+        check_solver_section,
+        solver_hash,
+    )
+
+    raw = {"channel": [0.0, 0.0, 2.0, 0.5], "cell_size": 0.25, "end": 1.0, "order": 2}
+    t = check_table(SOLVER_SECTION, raw, "solver", Path("."))
+    assert t["energy_bound"] == "off"
+    before = {k: v for k, v in t.items() if k != "energy_bound"}
+    assert solver_hash(t) == solver_hash(before)
+    g2 = check_table(SOLVER_SECTION, dict(raw, energy_bound="g2"), "solver", Path("."))
+    assert solver_hash(g2) != solver_hash(t)
+    assert build_solver(g2).energy_bound == "g2"
+    with pytest.raises(ScenarioError, match="solver.energy_bound"):
+        check_table(SOLVER_SECTION, dict(raw, energy_bound="on"), "solver", Path("."))
+    o1 = check_table(SOLVER_SECTION, dict(raw, order=1, energy_bound="g2"), "solver", Path("."))
+    with pytest.raises(ScenarioError, match="solver.energy_bound"):
+        check_solver_section(o1, "solver", {"flow": {"source": "solver"}})

@@ -64,6 +64,9 @@ def check_solver_section(t, prefix, scen):
     if t["end"] is None:
         raise ScenarioError(f"{prefix}.end", None, "is required when [flow] source = 'solver': "
                             "the end time of the computation (s)")
+    if t.get("energy_bound", "off") != "off" and t["order"] != 2:
+        raise ScenarioError(f"{prefix}.energy_bound", t["energy_bound"], "applies at order 2 "
+                            "only")
     if t["mesh"] == "file" and not t["mesh_file"]:
         raise ScenarioError(f"{prefix}.mesh_file", "", "is required when mesh = 'file'")
     if t["mesh"] == "channel":
@@ -161,6 +164,8 @@ def solver_hash(section) -> str:
     if section["engine"] == "driftlog":  # keys of OpenFOAM runs only
         section = {k: v for k, v in section.items()
                    if k not in ("engine", "n_procs", "openfoam_friction")}
+    if section.get("energy_bound", "off") == "off":  # the default: the hashes from before it
+        section = {k: v for k, v in section.items() if k != "energy_bound"}
     text = json.dumps(section, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -215,7 +220,8 @@ def build_solver(sec, mesh=None):
     s = ShallowWaterSolver(mesh, order=sec["order"], riemann=sec["riemann"], cfl=sec["cfl"],
                            manning=sec["manning"], strickler=sec["strickler"],
                            dry_depth=sec["dry_depth"], boundaries=boundaries,
-                           arrival_depth=sec["arrival_depth"])
+                           arrival_depth=sec["arrival_depth"],
+                           energy_bound=sec.get("energy_bound", "off"))
     ini = sec["initial"] or {}
     kind = ini.get("type", "dry")
     vel = ini.get("velocity", [0.0, 0.0])
@@ -321,6 +327,12 @@ SOLVER_SECTION = Section("solver", [
         exclusive_min=True),
     Key("order", "int", 1, "1: first order (explicit Euler); 2: MUSCL + Heun", min=1, max=2),
     Key("riemann", "str", "hllc", "Riemann solver", choices=("hllc", "hll")),
+    Key("energy_bound", "str", "off", "order 2 on a bed given at the nodes: bound each edge's "
+        "speed and total head by the largest of the face and its neighbours (docs/model.md "
+        "eq. (85)), falling back towards first order where exceeded: g2 (the face's depth and "
+        "discharges), graded (their gradients halved, quartered, then dropped), edge (the "
+        "face's velocity at that edge), velocity (the face's limited velocity reconstruction "
+        "at that edge)", choices=("off", "g2", "graded", "edge", "velocity")),
     Key("cfl", "float", None, "fraction of the positivity-preserving time step (default 0.9 "
         "at order 1, 0.8 at order 2)", min=0.0, max=1.0, exclusive_min=True),
     Key("dry_depth", "float", 1e-6, "depth below which a face has no velocity", "m", min=0.0,

@@ -22,7 +22,7 @@ from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes, volume_sum
 from driftlog.solver.fluxes import edge_fluxes_1, edge_fluxes_2, face_residuals, face_sides
 from driftlog.solver.friction import corrector_stage, euler_stage, predictor_stage
 from driftlog.solver.layout import ORDERINGS, active_set, edge_order, face_order, mark_active
-from driftlog.solver.reconstruction import NSTATE, limited_gradients, lsq_geometry
+from driftlog.solver.reconstruction import ENERGY_BOUNDS, NSTATE, limited_gradients, lsq_geometry
 from driftlog.solver.riemann import RIEMANN
 
 __all__ = ["ShallowWaterSolver", "GRAVITY", "DEFAULT_CFL"]
@@ -100,12 +100,19 @@ class ShallowWaterSolver:
     active_set : bool
         Run the flux kernels over the wet faces and their neighbours only (default True; the
         same results bit for bit, dry regions cost almost nothing).
+    energy_bound : {"off", "g2", "graded", "edge", "velocity"}
+        Second order on a bed given at the nodes: bound each edge's speed and total head by the
+        largest of the face and its neighbours (docs/model.md eq. (85)), falling back towards
+        first order where they are exceeded: "g2" the face's depth and discharges at first
+        order, "graded" their gradients halved, quartered, then dropped, "edge" the face's own
+        velocity at that edge, "velocity" its limited velocity reconstruction at that edge.
+        Default "off" (BENCHMARKS.md, Malpasset: the energy order 2 makes).
     """
 
     def __init__(self, mesh, bed=None, order=1, riemann="hllc", cfl=None, manning=None,
                  strickler=None, dry_depth=1e-6, boundaries=None, arrival_depth=ARRIVAL_DEPTH,
                  gravity=GRAVITY, parallel=None, thin_depth=0.0, renumber=None,
-                 active_set=True, thin_fraction=None):
+                 active_set=True, thin_fraction=None, energy_bound="off"):
         if order not in (1, 2):
             raise ScenarioError("solver.order", order, "must be 1 or 2")
         if riemann not in RIEMANN:
@@ -128,6 +135,12 @@ class ShallowWaterSolver:
             raise ScenarioError("solver.thin_fraction", thin_fraction, "applies at order 2 "
                                 "only (give 0 or leave it out at order 1)")
         self.thin_fraction = thin_fraction
+        if energy_bound not in ENERGY_BOUNDS:
+            raise ScenarioError("solver.energy_bound", energy_bound, "must be one of "
+                                + ", ".join(repr(k) for k in ENERGY_BOUNDS))
+        if order == 1 and energy_bound != "off":
+            raise ScenarioError("solver.energy_bound", energy_bound, "applies at order 2 only")
+        self.energy_bound = energy_bound
         if not dry_depth > 0:
             raise ScenarioError("solver.dry_depth", dry_depth, "must be > 0 m")
         self.mesh = mesh
@@ -242,11 +255,14 @@ class ShallowWaterSolver:
                 self._fe >= 0, 2 * self._fe + 1 - self._side.astype(np.int64), 0))
             # every face starts with a dry face's edge states (faces outside the active set
             # keep them)
+            # what each face's reconstruction got (the gradient kernel's ``mark``)
+            self._fallback = np.zeros(nf, dtype=np.int8)
+            self._ebound = ENERGY_BOUNDS[energy_bound]
             limited_gradients.serial(np.arange(nf, dtype=np.int64), np.zeros(nf), np.zeros(nf),
                                      np.zeros(nf), self._z, self.dry_depth, self._fn, self._gnbr,
                                      *self._lsq, self._rows, self._est, self._open_edge,
                                      self._fe, bs.slot, bs.kind, bs.value, self._zedge,
-                                     self._edge_bed)
+                                     self._edge_bed, self._ebound, self.gravity, self._fallback)
             self._eoff = self._lsq[2]
         else:
             self._est = np.zeros((0, NSTATE))  # no edge states at first order
@@ -400,7 +416,7 @@ class ShallowWaterSolver:
             offset, minv, eoff = m._lsq
             m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._gnbr, offset, minv, eoff,
                       m._rows, m._est, m._open_edge, m._fe, bs.slot, bs.kind, bs.value,
-                      m._zedge, m._edge_bed)
+                      m._zedge, m._edge_bed, m._ebound, m.gravity, m._fallback)
         fm, fx0, fy0, fx1, fy1, sp, sp1 = m._flux
         if m.order == 1:
             m._k_edges(edges, m._ef, m._nx, m._ny, m._len, h, hu, hv, m._z, RIEMANN[m.riemann],

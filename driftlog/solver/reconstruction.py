@@ -40,12 +40,16 @@ import numpy as np
 from driftlog._numba import kernel
 from driftlog.solver.boundaries import DEPTH, LEVEL
 
-__all__ = ["lsq_geometry", "limited_gradients", "first_order_states", "EDGE_STATE", "NSTATE"]
+__all__ = ["lsq_geometry", "limited_gradients", "first_order_states", "EDGE_STATE", "NSTATE",
+           "ENERGY_BOUNDS"]
 
 # what ``limited_gradients`` stores for each side of each edge (``est[2 e + s, :]``, s = 0 for
 # the face the edge's normal points out of, 1 for the other)
 EDGE_STATE = ("h", "u", "v", "z")
 NSTATE = len(EDGE_STATE)
+# the energy bound at edges on a bed given at the nodes (docs/model.md eq. (85)), by name: the
+# kernel's ``ebound``
+ENERGY_BOUNDS = {"off": 0, "g2": 1, "graded": 2, "edge": 3, "velocity": 4}
 # depth-ratio blending (eq. (80)), ANUGA DE1's thresholds: the gradients are scaled by
 # (r - DEPTH_RATIO_FIRST) / (DEPTH_RATIO_FULL - DEPTH_RATIO_FIRST) clipped to [0, 1], r the
 # smaller of h_min / h_i and h_i / h_max over the face and its neighbours
@@ -148,7 +152,8 @@ def first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdr
 
 @kernel
 def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset,
-                      rows, est, open_edge, face_edges, slot, bkind, bvalue, zedge, edge_bed):
+                      rows, est, open_edge, face_edges, slot, bkind, bvalue, zedge, edge_bed,
+                      ebound, gravity, mark):
     """The reconstructed states of ``faces`` at their edges, from limited gradients.
 
     Fills row ``rows[f, k]`` of ``est`` (2 n_edges, ``NSTATE``) for face f's k-th edge e
@@ -164,10 +169,25 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
     ``zedge`` (n_edges,): the bed at each edge midpoint, used where ``edge_bed`` is true (a bed
     given at the nodes: h_e = eta_e - zedge, eq. (84)); otherwise the bed eta_e - h_e implied
     by the limited level and depth.
+    ``ebound`` (``ENERGY_BOUNDS``; applied only where ``edge_bed``): 0 none; otherwise an edge
+    whose speed |u_e| exceeds the largest speed of the face and its neighbours, or whose head
+    eta_e + |u_e|^2 / (2 g) exceeds their largest total head h + z + |u|^2 / (2 g)
+    (docs/model.md eq. (85)), makes the face fall back: 1 (``g2``) to first-order depth and
+    discharges (the level's gradient kept); 2 (``graded``) first to the depth and discharge
+    gradients halved, then quartered, then to first order; 3 (``edge``) only that edge takes
+    the face's own velocity (q_e = h_e u_i), the face falling back as in 1 if the edge still
+    breaks the bound; 4 (``velocity``) likewise with the face's limited velocity
+    reconstruction instead (u_e = u_i + grad u . (x_e - x_i), Barth-Jespersen within the
+    neighbourhood's velocities; q_e = h_e u_e).
+    ``mark[f]`` (int8) records what face f got: 0 second order, 1 first order (dry, at a
+    front, depth ratio), 2 the velocity check's fall-back, 3 the energy bound's full
+    fall-back, 4 the energy bound's partial fall-back (``graded``, ``edge``).
     One pass over the neighbours gathers the four least-squares sums, their ranges and the
     velocities' range; one pass over the edges limits the four gradients; one more computes
     the edge states (and checks the edge velocities).
     """
+    eb = ebound if edge_bed else 0
+    inv2g = 0.5 / gravity
     for i in nb.prange(faces.shape[0]):
         f = faces[i]
         hi = h[f]
@@ -175,6 +195,7 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         c2 = hu[f]
         c3 = hv[f]
         n = face_n[f]
+        mark[f] = 1
         if hi <= hdry or (minv[f, 0] == 0.0 and minv[f, 2] == 0.0):
             first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry)
             continue
@@ -184,6 +205,7 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
             if j >= 0 and h[j] <= hdry:
                 front = True
         if front:
+            mark[f] = 1
             first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry)
             continue
         c0 = hi + zi
@@ -194,6 +216,13 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         mn3 = mx3 = c3
         umin = umax = c2 / hi
         vmin = vmax = c3 / hi
+        # the energy bound's references (eq. (85)): largest speed squared and total head over
+        # the face and its neighbours
+        s2max = umin * umin + vmin * vmin
+        hmax = c0 + s2max * inv2g
+        rx4 = ry4 = rx5 = ry5 = 0.0  # velocity least-squares sums (ebound 4)
+        ui0 = umin
+        vi0 = vmin
         for k in range(n):
             j = neighbours[f, k]
             if j < 0:
@@ -230,6 +259,17 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
             umax = max(umax, uj)
             vmin = min(vmin, vj)
             vmax = max(vmax, vj)
+            if eb:
+                s2 = uj * uj + vj * vj
+                s2max = max(s2max, s2)
+                hmax = max(hmax, q0 + s2 * inv2g)
+                if eb == 4:
+                    d = uj - ui0
+                    rx4 += ox * d
+                    ry4 += oy * d
+                    d = vj - vi0
+                    rx5 += ox * d
+                    ry5 += oy * d
         a = minv[f, 0]
         b = minv[f, 1]
         c = minv[f, 2]
@@ -305,6 +345,7 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
             beta = min(DEPTH_RATIO_SLOPE * (mn1 / hi - DEPTH_RATIO_FIRST),
                        DEPTH_RATIO_SLOPE * (hi / mx1 - DEPTH_RATIO_FIRST), 1.0)
         if beta <= 0.0:
+            mark[f] = 1
             first_order_states(est, rows, f, n, hi, zi, c2, c3, 0.0, 0.0, edge_offset, hdry)
             continue
         p0 = max(p0, 0.0) * beta
@@ -319,6 +360,26 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         gy2 *= p2
         gx3 *= p3
         gy3 *= p3
+        # ebound 4: the velocity's own limited gradient (Barth-Jespersen on u, v within the
+        # neighbourhood's range, not widened), for the faces the energy bound catches
+        gx4 = gy4 = gx5 = gy5 = 0.0
+        if eb == 4:
+            gx4 = a * rx4 + b * ry4
+            gy4 = b * rx4 + c * ry4
+            gx5 = a * rx5 + b * ry5
+            gy5 = b * rx5 + c * ry5
+            p4 = p5 = 1.0
+            for k in range(n):
+                ex = edge_offset[f, k, 0]
+                ey = edge_offset[f, k, 1]
+                p4 = _bj(p4, gx4, gy4, ex, ey, ui0, umin, umax, 0.0)
+                p5 = _bj(p5, gx5, gy5, ex, ey, vi0, vmin, vmax, 0.0)
+            p4 = max(p4, 0.0) * beta
+            p5 = max(p5, 0.0) * beta
+            gx4 *= p4
+            gy4 *= p4
+            gx5 *= p5
+            gy5 *= p5
         # the edge velocity hu_e / h_e must stay within the neighbourhood's velocities: in thin
         # water a small h_e would make it arbitrarily large (and the time step tiny); smooth
         # extrema overshoot by O(dx^2): allow one neighbourhood range beyond the range
@@ -329,28 +390,72 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         umax += du
         vmin -= dv
         vmax += dv
-        ok = True
-        for k in range(n):
-            ex = edge_offset[f, k, 0]
-            ey = edge_offset[f, k, 1]
-            if edge_bed:
-                # the continuous bed's own value at the edge (Kurganov & Petrova 2007), the
-                # same from both sides; depth = limited level minus it
-                ze = zedge[face_edges[f, k]]
-                if beta < 1.0:
-                    ze = zi + beta * (ze - zi)
-                he = (c0 + g0 * ex + g1 * ey) - ze
-            else:
-                he = hi + gx1 * ex + gy1 * ey
-                ze = (c0 + g0 * ex + g1 * ey) - he
-            if he <= hdry:
-                ok = False
+        mark[f] = 0
+        ui = c2 / hi
+        vi = c3 / hi
+        theta = 1.0
+        while True:
+            ok = True
+            hit = False  # the energy bound broken (not the velocity check)
+            part = False
+            for k in range(n):
+                ex = edge_offset[f, k, 0]
+                ey = edge_offset[f, k, 1]
+                etae = c0 + g0 * ex + g1 * ey
+                if edge_bed:
+                    # the continuous bed's own value at the edge (Kurganov & Petrova 2007), the
+                    # same from both sides; depth = limited level minus it
+                    ze = zedge[face_edges[f, k]]
+                    if beta < 1.0:
+                        ze = zi + beta * (ze - zi)
+                    he = etae - ze
+                    if theta < 1.0:  # graded fall-back: towards the face's own depth
+                        he = theta * he + (1.0 - theta) * hi
+                        ze = etae - he
+                else:
+                    he = hi + gx1 * ex + gy1 * ey
+                    ze = etae - he
+                if he <= hdry:
+                    ok = False
+                    break
+                if theta == 1.0:
+                    ue = (c2 + gx2 * ex + gy2 * ey) / he
+                    ve = (c3 + gx3 * ex + gy3 * ey) / he
+                else:
+                    ue = (c2 + theta * (gx2 * ex + gy2 * ey)) / he
+                    ve = (c3 + theta * (gx3 * ex + gy3 * ey)) / he
+                if ue < umin or ue > umax or ve < vmin or ve > vmax:
+                    ok = False
+                    break
+                if eb:
+                    s2 = ue * ue + ve * ve
+                    if s2 > s2max or etae + s2 * inv2g > hmax:
+                        if eb >= 3:  # this edge only: the face's own velocity (3) or its
+                            # limited velocity reconstruction (4)
+                            ue = ui
+                            ve = vi
+                            if eb == 4:
+                                ue = ui + gx4 * ex + gy4 * ey
+                                ve = vi + gx5 * ex + gy5 * ey
+                            s2 = ue * ue + ve * ve
+                            part = True
+                            if s2 > s2max or etae + s2 * inv2g > hmax:
+                                ok = False
+                                hit = True
+                                break
+                        else:
+                            ok = False
+                            hit = True
+                            break
+                _slot(est, rows[f, k], he, ue, ve, ze)
+            if ok:
+                if part or theta < 1.0:
+                    mark[f] = 4
                 break
-            ue = (c2 + gx2 * ex + gy2 * ey) / he
-            ve = (c3 + gx3 * ex + gy3 * ey) / he
-            if ue < umin or ue > umax or ve < vmin or ve > vmax:
-                ok = False
-                break
-            _slot(est, rows[f, k], he, ue, ve, ze)
-        if not ok:  # depth and discharges at first order here, the level's gradient kept
+            if eb == 2 and hit and theta > 0.3:
+                theta *= 0.5
+                continue
+            # depth and discharges at first order here, the level's gradient kept
+            mark[f] = 3 if hit else 2
             first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdry)
+            break
