@@ -426,8 +426,9 @@ def test_energy_bound_is_checked():
 
 
 def test_energy_bound_scenario_key():
-    """``[solver] energy_bound`` reaches the solver; at its default the section's hash is the
-    one from before the key (stored flows stay current); at order 1 it is refused."""
+    """``[solver] energy_bound`` and ``energy_widen`` reach the solver; at their defaults the
+    section's hash is the one from before the keys (stored flows stay current); a bound at
+    order 1 is refused."""
     from pathlib import Path
 
     from driftlog.schema import check_table
@@ -440,12 +441,14 @@ def test_energy_bound_scenario_key():
 
     raw = {"channel": [0.0, 0.0, 2.0, 0.5], "cell_size": 0.25, "end": 1.0, "order": 2}
     t = check_table(SOLVER_SECTION, raw, "solver", Path("."))
-    assert t["energy_bound"] == "off"
-    before = {k: v for k, v in t.items() if k != "energy_bound"}
+    assert t["energy_bound"] == "off" and t["energy_widen"] == 0.0
+    before = {k: v for k, v in t.items() if k not in ("energy_bound", "energy_widen")}
     assert solver_hash(t) == solver_hash(before)
-    g2 = check_table(SOLVER_SECTION, dict(raw, energy_bound="g2"), "solver", Path("."))
+    g2 = check_table(SOLVER_SECTION, dict(raw, energy_bound="g2", energy_widen=0.5), "solver",
+                     Path("."))
     assert solver_hash(g2) != solver_hash(t)
-    assert build_solver(g2).energy_bound == "g2"
+    s = build_solver(g2)
+    assert (s.energy_bound, s.energy_widen) == ("g2", 0.5)
     with pytest.raises(ScenarioError, match="solver.energy_bound"):
         check_table(SOLVER_SECTION, dict(raw, energy_bound="on"), "solver", Path("."))
     o1 = check_table(SOLVER_SECTION, dict(raw, order=1, energy_bound="g2"), "solver", Path("."))

@@ -164,8 +164,9 @@ def solver_hash(section) -> str:
     if section["engine"] == "driftlog":  # keys of OpenFOAM runs only
         section = {k: v for k, v in section.items()
                    if k not in ("engine", "n_procs", "openfoam_friction")}
-    if section.get("energy_bound", "off") == "off":  # the default: the hashes from before it
-        section = {k: v for k, v in section.items() if k != "energy_bound"}
+    for k, v in (("energy_bound", "off"), ("energy_widen", 0.0)):
+        if section.get(k, v) == v:  # the default: the hashes from before the key
+            section = {j: w for j, w in section.items() if j != k}
     text = json.dumps(section, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -221,7 +222,8 @@ def build_solver(sec, mesh=None):
                            manning=sec["manning"], strickler=sec["strickler"],
                            dry_depth=sec["dry_depth"], boundaries=boundaries,
                            arrival_depth=sec["arrival_depth"],
-                           energy_bound=sec.get("energy_bound", "off"))
+                           energy_bound=sec.get("energy_bound", "off"),
+                           energy_widen=sec.get("energy_widen", 0.0))
     ini = sec["initial"] or {}
     kind = ini.get("type", "dry")
     vel = ini.get("velocity", [0.0, 0.0])
@@ -332,7 +334,15 @@ SOLVER_SECTION = Section("solver", [
         "eq. (85)), falling back towards first order where exceeded: g2 (the face's depth and "
         "discharges), graded (their gradients halved, quartered, then dropped), edge (the "
         "face's velocity at that edge), velocity (the face's limited velocity reconstruction "
-        "at that edge)", choices=("off", "g2", "graded", "edge", "velocity")),
+        "at that edge), rising (g2 checked only where the node bed makes the edge shallower "
+        "than the limited depth), hr (no bound: where the node bed makes the edge shallower "
+        "than the limited depth, the velocity of the limited depth and discharge), hr_g2 (hr, "
+        "then g2), velocity_edge (velocity, then the face's own velocity at that edge: no "
+        "fall-back)",
+        choices=("off", "g2", "graded", "edge", "velocity", "rising", "hr", "hr_g2",
+                 "velocity_edge")),
+    Key("energy_widen", "float", 0.0, "energy_bound's speed and head bounds widened by this "
+        "fraction of the neighbourhood's speed and head ranges", min=0.0),
     Key("cfl", "float", None, "fraction of the positivity-preserving time step (default 0.9 "
         "at order 1, 0.8 at order 2)", min=0.0, max=1.0, exclusive_min=True),
     Key("dry_depth", "float", 1e-6, "depth below which a face has no velocity", "m", min=0.0,

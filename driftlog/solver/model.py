@@ -100,19 +100,27 @@ class ShallowWaterSolver:
     active_set : bool
         Run the flux kernels over the wet faces and their neighbours only (default True; the
         same results bit for bit, dry regions cost almost nothing).
-    energy_bound : {"off", "g2", "graded", "edge", "velocity"}
+    energy_bound : {"off", "g2", "graded", "edge", "velocity", "rising", "hr", "hr_g2",
+                    "velocity_edge"}
         Second order on a bed given at the nodes: bound each edge's speed and total head by the
         largest of the face and its neighbours (docs/model.md eq. (85)), falling back towards
         first order where they are exceeded: "g2" the face's depth and discharges at first
         order, "graded" their gradients halved, quartered, then dropped, "edge" the face's own
-        velocity at that edge, "velocity" its limited velocity reconstruction at that edge.
+        velocity at that edge, "velocity" its limited velocity reconstruction at that edge,
+        "rising" as "g2" but only at edges where the node bed is above the implied one, "hr" no
+        bound but the velocity of the limited depth and discharge where the node bed makes
+        the edge shallower than the limited depth, "hr_g2" "hr" then "g2", "velocity_edge"
+        "velocity" then the face's own velocity at that edge (no fall-back).
         Default "off" (BENCHMARKS.md, Malpasset: the energy order 2 makes).
+    energy_widen : float
+        The bounds of ``energy_bound`` widened by this fraction of the neighbourhood's speed
+        and head ranges (default 0: none).
     """
 
     def __init__(self, mesh, bed=None, order=1, riemann="hllc", cfl=None, manning=None,
                  strickler=None, dry_depth=1e-6, boundaries=None, arrival_depth=ARRIVAL_DEPTH,
                  gravity=GRAVITY, parallel=None, thin_depth=0.0, renumber=None,
-                 active_set=True, thin_fraction=None, energy_bound="off"):
+                 active_set=True, thin_fraction=None, energy_bound="off", energy_widen=0.0):
         if order not in (1, 2):
             raise ScenarioError("solver.order", order, "must be 1 or 2")
         if riemann not in RIEMANN:
@@ -141,6 +149,10 @@ class ShallowWaterSolver:
         if order == 1 and energy_bound != "off":
             raise ScenarioError("solver.energy_bound", energy_bound, "applies at order 2 only")
         self.energy_bound = energy_bound
+        energy_widen = float(energy_widen)
+        if not (np.isfinite(energy_widen) and energy_widen >= 0):
+            raise ScenarioError("solver.energy_widen", energy_widen, "must be a fraction >= 0")
+        self.energy_widen = energy_widen
         if not dry_depth > 0:
             raise ScenarioError("solver.dry_depth", dry_depth, "must be > 0 m")
         self.mesh = mesh
@@ -262,7 +274,8 @@ class ShallowWaterSolver:
                                      np.zeros(nf), self._z, self.dry_depth, self._fn, self._gnbr,
                                      *self._lsq, self._rows, self._est, self._open_edge,
                                      self._fe, bs.slot, bs.kind, bs.value, self._zedge,
-                                     self._edge_bed, self._ebound, self.gravity, self._fallback)
+                                     self._edge_bed, self._ebound, self.energy_widen, self.gravity,
+                                     self._fallback)
             self._eoff = self._lsq[2]
         else:
             self._est = np.zeros((0, NSTATE))  # no edge states at first order
@@ -416,7 +429,8 @@ class ShallowWaterSolver:
             offset, minv, eoff = m._lsq
             m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._gnbr, offset, minv, eoff,
                       m._rows, m._est, m._open_edge, m._fe, bs.slot, bs.kind, bs.value,
-                      m._zedge, m._edge_bed, m._ebound, m.gravity, m._fallback)
+                      m._zedge, m._edge_bed, m._ebound, m.energy_widen, m.gravity,
+                      m._fallback)
         fm, fx0, fy0, fx1, fy1, sp, sp1 = m._flux
         if m.order == 1:
             m._k_edges(edges, m._ef, m._nx, m._ny, m._len, h, hu, hv, m._z, RIEMANN[m.riemann],

@@ -49,7 +49,8 @@ EDGE_STATE = ("h", "u", "v", "z")
 NSTATE = len(EDGE_STATE)
 # the energy bound at edges on a bed given at the nodes (docs/model.md eq. (85)), by name: the
 # kernel's ``ebound``
-ENERGY_BOUNDS = {"off": 0, "g2": 1, "graded": 2, "edge": 3, "velocity": 4}
+ENERGY_BOUNDS = {"off": 0, "g2": 1, "graded": 2, "edge": 3, "velocity": 4, "rising": 5,
+                 "hr": 7, "hr_g2": 8, "velocity_edge": 9}
 # depth-ratio blending (eq. (80)), ANUGA DE1's thresholds: the gradients are scaled by
 # (r - DEPTH_RATIO_FIRST) / (DEPTH_RATIO_FULL - DEPTH_RATIO_FIRST) clipped to [0, 1], r the
 # smaller of h_min / h_i and h_i / h_max over the face and its neighbours
@@ -153,7 +154,7 @@ def first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdr
 @kernel
 def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, minv, edge_offset,
                       rows, est, open_edge, face_edges, slot, bkind, bvalue, zedge, edge_bed,
-                      ebound, gravity, mark):
+                      ebound, ewiden, gravity, mark):
     """The reconstructed states of ``faces`` at their edges, from limited gradients.
 
     Fills row ``rows[f, k]`` of ``est`` (2 n_edges, ``NSTATE``) for face f's k-th edge e
@@ -178,7 +179,15 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
     the face's own velocity (q_e = h_e u_i), the face falling back as in 1 if the edge still
     breaks the bound; 4 (``velocity``) likewise with the face's limited velocity
     reconstruction instead (u_e = u_i + grad u . (x_e - x_i), Barth-Jespersen within the
-    neighbourhood's velocities; q_e = h_e u_e).
+    neighbourhood's velocities; q_e = h_e u_e); 5 (``rising``) as 1, the bound checked only
+    at edges where the node bed makes the depth smaller than the limited depth would
+    (h_e < h_i + grad h . (x_e - x_i)); 7 (``hr``) no bound, but
+    where the node bed makes the edge shallower than the limited depth h_l = h_i + grad h .
+    (x_e - x_i), the edge velocity is q_e / h_l (the hydrostatic reconstruction's: velocity
+    kept, depth cut by the bed); 8 (``hr_g2``) 7 and then 1's bound; 9 (``velocity_edge``)
+    as 4, but an edge still breaking the bound takes the face's own velocity (no fall-back).
+    ``ewiden`` >= 0: both bounds of (85) widened by that fraction of the neighbourhood's
+    speed range (max_j |u_j| - min_j |u_j|) and head range (0: none).
     ``mark[f]`` (int8) records what face f got: 0 second order, 1 first order (dry, at a
     front, depth ratio), 2 the velocity check's fall-back, 3 the energy bound's full
     fall-back, 4 the energy bound's partial fall-back (``graded``, ``edge``).
@@ -220,6 +229,8 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         # the face and its neighbours
         s2max = umin * umin + vmin * vmin
         hmax = c0 + s2max * inv2g
+        s2min = s2max
+        hmin = hmax
         rx4 = ry4 = rx5 = ry5 = 0.0  # velocity least-squares sums (ebound 4)
         ui0 = umin
         vi0 = vmin
@@ -263,7 +274,9 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
                 s2 = uj * uj + vj * vj
                 s2max = max(s2max, s2)
                 hmax = max(hmax, q0 + s2 * inv2g)
-                if eb == 4:
+                s2min = min(s2min, s2)
+                hmin = min(hmin, q0 + s2 * inv2g)
+                if eb == 4 or eb == 9:
                     d = uj - ui0
                     rx4 += ox * d
                     ry4 += oy * d
@@ -363,7 +376,7 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         # ebound 4: the velocity's own limited gradient (Barth-Jespersen on u, v within the
         # neighbourhood's range, not widened), for the faces the energy bound catches
         gx4 = gy4 = gx5 = gy5 = 0.0
-        if eb == 4:
+        if eb == 4 or eb == 9:
             gx4 = a * rx4 + b * ry4
             gy4 = b * rx4 + c * ry4
             gx5 = a * rx5 + b * ry5
@@ -390,6 +403,11 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         umax += du
         vmin -= dv
         vmax += dv
+        if eb and ewiden > 0.0:  # (85) widened by a fraction of the ranges
+            smax = np.sqrt(s2max)
+            smax += ewiden * (smax - np.sqrt(s2min))
+            s2max = smax * smax
+            hmax += ewiden * (hmax - hmin)
         mark[f] = 0
         ui = c2 / hi
         vi = c3 / hi
@@ -424,25 +442,43 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
                 else:
                     ue = (c2 + theta * (gx2 * ex + gy2 * ey)) / he
                     ve = (c3 + theta * (gx3 * ex + gy3 * ey)) / he
+                if eb >= 7 and theta == 1.0:
+                    # ebound 7, 8: where the node bed makes the edge shallower than the limited
+                    # depth h_l, the velocity is that of the limited depth and discharge
+                    # (q_e / h_l, as the hydrostatic reconstruction keeps the velocity and
+                    # cuts the depth; Audusse et al. 2004), the mass flux h_e q_e / h_l
+                    hl = hi + gx1 * ex + gy1 * ey
+                    if he < hl:
+                        ue = (c2 + gx2 * ex + gy2 * ey) / hl
+                        ve = (c3 + gx3 * ex + gy3 * ey) / hl
+                        part = True
                 if ue < umin or ue > umax or ve < vmin or ve > vmax:
                     ok = False
                     break
-                if eb:
+                # ebound 5: only where the node bed makes the edge shallower than the limited
+                # depth would (h_e < h_i + grad h . (x_e - x_i): the bed rises there above
+                # the bed the limited depth implies)
+                if eb and eb != 7 and (eb != 5 or he < hi + gx1 * ex + gy1 * ey):
                     s2 = ue * ue + ve * ve
                     if s2 > s2max or etae + s2 * inv2g > hmax:
-                        if eb >= 3:  # this edge only: the face's own velocity (3) or its
-                            # limited velocity reconstruction (4)
+                        if eb == 3 or eb == 4 or eb == 9:
+                            # this edge only: the face's own velocity (3) or its limited
+                            # velocity reconstruction (4, 9)
                             ue = ui
                             ve = vi
-                            if eb == 4:
+                            if eb != 3:
                                 ue = ui + gx4 * ex + gy4 * ey
                                 ve = vi + gx5 * ex + gy5 * ey
                             s2 = ue * ue + ve * ve
                             part = True
                             if s2 > s2max or etae + s2 * inv2g > hmax:
-                                ok = False
-                                hit = True
-                                break
+                                if eb == 9:  # then the face's own velocity, kept
+                                    ue = ui
+                                    ve = vi
+                                else:
+                                    ok = False
+                                    hit = True
+                                    break
                         else:
                             ok = False
                             hit = True
