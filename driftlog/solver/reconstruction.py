@@ -190,7 +190,9 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
     speed range (max_j |u_j| - min_j |u_j|) and head range (0: none).
     ``mark[f]`` (int8) records what face f got: 0 second order, 1 first order (dry, at a
     front, depth ratio), 2 the velocity check's fall-back, 3 the energy bound's full
-    fall-back, 4 the energy bound's partial fall-back (``graded``, ``edge``).
+    fall-back, 4 an edge changed without a full fall-back (``graded``, ``edge``,
+    ``velocity``, ``velocity_edge``; ``hr``, ``hr_g2``: an edge given the limited depth's
+    velocity).
     One pass over the neighbours gathers the four least-squares sums, their ranges and the
     velocities' range; one pass over the edges limits the four gradients; one more computes
     the edge states (and checks the edge velocities).
@@ -231,7 +233,7 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         hmax = c0 + s2max * inv2g
         s2min = s2max
         hmin = hmax
-        rx4 = ry4 = rx5 = ry5 = 0.0  # velocity least-squares sums (ebound 4)
+        rx4 = ry4 = rx5 = ry5 = 0.0  # velocity least-squares sums (ebound 4, 9)
         ui0 = umin
         vi0 = vmin
         for k in range(n):
@@ -373,7 +375,7 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         gy2 *= p2
         gx3 *= p3
         gy3 *= p3
-        # ebound 4: the velocity's own limited gradient (Barth-Jespersen on u, v within the
+        # ebound 4, 9: the velocity's own limited gradient (Barth-Jespersen on u, v within the
         # neighbourhood's range, not widened), for the faces the energy bound catches
         gx4 = gy4 = gx5 = gy5 = 0.0
         if eb == 4 or eb == 9:
