@@ -167,9 +167,9 @@ def report(runs):
              f"{WET:g} m, after each step's corrector) whose reconstruction fell back for the "
              "energy bound in full (first-order depth and discharges), for the velocity check, "
              "or kept second order (no edge touched: 'second order'); partial: faces with an "
-             "edge changed but no full fall-back (graded: gradients scaled; velocity, edge: an "
-             "edge's velocity replaced; hr, hr_g2: an edge given the limited depth's "
-             "velocity, no fall-back); front: faces the flood reached in the last "
+             "edge changed but no full fall-back (velocity: an edge's velocity replaced; hr: an "
+             "edge given the limited depth's velocity, no fall-back); front: faces the flood "
+             "reached in the last "
              f"{FRONT_AGE:g} s (the 10-s interval ending at each step of the front tables).",
              "",
              "| run | end (s) | steps | CPU s | head (m) | when (s) | after 30 s (m) | "
@@ -268,7 +268,7 @@ def report(runs):
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--order", type=int, default=2, choices=(1, 2))
-    p.add_argument("--bound", default="off", help="energy_bound (off, g2, graded, edge)")
+    p.add_argument("--bound", default="off", help="energy_bound (off, g2, rising, velocity, hr)")
     p.add_argument("--end", type=float, default=4000.0)
     p.add_argument("--widen", type=float, default=0.0, help="energy_widen")
     p.add_argument("--every", type=float, default=10.0, help="record interval (s)")

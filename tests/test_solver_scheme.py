@@ -407,14 +407,20 @@ def test_second_order_energy_bound_down_a_steep_valley():
     where the node bed rises within a face (here the reservoir's 5 m and the valley's fall
     give heads of 1.5 m at order 1 once the front has left, 4.4 m at order 2).  With
     ``energy_bound = "g2"`` a face whose edge speed or head exceeds the largest of its
-    neighbourhood falls back to first-order depth and discharges: 1.85 m."""
+    neighbourhood falls back to first-order depth and discharges: 1.85 m ("rising", checked
+    only where the node bed cuts the depth: 1.84 m; "velocity": 1.87 m)."""
     h1, _ = _steep_valley_head(1, "off")
     h2, m2 = _steep_valley_head(2, "off")
-    hb, mb = _steep_valley_head(2, "g2")
     assert h2 > h1 + 2.0  # the defect: order 2 makes energy
     assert m2 <= 2  # without the bound nothing is marked as its fall-back
-    assert mb == 3  # the bound acted
-    assert hb < h1 + 0.6, (h1, h2, hb)
+    for bound, mark in (("g2", 3), ("rising", 3), ("velocity", 4)):
+        hb, mb = _steep_valley_head(2, bound)
+        assert mb == mark, bound  # the bound acted (velocity: an edge's velocity replaced)
+        assert hb < h1 + 0.6, (bound, h1, h2, hb)  # 1.84-1.87 m
+    # "hr" (no bound, the limited depth's velocity where the node bed cuts the depth) removes
+    # only part of the energy: 3.0 m
+    hh, mh = _steep_valley_head(2, "hr")
+    assert mh == 4 and h1 + 1.0 < hh < h2 - 1.0, (h1, h2, hh)
 
 
 def test_energy_bound_is_checked():

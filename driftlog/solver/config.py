@@ -331,16 +331,13 @@ SOLVER_SECTION = Section("solver", [
     Key("riemann", "str", "hllc", "Riemann solver", choices=("hllc", "hll")),
     Key("energy_bound", "str", "off", "order 2 on a bed given at the nodes: bound each edge's "
         "speed and total head by the largest of the face and its neighbours (docs/model.md "
-        "eq. (85)), falling back towards first order where exceeded: g2 (the face's depth and "
-        "discharges), graded (their gradients halved, quartered, then dropped), edge (the "
-        "face's velocity at that edge), velocity (the face's limited velocity reconstruction "
-        "at that edge), rising (g2 checked only where the node bed makes the edge shallower "
-        "than the limited depth), hr (no bound: where the node bed makes the edge shallower "
-        "than the limited depth, the velocity of the limited depth and discharge), hr_g2 (hr, "
-        "then g2), velocity_edge (velocity, then the face's own velocity at that edge: no "
-        "fall-back)",
-        choices=("off", "g2", "graded", "edge", "velocity", "rising", "hr", "hr_g2",
-                 "velocity_edge")),
+        "eq. (85)), falling back to first-order depth and discharges where exceeded: g2 (at "
+        "every edge), rising (only where the node bed makes the edge shallower than the "
+        "limited depth), velocity (the edge first takes the face's limited velocity "
+        "reconstruction), hr (no bound: where the node bed makes the edge shallower than the "
+        "limited depth, the velocity of the limited depth and discharge).  Experimental: it "
+        "costs accuracy on smooth flows (BENCHMARKS.md)",
+        choices=("off", "g2", "rising", "velocity", "hr")),
     Key("energy_widen", "float", 0.0, "energy_bound's speed and head bounds widened by this "
         "fraction of the neighbourhood's speed and head ranges", min=0.0),
     Key("cfl", "float", None, "fraction of the positivity-preserving time step (default 0.9 "

@@ -100,18 +100,15 @@ class ShallowWaterSolver:
     active_set : bool
         Run the flux kernels over the wet faces and their neighbours only (default True; the
         same results bit for bit, dry regions cost almost nothing).
-    energy_bound : {"off", "g2", "graded", "edge", "velocity", "rising", "hr", "hr_g2",
-                    "velocity_edge"}
+    energy_bound : {"off", "g2", "rising", "velocity", "hr"}
         Second order on a bed given at the nodes: bound each edge's speed and total head by the
-        largest of the face and its neighbours (docs/model.md eq. (85)), falling back towards
-        first order where they are exceeded: "g2" the face's depth and discharges at first
-        order, "graded" their gradients halved, quartered, then dropped, "edge" the face's own
-        velocity at that edge, "velocity" its limited velocity reconstruction at that edge,
-        "rising" as "g2" but only at edges where the node bed is above the implied one, "hr" no
+        largest of the face and its neighbours (docs/model.md eq. (85)), falling back to
+        first-order depth and discharges where they are exceeded: "g2" at every edge, "rising"
+        only at edges where the node bed makes the depth smaller than the limited depth,
+        "velocity" an edge first taking the face's limited velocity reconstruction; "hr" no
         bound but the velocity of the limited depth and discharge where the node bed makes
-        the edge shallower than the limited depth, "hr_g2" "hr" then "g2", "velocity_edge"
-        "velocity" then the face's own velocity at that edge (no fall-back).
-        Default "off" (BENCHMARKS.md, Malpasset: the energy order 2 makes).
+        the edge shallower than the limited depth.  Default "off" (BENCHMARKS.md, Malpasset:
+        the energy order 2 makes; the bound costs order on smooth flows).
     energy_widen : float
         The bounds of ``energy_bound`` widened by this fraction of the neighbourhood's speed
         and head ranges (default 0: none).

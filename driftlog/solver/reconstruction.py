@@ -49,8 +49,7 @@ EDGE_STATE = ("h", "u", "v", "z")
 NSTATE = len(EDGE_STATE)
 # the energy bound at edges on a bed given at the nodes (docs/model.md eq. (85)), by name: the
 # kernel's ``ebound``
-ENERGY_BOUNDS = {"off": 0, "g2": 1, "graded": 2, "edge": 3, "velocity": 4, "rising": 5,
-                 "hr": 7, "hr_g2": 8, "velocity_edge": 9}
+ENERGY_BOUNDS = {"off": 0, "g2": 1, "velocity": 4, "rising": 5, "hr": 7}
 # depth-ratio blending (eq. (80)), ANUGA DE1's thresholds: the gradients are scaled by
 # (r - DEPTH_RATIO_FIRST) / (DEPTH_RATIO_FULL - DEPTH_RATIO_FIRST) clipped to [0, 1], r the
 # smaller of h_min / h_i and h_i / h_max over the face and its neighbours
@@ -174,25 +173,18 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
     whose speed |u_e| exceeds the largest speed of the face and its neighbours, or whose head
     eta_e + |u_e|^2 / (2 g) exceeds their largest total head h + z + |u|^2 / (2 g)
     (docs/model.md eq. (85)), makes the face fall back: 1 (``g2``) to first-order depth and
-    discharges (the level's gradient kept); 2 (``graded``) first to the depth and discharge
-    gradients halved, then quartered, then to first order; 3 (``edge``) only that edge takes
-    the face's own velocity (q_e = h_e u_i), the face falling back as in 1 if the edge still
-    breaks the bound; 4 (``velocity``) likewise with the face's limited velocity
-    reconstruction instead (u_e = u_i + grad u . (x_e - x_i), Barth-Jespersen within the
-    neighbourhood's velocities; q_e = h_e u_e); 5 (``rising``) as 1, the bound checked only
-    at edges where the node bed makes the depth smaller than the limited depth would
-    (h_e < h_i + grad h . (x_e - x_i)); 7 (``hr``) no bound, but
-    where the node bed makes the edge shallower than the limited depth h_l = h_i + grad h .
-    (x_e - x_i), the edge velocity is q_e / h_l (the hydrostatic reconstruction's: velocity
-    kept, depth cut by the bed); 8 (``hr_g2``) 7 and then 1's bound; 9 (``velocity_edge``)
-    as 4, but an edge still breaking the bound takes the face's own velocity (no fall-back).
+    discharges (the level's gradient kept); 4 (``velocity``) that edge first takes the face's
+    limited velocity reconstruction (u_e = u_i + grad u . (x_e - x_i), Barth-Jespersen within
+    the neighbourhood's velocities; q_e = h_e u_e), the face falling back as in 1 if the edge
+    still breaks the bound; 5 (``rising``) as 1, the bound checked only at edges where the
+    node bed makes the depth smaller than the limited depth h_l = h_i + grad h . (x_e - x_i);
+    7 (``hr``) no bound, but where h_e < h_l the edge velocity is q_e / h_l (the hydrostatic
+    reconstruction's: velocity kept, depth cut by the bed).
     ``ewiden`` >= 0: both bounds of (85) widened by that fraction of the neighbourhood's
     speed range (max_j |u_j| - min_j |u_j|) and head range (0: none).
     ``mark[f]`` (int8) records what face f got: 0 second order, 1 first order (dry, at a
     front, depth ratio), 2 the velocity check's fall-back, 3 the energy bound's full
-    fall-back, 4 an edge changed without a full fall-back (``graded``, ``edge``,
-    ``velocity``, ``velocity_edge``; ``hr``, ``hr_g2``: an edge given the limited depth's
-    velocity).
+    fall-back, 4 an edge changed without a full fall-back (``velocity``, ``hr``).
     One pass over the neighbours gathers the four least-squares sums, their ranges and the
     velocities' range; one pass over the edges limits the four gradients; one more computes
     the edge states (and checks the edge velocities).
@@ -233,7 +225,7 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         hmax = c0 + s2max * inv2g
         s2min = s2max
         hmin = hmax
-        rx4 = ry4 = rx5 = ry5 = 0.0  # velocity least-squares sums (ebound 4, 9)
+        rx4 = ry4 = rx5 = ry5 = 0.0  # velocity least-squares sums (ebound 4)
         ui0 = umin
         vi0 = vmin
         for k in range(n):
@@ -278,7 +270,7 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
                 hmax = max(hmax, q0 + s2 * inv2g)
                 s2min = min(s2min, s2)
                 hmin = min(hmin, q0 + s2 * inv2g)
-                if eb == 4 or eb == 9:
+                if eb == 4:
                     d = uj - ui0
                     rx4 += ox * d
                     ry4 += oy * d
@@ -375,10 +367,10 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         gy2 *= p2
         gx3 *= p3
         gy3 *= p3
-        # ebound 4, 9: the velocity's own limited gradient (Barth-Jespersen on u, v within the
+        # ebound 4: the velocity's own limited gradient (Barth-Jespersen on u, v within the
         # neighbourhood's range, not widened), for the faces the energy bound catches
         gx4 = gy4 = gx5 = gy5 = 0.0
-        if eb == 4 or eb == 9:
+        if eb == 4:
             gx4 = a * rx4 + b * ry4
             gy4 = b * rx4 + c * ry4
             gx5 = a * rx5 + b * ry5
@@ -413,87 +405,57 @@ def limited_gradients(faces, h, hu, hv, z, hdry, face_n, neighbours, offset, min
         mark[f] = 0
         ui = c2 / hi
         vi = c3 / hi
-        theta = 1.0
-        while True:
-            ok = True
-            hit = False  # the energy bound broken (not the velocity check)
-            part = False
-            for k in range(n):
-                ex = edge_offset[f, k, 0]
-                ey = edge_offset[f, k, 1]
-                etae = c0 + g0 * ex + g1 * ey
-                if edge_bed:
-                    # the continuous bed's own value at the edge (Kurganov & Petrova 2007), the
-                    # same from both sides; depth = limited level minus it
-                    ze = zedge[face_edges[f, k]]
-                    if beta < 1.0:
-                        ze = zi + beta * (ze - zi)
-                    he = etae - ze
-                    if theta < 1.0:  # graded fall-back: towards the face's own depth
-                        he = theta * he + (1.0 - theta) * hi
-                        ze = etae - he
-                else:
-                    he = hi + gx1 * ex + gy1 * ey
-                    ze = etae - he
-                if he <= hdry:
-                    ok = False
-                    break
-                if theta == 1.0:
-                    ue = (c2 + gx2 * ex + gy2 * ey) / he
-                    ve = (c3 + gx3 * ex + gy3 * ey) / he
-                else:
-                    ue = (c2 + theta * (gx2 * ex + gy2 * ey)) / he
-                    ve = (c3 + theta * (gx3 * ex + gy3 * ey)) / he
-                if eb >= 7 and theta == 1.0:
-                    # ebound 7, 8: where the node bed makes the edge shallower than the limited
-                    # depth h_l, the velocity is that of the limited depth and discharge
-                    # (q_e / h_l, as the hydrostatic reconstruction keeps the velocity and
-                    # cuts the depth; Audusse et al. 2004), the mass flux h_e q_e / h_l
-                    hl = hi + gx1 * ex + gy1 * ey
-                    if he < hl:
-                        ue = (c2 + gx2 * ex + gy2 * ey) / hl
-                        ve = (c3 + gx3 * ex + gy3 * ey) / hl
-                        part = True
-                if ue < umin or ue > umax or ve < vmin or ve > vmax:
-                    ok = False
-                    break
-                # ebound 5: only where the node bed makes the edge shallower than the limited
-                # depth would (h_e < h_i + grad h . (x_e - x_i): the bed rises there above
-                # the bed the limited depth implies)
-                if eb and eb != 7 and (eb != 5 or he < hi + gx1 * ex + gy1 * ey):
-                    s2 = ue * ue + ve * ve
-                    if s2 > s2max or etae + s2 * inv2g > hmax:
-                        if eb == 3 or eb == 4 or eb == 9:
-                            # this edge only: the face's own velocity (3) or its limited
-                            # velocity reconstruction (4, 9)
-                            ue = ui
-                            ve = vi
-                            if eb != 3:
-                                ue = ui + gx4 * ex + gy4 * ey
-                                ve = vi + gx5 * ex + gy5 * ey
-                            s2 = ue * ue + ve * ve
-                            part = True
-                            if s2 > s2max or etae + s2 * inv2g > hmax:
-                                if eb == 9:  # then the face's own velocity, kept
-                                    ue = ui
-                                    ve = vi
-                                else:
-                                    ok = False
-                                    hit = True
-                                    break
-                        else:
-                            ok = False
-                            hit = True
-                            break
-                _slot(est, rows[f, k], he, ue, ve, ze)
-            if ok:
-                if part or theta < 1.0:
-                    mark[f] = 4
+        ok = True
+        hit = False  # the energy bound broken (not the velocity check)
+        for k in range(n):
+            ex = edge_offset[f, k, 0]
+            ey = edge_offset[f, k, 1]
+            etae = c0 + g0 * ex + g1 * ey
+            hl = hi + gx1 * ex + gy1 * ey  # the limited depth
+            if edge_bed:
+                # the continuous bed's own value at the edge (Kurganov & Petrova 2007), the
+                # same from both sides; depth = limited level minus it
+                ze = zedge[face_edges[f, k]]
+                if beta < 1.0:
+                    ze = zi + beta * (ze - zi)
+                he = etae - ze
+            else:
+                he = hl
+                ze = etae - he
+            if he <= hdry:
+                ok = False
                 break
-            if eb == 2 and hit and theta > 0.3:
-                theta *= 0.5
-                continue
+            qe = c2 + gx2 * ex + gy2 * ey
+            re = c3 + gx3 * ex + gy3 * ey
+            ue = qe / he
+            ve = re / he
+            if eb == 7 and he < hl:
+                # where the node bed makes the edge shallower than the limited depth, the
+                # velocity of the limited depth and discharge (the hydrostatic reconstruction
+                # keeps the velocity and cuts the depth; Audusse et al. 2004)
+                ue = qe / hl
+                ve = re / hl
+                mark[f] = 4
+            if ue < umin or ue > umax or ve < vmin or ve > vmax:
+                ok = False
+                break
+            # (85); ebound 5 checks only where the node bed makes the edge shallower than the
+            # limited depth (the bed rises there above the one the limited depth implies)
+            if eb and eb != 7 and (eb != 5 or he < hl):
+                s2 = ue * ue + ve * ve
+                if s2 > s2max or etae + s2 * inv2g > hmax:
+                    hit = True
+                    if eb == 4:  # this edge only: the limited velocity reconstruction
+                        ue = ui + gx4 * ex + gy4 * ey
+                        ve = vi + gx5 * ex + gy5 * ey
+                        s2 = ue * ue + ve * ve
+                        hit = s2 > s2max or etae + s2 * inv2g > hmax
+                        mark[f] = 4
+                    if hit:
+                        ok = False
+                        break
+            _slot(est, rows[f, k], he, ue, ve, ze)
+        if not ok:
             # depth and discharges at first order here, the level's gradient kept
             mark[f] = 3 if hit else 2
             first_order_states(est, rows, f, n, hi, zi, c2, c3, g0, g1, edge_offset, hdry)
-            break
