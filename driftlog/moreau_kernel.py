@@ -246,7 +246,9 @@ def _manifold(Sl, ln, rd, pairs, caps, ocaps, margin):
             _ends_against(qa, qb, qc, qd, qr, ax, ay, bx, by, rd[a], True, tmp, 2)
             m1 = margin[a]
         for r in range(4):
-            if tmp[r, GAP] <= m1:
+            # an end across the other body's axis (crossed axes) would be pushed through it:
+            # only the ends whose normal agrees with the pair's (eq. (86))
+            if tmp[r, GAP] <= m1 and tmp[r, NX] * res[c, NX] + tmp[r, NY] * res[c, NY] >= 0.0:
                 for q in range(NRES):
                     res[k, q] = tmp[r, q]
                 b1[k], b2[k], cap[k] = a, b2[c], cap[c]

@@ -463,3 +463,35 @@ def test_moreau_step_near_contacts_follows_the_pairs_relative_motion(clock):
         assert tr.contact.stats["advances"] <= 10.0 / min(0.25, window) + 2
     tr, _ = drifting_raft(clock, 4.0, relative=False)
     assert tr.contact.stats["advances"] >= 4.0 * 10.0 / (0.25 * 0.1)
+
+
+@pytest.mark.parametrize("clock,kernel", [("global", True), ("per_log", True),
+                                          ("per_log", False)])
+def test_moreau_pushes_crossed_logs_apart_not_through(clock, kernel):
+    # docs/model.md eq. (86): log A's right end lies 0.05 m across log B's axis (axes crossed,
+    # as two logs stranded across each other float again).  The least translation moves A back
+    # (-x) and B on (+x); A's end contact across B's axis has the opposite normal and, kept,
+    # drove the pair into each other (the overlap grew from 0.25 to 0.40 m over 20 s, and in a
+    # crowd the two opposite contacts traded growing impulses).  At rest in still water: apart
+    # within the slop, along the least translation, no velocity made
+    from driftlog.contact import ContactModel
+    from driftlog.contact.geometry import capsule_gap, log_endpoints
+    from driftlog.contact.obstacles import Obstacles
+
+    logs = Logs([5.0, 5.45, 7.0], [5.0, 5.0, 5.0], [0.0, np.pi / 2, 0.3], 1.0, 0.1, 700.0)
+    model = ContactModel(Obstacles(), method="moreau", restitution=0.3)
+    model.island_kernel = kernel
+    tr = Tracker(on_mesh(UniformFlow(0.0, 0.0, depth=1.0), Mesh.regular_grid(12, 10, 1.0)),
+                 logs, PhysicsOptions(level="full"), "rk4", StepOptions(clock=clock),
+                 contact=model, t_end=20.0, output_interval=5.0)
+    tr.run()
+    S = logs.state
+    out = np.empty(5)
+    capsule_gap(*log_endpoints(S[0, 0], S[0, 1], S[0, 2], 1.0), 0.1,
+                *log_endpoints(S[1, 0], S[1, 1], S[1, 2], 1.0), 0.1, out)
+    assert out[0] > -0.01  # from -0.25
+    assert S[0, 0] < 4.9 and S[1, 0] > 5.55  # each moved away from the other
+    np.testing.assert_allclose(S[:2, 1], 5.0, atol=1e-12)
+    np.testing.assert_allclose(S[:2, 2], [0.0, np.pi / 2], atol=1e-12)
+    np.testing.assert_allclose(S[:, 3:], 0.0, atol=1e-12)
+    np.testing.assert_array_equal(S[2], [7.0, 5.0, 0.3, 0.0, 0.0, 0.0])

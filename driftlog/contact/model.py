@@ -309,10 +309,15 @@ class ContactModel:
                                         rep(C.obstacle[~is_ll])]),
                         np.vstack([e_ll.reshape(-1, NRES), e_lo.reshape(-1, NRES)]),
                         np.concatenate([rep(C.key[is_ll]), rep(C.key[~is_ll])]))
-        # ends far apart (beyond the margin of the pair) cannot touch in this step
+        # ends far apart (beyond the margin of the pair) cannot touch in this step; an end
+        # across the other body's axis (crossed axes) would be pushed through it: only the
+        # ends whose normal agrees with their pair's (docs/model.md eq. (86))
         m1 = margin[ends.body1] + np.where(ends.body2 >= 0, margin[np.maximum(ends.body2, 0)],
                                            0.0)
-        ends = ends.select(ends.gap <= m1)
+        pair = np.concatenate([np.repeat(C.res[is_ll, NX:NY + 1], 4, axis=0),
+                               np.repeat(C.res[~is_ll, NX:NY + 1], 4, axis=0)])
+        agree = ends.res[:, NX] * pair[:, 0] + ends.res[:, NY] * pair[:, 1] >= 0.0
+        ends = ends.select((ends.gap <= m1) & agree)
         return Contacts(*(np.concatenate([a, b]) for a, b in
                           ((C.body1, ends.body1), (C.body2, ends.body2),
                            (C.obstacle, ends.obstacle))),
