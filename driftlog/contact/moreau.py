@@ -16,6 +16,9 @@ motion: Moreau-Jean's index set) that approach:
 
     target = max(u_n_free - (max(g_start, -slop) + dg_free + slop) / dt,  -eps u_n_start)
 
+Newton's law at several simultaneous contacts can make energy; an island whose impulses
+raised its kinetic energy is solved again with eps = 0 (docs/model.md eq. (87)).
+
 ``moreau_solve`` sweeps the contacts (Gauss-Seidel, in a fixed order), projecting each P on
 P >= 0, until no velocity changes by more than ``vtol`` or ``max_iterations`` sweeps: bounded
 cost whatever the number of contacts.  Overlaps deeper than the slop (left by an unconverged
@@ -107,6 +110,27 @@ def _pgs(order, start, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, 
 
 
 @nb.njit(cache=True)
+def _gained(labels, count, S, V, inv_m, inv_i):
+    """Per island: whether the velocities V hold more kinetic energy than the free ones in S.
+
+    Beyond round-off: 1e-9 of the free energy plus a speed of 1e-9 m/s over the island's mass.
+    """
+    e0 = np.zeros(count)
+    e1 = np.zeros(count)
+    floor = np.zeros(count)
+    for b in range(labels.size):
+        q = labels[b]
+        m, i = 1.0 / inv_m[b], 1.0 / inv_i[b]
+        e0[q] += 0.5 * (m * (S[b, UB] ** 2 + S[b, VB] ** 2) + i * S[b, OMEGA] ** 2)
+        e1[q] += 0.5 * (m * (V[b, GU] ** 2 + V[b, GV] ** 2) + i * V[b, GOMEGA] ** 2)
+        floor[q] += 0.5 * m * 1e-18
+    out = np.empty(count, np.bool_)
+    for q in range(count):
+        out[q] = e1[q] > e0[q] * (1.0 + 1e-9) + floor[q]
+    return out
+
+
+@nb.njit(cache=True)
 def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vtol,
                  max_iterations, P, recovery=0.2, island_stop=False):
     """Solve the contact impulses of one step and apply them to S (free state, in place).
@@ -137,6 +161,7 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
     """
     k = body1.size
     n = S.shape[0]
+    plain = np.empty(k)  # the targets without restitution (eq. (87))
     rn1 = np.empty(k)
     rn2 = np.zeros(k)
     w = np.empty(k)
@@ -165,15 +190,42 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
         g_free[c] = res[c, GAP] + dg
         u_free[c] = uf
         target[c] = uf - (g0 + dg + slop) / dt
+        plain[c] = target[c]
         if (res[c, GAP] <= tol or res[c, GAP] + dg <= 0.0) and u0 < 0.0:
             # active (touching, or closing within the step): Newton's impact law
             target[c] = max(target[c], -eps * u0)
+            plain[c] = max(plain[c], 0.0)
         P[c] = 0.0
     labels, count = island_labels(n, body1, body2)
     order, start = island_runs(labels, count, body1)
     V = S[:, VELOCITY].copy()
     it, residual = _pgs(order, start, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V,
                         P, vtol, max_iterations, island_stop)
+    if eps > 0.0:
+        # Newton's law at simultaneous contacts can make energy (a log spinning between two
+        # fixed bodies, both contacts approaching: eq. (87)); an island whose impulses raised
+        # its kinetic energy is solved again without restitution, which cannot
+        redo = _gained(labels, count, S, V, inv_m, inv_i)
+        if redo.any():
+            keep = np.empty(k, np.int64)
+            m = 0
+            start2 = np.zeros(count + 1, np.int64)
+            for q in range(count):
+                if redo[q]:
+                    for a in range(start[q], start[q + 1]):
+                        c = order[a]
+                        keep[m] = c
+                        m += 1
+                        target[c] = plain[c]
+                        P[c] = 0.0
+                start2[q + 1] = m
+            for b in range(n):
+                if redo[labels[b]]:
+                    for q in range(GOMEGA + 1):
+                        V[b, q] = S[b, UB + q]
+            it2, residual = _pgs(keep[:m], start2, body1, body2, res, rn1, rn2, w, target,
+                                 inv_m, inv_i, V, P, vtol, max_iterations, island_stop)
+            it += it2
     # position pass: pseudo-velocities that remove a share of the remaining overlap
     Vp = np.zeros((n, 3))
     Pp = np.zeros(k)
