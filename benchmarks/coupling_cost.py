@@ -55,6 +55,13 @@ PARTS = {"solver": "solver steps", "flow_nodes": "flow node values (region, push
          "flow_file": "flow file (snapshots)"}
 
 
+# the variables whose bytes the digests cover
+TRAJ_VARS = ["time", "trajectory_index", "x", "y", "theta", "u", "v", "omega", "status",
+             "water_depth", "flow_u", "flow_v"]
+FLOW_VARS = ["time", "water_depth", "velocity_x", "velocity_y", "restart_momentum_x",
+             "restart_momentum_y"]
+
+
 def timed(fn):
     """(result, wall s, CPU s) of fn(): CPU time is the fair measure on a loaded machine."""
     w, c = (f() for f in CLOCKS)
@@ -66,7 +73,7 @@ def timed(fn):
 RESERVOIR = [[4350.0, 3850.0], [4550.0, 4000.0], [4450.0, 4250.0], [4250.0, 4100.0]]
 
 
-def scenario(end, n_logs, coupled, flow_path=None):
+def scenario(end, n_logs, coupled, flow_path=None, clock="global"):
     """The Malpasset case to ``end`` with ``n_logs`` logs in the reservoir."""
     from driftlog.api import as_scenario
 
@@ -75,7 +82,7 @@ def scenario(end, n_logs, coupled, flow_path=None):
                       "polygon": RESERVOIR, "seed": 7, "theta": "random", "length": 8.0,
                       "radius": 0.2, "density": 700.0, "velocity": "rest"}],
             "solver": {"end": end, "output_interval": 10.0},
-            "coupling": {"enabled": coupled}}
+            "coupling": {"enabled": coupled}, "integrator": {"clock": clock}}
     if flow_path is not None:
         over["flow"] = {"path": str(flow_path)}
     scen = as_scenario(str(CASE), overrides=over)
@@ -144,6 +151,8 @@ def main(argv=None):
     ap.add_argument("--name", default="coupling_cost")
     ap.add_argument("--repeat", type=int, default=1,
                     help="repetitions of the three runs; the fastest (CPU) of each is kept")
+    ap.add_argument("--clocks", default="global,per_log",
+                    help="[integrator] clock of the coupled run, one run each (comma-separated)")
     ap.add_argument("--checkpoints", default="",
                     help="comma-separated times (s, multiples of 10) at which the ratios are "
                     "also reported, from the same runs")
@@ -164,7 +173,10 @@ def main(argv=None):
     track(warm, output=tmp / "warm.nc")
 
     scen = scenario(a.end, a.logs, False, flow_path=tmp / "flow.nc")
-    cscen = scenario(a.end, a.logs, True)
+    clocks = [c.strip() for c in a.clocks.split(",") if c.strip()]
+    cscens = {c: scenario(a.end, a.logs, True, clock=c) for c in clocks}
+    if clocks[0] != "global":
+        raise SystemExit(f"--clocks {a.clocks}: the first is the reference, 'global'")
     import netCDF4
 
     best = {}  # run -> (CPU s, wall s, extra, checkpoints): the fastest of the repetitions
@@ -193,33 +205,35 @@ def main(argv=None):
         off, w_track, c_track = timed(lambda: track(scen, output=tmp / "offline.nc"))
         at = {t: (at_out[t][0] + check.log[t][0], None) for t in cps}
         keep("offline", c_out + c_track, w_out + w_track, (c_track, off.stats["substeps"]), at)
-        check.start()
-        res, w, c = timed(lambda: track(cscen, output=tmp / "coupled.nc"))
-        at = dict(check.log)
-        with netCDF4.Dataset(tmp / "coupled.nc") as ds:
-            steps = int(ds.getncattr("coupling_solver_steps"))
-            given = float(ds.getncattr("coupling_momentum_given_x")), \
-                float(ds.getncattr("coupling_momentum_given_y"))
-            region = float(ds.getncattr("coupling_region_nodes"))
-            widened = int(ds.getncattr("coupling_region_widenings"))
-            parts = {k: float(ds.getncattr(f"coupling_cpu_{k}_s")) for k in PARTS}
-        digests = dict(
-            trajectories=digest(tmp / "coupled.nc", ["time", "trajectory_index", "x", "y",
-                                                      "theta", "u", "v", "omega", "status",
-                                                      "water_depth", "flow_u", "flow_v"]),
-            flow=digest(tmp / "coupled_flow.nc", ["time", "water_depth", "velocity_x",
-                                                  "velocity_y", "restart_momentum_x",
-                                                  "restart_momentum_y"]))
-        keep("coupled", c, w, (parts, digests), at)
+        for clock, cscen in cscens.items():
+            check.start()
+            res, w, c = timed(lambda cscen=cscen: track(cscen, output=tmp / "coupled.nc"))
+            at = dict(check.log)
+            with netCDF4.Dataset(tmp / "coupled.nc") as ds:
+                steps = int(ds.getncattr("coupling_solver_steps"))
+                given = (float(ds.getncattr("coupling_momentum_given_x")),
+                         float(ds.getncattr("coupling_momentum_given_y")))
+                region = float(ds.getncattr("coupling_region_nodes"))
+                widened = int(ds.getncattr("coupling_region_widenings"))
+                parts = {k: float(ds.getncattr(f"coupling_cpu_{k}_s")) for k in PARTS}
+            digests = dict(
+                trajectories=digest(tmp / "coupled.nc", TRAJ_VARS),
+                flow=digest(tmp / "coupled_flow.nc", FLOW_VARS))
+            keep(f"coupled {clock}", c, w, (parts, digests, res, steps, given, region, widened),
+                 at)
     c_solve, w_solve, _, at_solve = best["solve"]
     c_off, w_off, (c_track, substeps), at_off = best["offline"]
-    c_c, w_c, (parts, digests), at_c = best["coupled"]
+    c_c, w_c, (parts, digests, res, steps, given, region, widened), at_c = best["coupled global"]
+    per = {c: best[f"coupled {c}"] for c in clocks[1:]}
     rows.append(dict(run="solve (solver alone, no output)", wall_s=w_solve, cpu_s=c_solve,
                      solver_steps=s.steps, cpu_ratio_to_solve=1.0))
     rows.append(dict(run="offline: solve with output + track", wall_s=w_off, cpu_s=c_off,
                      solver_steps=s.steps, cpu_ratio_to_solve=c_off / c_solve))
     rows.append(dict(run=f"coupled: {a.logs} logs acting on the flood", wall_s=w_c, cpu_s=c_c,
                      solver_steps=steps, cpu_ratio_to_solve=c_c / c_solve))
+    for c, (cp_, wp, ex, _) in per.items():
+        rows.append(dict(run=f"coupled, {c} clocks (no contacts)", wall_s=wp, cpu_s=cp_,
+                         solver_steps=ex[3], cpu_ratio_to_solve=cp_ / c_solve))
     floating = int((res.logs.status == 1).sum())
     label = "" if a.end >= 4000.0 else f" (shortened run: {a.end:g} s of the 4000-s flood)"
     notes = (f"Malpasset, 46,691 triangles, order 1, {a.logs} logs released in the reservoir, no "
@@ -228,27 +242,39 @@ def main(argv=None):
              f"offline pipeline (CPU): {c_c / c_off:.2f}; offline track alone "
              f"{c_track:.1f} CPU s ({substeps} sub-steps); coupled run: {floating} "
              f"logs floating at the end, momentum given to the water ({given[0]:.3g}, "
-             f"{given[1]:.3g}) kg m/s.")
+             f"{given[1]:.3g}) kg m/s."
+             + "".join(f"  Coupled, {c} clocks / global clock: {v[0] / c_c:.3f} (CPU); "
+                       f"log sub-steps {v[2][2].stats.get('log_substeps', 0):,} against "
+                       f"{res.stats['substeps']:,} shared sub-steps of up to {a.logs} logs; "
+                       f"momentum given ({v[2][4][0]:.4g}, {v[2][4][1]:.4g}) kg m/s"
+                       for c, v in per.items()))
     write_table(a.name, rows, ["run", "wall_s", "cpu_s", "solver_steps", "cpu_ratio_to_solve"],
                 f"Cost of two-way coupling: Malpasset with {a.logs} logs{label}", notes)
     parts["rest"] = c_c - sum(parts.values())
     prow = [dict(part=PARTS.get(k, "rest: setup, spin-up, trajectory file, outputs"), cpu_s=v,
                  ms_per_solver_step=1e3 * v / steps, share_of_solve=v / c_solve)
             for k, v in parts.items()]
+    pcols = ["part", "cpu_s", "ms_per_solver_step", "share_of_solve"]
+    for c, v in per.items():
+        pp = dict(v[2][0])
+        pp["rest"] = v[0] - sum(pp.values())
+        for row, k in zip(prow, parts, strict=True):
+            row[f"cpu_s_{c}"] = pp[k]
+            row[f"share_of_solve_{c}"] = pp[k] / c_solve
+        pcols += [f"cpu_s_{c}", f"share_of_solve_{c}"]
     prow.append(dict(part="solve alone (for comparison)", cpu_s=c_solve,
                      ms_per_solver_step=1e3 * c_solve / s.steps, share_of_solve=1.0))
     pnotes = (f"CPU seconds of each part of the coupled run above ({steps} solver steps, "
               f"{a.logs} logs); the flow's node values were computed on {region:.0f} of "
               f"{s.mesh.n_nodes} nodes per step on average (the region around the logs; "
               f"{widened} steps widened to the whole mesh).")
-    write_table(f"{a.name}_parts", prow, ["part", "cpu_s", "ms_per_solver_step",
-                                          "share_of_solve"],
+    write_table(f"{a.name}_parts", prow, pcols,
                 f"Where the coupled run's time goes{label}", pnotes)
     evo = []
     for t in cps + [a.end]:
         cs, co, cc = ((v[0], None) if t == a.end else at[t] for v, at in
                       ((best["solve"], at_solve), (best["offline"], at_off),
-                       (best["coupled"], at_c)))
+                       (best["coupled global"], at_c)))
         row = dict(end_s=t, solve_cpu_s=cs[0], offline_cpu_s=co[0], coupled_cpu_s=cc[0],
                    coupled_over_solve=cc[0] / cs[0], coupled_over_offline=cc[0] / co[0])
         cparts, csteps = (parts, steps) if t == a.end else cc[1]
@@ -274,6 +300,13 @@ def main(argv=None):
         coupled_over_offline=c_c / c_off, repeat=a.repeat, floating_at_end=floating,
         momentum_given=given, region_nodes=region, n_nodes=s.mesh.n_nodes,
         region_widenings=widened, coupled_parts_cpu_s=parts, coupled_digests=digests,
+        coupled_other_clocks={c: dict(cpu_s=v[0], wall_s=v[1], solver_steps=v[2][3],
+                                      log_substeps=v[2][2].stats.get("log_substeps", 0),
+                                      over_global=v[0] / c_c, momentum_given=v[2][4],
+                                      parts_cpu_s=v[2][0], digests=v[2][1],
+                                      region_widenings=v[2][6])
+                              for c, v in per.items()},
+        coupled_substeps=res.stats["substeps"],
         evolution=evo), indent=1))
     shutil.rmtree(tmp, ignore_errors=True)  # the flow files: 175 MB each over the whole flood
 

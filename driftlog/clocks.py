@@ -50,7 +50,7 @@ def per_log_interval(tr, stop, bar=None):
     """
     t0 = tr.t
     if tr.contact is None:
-        relift_advance(tr, stop)
+        tr._per_log_free(stop)
     else:
         contact_advance(tr, stop)
     tr.t = stop
@@ -185,7 +185,7 @@ def _lift_times(tr, S, face, idx, t_from, stop, dt_check, pairs):
     return t_lift
 
 
-def relift_advance(tr, stop):
+def relift_advance(tr, stop, gain=None):
     """Per-log clocks without contacts: the floating logs, and the idle logs the flow lifts.
 
     The floating logs run to ``stop`` on their own clocks (``free_advance``).  An idle log
@@ -195,13 +195,22 @@ def relift_advance(tr, stop):
     lifts at t_l starts from rest there and runs on its own clock from t_l to ``stop``, and
     may stop and lift again (up to ``RELIFT_ROUNDS`` times).  So an idle log lifts at the
     same time as under the global clock, within that clock's sub-step (docs/model.md 11.1).
+
+    ``gain(rows, u0)``, if given, is called after each run of free sub-steps with the compact
+    rows that ran (None: all) and their velocities (n, 2) before it (None: from rest, a lifted
+    log): a coupled run accounts there what the water gave each log (``driftlog.coupling``),
+    one log's free path from its start or lift to its end or stop at a time.
     """
+    from driftlog.columns import UB, VB
     from driftlog.logs import RESTING, STRANDED
 
     L = tr.logs
     t0 = tr.t
     pairs = _pairs_of(tr, stop)
+    u0 = tr.state[:, [UB, VB]] if gain is not None else None
     _, t_log, code, dtm = _advance_rows(tr, stop, None, None, False, pairs=pairs)
+    if gain is not None:
+        gain(None, u0)
     # the finest check interval of the global clock: the floating logs' shortest own step
     dt_check = min(float(dtm.min(initial=np.inf)), stop - t0)
     idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
@@ -227,6 +236,8 @@ def relift_advance(tr, stop):
             _, t_log[rows], code[rows], _ = _advance_rows(tr, stop, rows, t_new, True,
                                                           pairs=pairs)
             tr._F_valid = tr._d0_valid = True
+            if gain is not None:
+                gain(rows, None)
     for _ in range(RELIFT_ROUNDS):
         # floating logs that stopped on the way (landed, stranded): lifted again before stop?
         rows = np.flatnonzero((code == STOPPED) & (t_log < stop - tr.time_tol))
@@ -243,6 +254,8 @@ def relift_advance(tr, stop):
         rows = rows[up]
         _, t_log[rows], code[rows], _ = _advance_rows(tr, stop, rows, t_lift[up], True,
                                                       pairs=pairs)
+        if gain is not None:
+            gain(rows, None)
     return t_log
 
 

@@ -208,6 +208,14 @@ class SolverFlow(MeshFlowField):
         _, _, a, inv_dt = self._interval(t)
         return self._vals, a, inv_dt
 
+    def node_pair(self, t):
+        """``MeshFlowField.node_pair``: the interval's two states, its start and length.
+
+        The interval is the solver's current step, the only pair there is (its end: inf,
+        so the per-log kernels never ask for a next one).
+        """
+        return self._vals, self._t0, self._t1 - self._t0, np.inf
+
 
 def _state_index(solver):
     """Index in the solver's state arrays of each mesh face (it may renumber them)."""
@@ -242,9 +250,10 @@ class CoupledTracker(Tracker):
         self._dt = np.zeros(n)  # and its length
         self._u0 = self._v0 = np.empty(0)  # velocities before a sub-step (buffers)
         super().__init__(coupling.flow, logs, *args, **kwargs)
-        if getattr(self.step_options, "clock", "global") != "global":
-            raise ScenarioError("integrator.clock", self.step_options.clock, "[coupling] takes "
-                                "the global clock: every log lands on each hydrodynamic step")
+        if getattr(self.step_options, "clock", "global") != "global" and self.contact is not None:
+            raise ScenarioError("integrator.clock", self.step_options.clock, "[coupling] with "
+                                "contacts takes the global clock: every log lands on each "
+                                "hydrodynamic step")
         if not getattr(self.step_options, "land_on_snapshots", True):
             raise ScenarioError("integrator.land_on_snapshots", False, "[coupling] lands "
                                 "every log on each hydrodynamic step: set it to true")
@@ -298,6 +307,60 @@ class CoupledTracker(Tracker):
         if n:
             account_advance(self.act, self.state, u0, v0, self.mass, self.added_mass,
                             self.received, self._last_u, self._stamp, self._advances)
+
+    def _per_log_free(self, stop):
+        """Per-log clocks over the solver's step (no contacts), keeping the momentum accounts.
+
+        Each floating log runs on its own sub-steps to the step's end (``clocks.
+        relift_advance``); what the water gave it is m_eff dU_b over each of its free paths
+        (from its start, or its lift off the bed, to the end or to where it stopped), as
+        ``advance`` accounts it over each sub-step of the global clock.  Where the flow's node
+        values cover a region only and a log sampled out of it (NaN: an integration error or a
+        non-finite state), the interval is done again on the whole mesh from its kept start.
+        """
+        from driftlog.clocks import relift_advance
+        from driftlog.stepping import IntegrationError, StepTooSmallError
+
+        L = self.logs
+        flow = self.coupling.flow
+        kept = None
+        if flow.partial:
+            if self.act.size:
+                self._scatter()
+            kept = (Tracker.save(self), self.act.copy(), L.status.copy(), L.state.copy(),
+                    L.face.copy(), self.received.copy(), self._last_u.copy(),
+                    self._stamp.copy(), self._advances, dict(self.stats))
+        try:
+            relift_advance(self, stop, self._gain)
+            ok = bool(np.isfinite(self.state).all() and np.isfinite(self.F).all())
+        except (IntegrationError, StepTooSmallError):
+            if kept is None:
+                raise
+            ok = False
+        if ok or kept is None:
+            return
+        saved, act, status, state, face, rec, lu, st, adv, stats = kept
+        L.status[:], L.state[:], L.face[:] = status, state, face
+        self._set_active(act)
+        Tracker.restore(self, saved)
+        np.copyto(self.received, rec)
+        np.copyto(self._last_u, lu)
+        np.copyto(self._stamp, st)
+        self._advances = adv
+        self.stats = stats
+        flow.widen()
+        relift_advance(self, stop, self._gain)
+
+    def _gain(self, rows, u0):
+        """``relift_advance``'s ``gain``: m_eff (U_b - U_b0) of the rows given, received."""
+        self._advances += 1
+        S = self.state if rows is None else self.state[rows]
+        act = self.act if rows is None else self.act[rows]
+        mass = self.mass if rows is None else self.mass[rows]
+        u0 = np.zeros((S.shape[0], 2)) if u0 is None else u0
+        account_advance(act, S, np.ascontiguousarray(u0[:, 0]), np.ascontiguousarray(u0[:, 1]),
+                        mass, self.added_mass, self.received, self._last_u, self._stamp,
+                        self._advances)
 
     def save(self):
         """``Tracker.save`` and the momentum accounts (a rejected sub-step gives nothing)."""
@@ -610,9 +673,11 @@ def _check_coupling(t, prefix, scen):
                             "waterlogging is not supported yet (the logs' mass changes outside "
                             "the momentum balance)")
     clock = (scen.get("integrator") or {}).get("clock", "global")
-    if clock != "global":
-        raise ScenarioError("integrator.clock", clock, "[coupling] takes the global clock (the "
-                            "paper's Algorithm 1): every log lands on each hydrodynamic step")
+    if clock != "global" and (scen.get("contact") or {}).get("enabled", False):
+        raise ScenarioError("integrator.clock", clock, "[coupling] with contacts takes the "
+                            "global clock (the paper's Algorithm 1: every log lands on each "
+                            "hydrodynamic step, the contacts' impulses accounted sub-step by "
+                            "sub-step); per-log clocks are for coupled runs without contacts")
     if phys.get("fluid_volume", "body") != "body":
         raise ScenarioError("physics.fluid_volume", phys.get("fluid_volume"), "[coupling] needs "
                             "fluid_volume = 'body' (a constant added mass)")

@@ -414,6 +414,12 @@ class Tracker:
             if self.physics.level == "tracer":
                 self._sync_tracer()
 
+    def _per_log_free(self, stop):
+        """Per-log clocks without contacts, from t to ``stop`` (``clocks.relift_advance``)."""
+        from driftlog.clocks import relift_advance
+
+        relift_advance(self, stop)
+
     def _can_settle(self):
         """The fused step may also classify the logs and bound the next sub-step.
 
