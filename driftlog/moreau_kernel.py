@@ -257,6 +257,45 @@ def _manifold(Sl, ln, rd, pairs, caps, ocaps, margin):
 
 
 @nb.njit(cache=True)
+def _moving_pairs(Sl, ln, rd, na, nt, margin, caps, ocaps):
+    """``island_pairs`` of the nt bodies whose first is one of the na moving logs.
+
+    The bodies na .. nt - 1 are fixed (stopped logs, ``_split_stopped``): a pair of two fixed
+    bodies, or of a fixed body and an obstacle, has nothing to solve.
+    """
+    pairs, _ = island_pairs(Sl, ln, rd, nt, margin, caps, ocaps)
+    if nt == na:
+        return pairs
+    keep = np.empty(pairs.shape[0], np.bool_)
+    for c in range(pairs.shape[0]):
+        keep[c] = pairs[c, 0] < na  # log pairs are (a, b) with a < b
+    return pairs[keep]
+
+
+@nb.njit(cache=True)
+def _split_stopped(S, F, flag, P, thr, friction, opt, box, mem, na, nx, length, fx, fy, tau):
+    """``_still_floating`` keeping the logs that stop: (floating, stopped) counts.
+
+    mem[:na] the floating logs, mem[na:na + nx] those stopped before; after the call the
+    floating ones come first, in order, then the newly stopped, then the earlier stopped.
+    """
+    old = mem[:na].copy()
+    k = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx, fy, tau)
+    if k == na:
+        return na, nx
+    # the newly stopped ones into mem[k:na], before the earlier stopped (mem[na:na + nx])
+    j = 0
+    b = k
+    for a in range(na):
+        if j < k and mem[j] == old[a]:
+            j += 1
+        else:
+            mem[b] = old[a]
+            b += 1
+    return k, nx + na - k
+
+
+@nb.njit(cache=True)
 def _min_gap(Sl, ln, rd, na, caps, ocaps, tol):
     """The least gap of the candidate pairs within tol (``ContactModel.check_overlap``)."""
     margin = np.full(na, tol)
@@ -290,9 +329,9 @@ def _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radiu
             inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol, method, lf, ang,
             drag_fraction, explicit, max_step, min_step, tracer, rotation, thr, friction, vals_c,
             T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc, tolerance, eps,
-            iterations, motion_share, relative_motion, island_stop, active_in, fx, fy, box,
-            obst_impulse, direct, rec_o, rec_j, nrec, hit_t, hit_log, hit_other, hit_j, hit_x,
-            hit_y, nhit, active_out, nactive, stats, lim, code, t_code, mem, S0l, Sl, ln, rd,
+            iterations, motion_share, relative_motion, island_stop, keep_stopped, active_in, fx,
+            fy, box, obst_impulse, direct, rec_o, rec_j, nrec, hit_t, hit_log, hit_other, hit_j,
+            hit_x, hit_y, nhit, active_out, nactive, stats, lim, code, t_code, mem, S0l, Sl, ln, rd,
             lm, li, margin, near):
     """Island q of ``moreau_islands`` from t0 to t_stop; False when an output buffer is full.
 
@@ -320,11 +359,21 @@ def _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radiu
             prev[npv] = active_in[k]
             npv += 1
     t = t0
+    nx = 0  # logs that stopped floating in the window: mem[na:na + nx], fixed (keep_stopped)
     while t < t_stop and na > 0:
+        nt = na + nx
         # the island's own bound (Tracker.max_step over its logs)
         _first_stage(S, F, D0, lin0, P, opt, mem, na)
         dt = max_step
         rmin = np.inf
+        for a in range(na, nt):  # a stopped log: at rest, immovable (zero inverse mass)
+            i = mem[a]
+            for k in range(6):
+                S0l[a, k] = S[i, k] if k < UB else 0.0
+                Sl[a, k] = S0l[a, k]
+            ln[a], rd[a] = length[i], radius[i]
+            lm[a] = li[a] = 0.0
+            rmin = min(rmin, radius[i])
         for a in range(na):
             i = mem[a]
             lnr = (lin0[i, 0], lin0[i, 1], lin0[i, 2], lin0[i, 3], lin0[i, 4])
@@ -342,12 +391,12 @@ def _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radiu
         tol = tolerance * rmin
         # near contacts: no pair moves against each other by more than motion_share r_min
         # (eq. (81))
-        for a in range(na):
+        for a in range(nt):
             sp = (np.hypot(S0l[a, UB], S0l[a, VB])
                   + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
             margin[a] = sp * dt + tol
             near[a] = False
-        pairs, _ = island_pairs(S0l, ln, rd, na, margin, caps, oc)
+        pairs = _moving_pairs(S0l, ln, rd, na, nt, margin, caps, oc)
         if pairs.shape[0]:
             speed = 0.0
             if relative_motion:
@@ -387,12 +436,12 @@ def _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radiu
         t = t + dt
         if t_stop - t <= time_tol:
             t = t_stop
-        pairs, _ = island_pairs(S0l, ln, rd, na, margin, caps, oc)
+        pairs = _moving_pairs(S0l, ln, rd, na, nt, margin, caps, oc)
         b1, b2, cap, res = _manifold(S0l, ln, rd, pairs, caps, oc, margin)
         nc = b1.size
         if nc:
             Pc = np.zeros(nc)
-            it, _ = moreau_solve(S0l[:na], Sl[:na], lm[:na], li[:na], b1, b2, res, dt, eps,
+            it, _ = moreau_solve(S0l[:nt], Sl[:nt], lm[:nt], li[:nt], b1, b2, res, dt, eps,
                                  tol, tol, 1e-9 * (vmax + 1e-3), iterations, Pc, 0.2,
                                  island_stop)
             stats[ST_PGS] += it
@@ -421,7 +470,7 @@ def _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radiu
                 face[i], flag[i] = f, fg
                 for k in range(NVAR):
                     F[i, k] = fl[k]
-            lim[2] = min(lim[2], _min_gap(Sl, ln, rd, na, caps, oc, tol))
+            lim[2] = min(lim[2], _min_gap(Sl, ln, rd, nt, caps, oc, tol))
             # hits: contacts that start pushing, one per (log, other body) at the step's
             # start, impulses summed, point impulse-weighted
             first = nhit[0]
@@ -463,9 +512,15 @@ def _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radiu
         if _diverged(S, mem, na):
             code[q], t_code[q] = DIVERGED, t
             break
-        # swept boxes; statuses: a log that stops floating leaves the island
-        na = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx,
-                             fy, t - t0)
+        # swept boxes; statuses: a log that stops floating leaves the island's motion; with
+        # keep_stopped it stays in the island as a fixed body to the window's end (as it is a
+        # grounded obstacle from then on, docs/model.md 13), else the others pass over it
+        if keep_stopped:
+            na, nx = _split_stopped(S, F, flag, P, thr, friction, opt, box, mem, na, nx,
+                                    length, fx, fy, t - t0)
+        else:
+            na = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx,
+                                 fy, t - t0)
     # the pairs touching or pushing at the end, each once
     keys = np.unique(prev[:npv])
     if nactive[0] + keys.size > active_out.size:
@@ -482,7 +537,7 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                    lf, ang, drag_fraction, explicit, max_step, min_step, tracer, rotation,
                    thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
                    recovered, loc, tolerance, eps, iterations, motion_share, relative_motion,
-                   island_stop, active_in, fx, fy, box, obst_impulse, hit_t, hit_log,
+                   island_stop, keep_stopped, active_in, fx, fy, box, obst_impulse, hit_t, hit_log,
                    hit_other, hit_j, hit_x, hit_y, nhit, active_out, nactive, stats, lim, code,
                    t_code):
     """Run each island of ``members``/``start`` from t0 to t_stop with Moreau-Jean steps.
@@ -502,6 +557,11 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
         Gauss-Seidel sweeps at most, motion per step near contacts (share of the smallest
         radius), whether that motion is the pairs' relative motion (eq. (81)) or each near
         log's own, and ``island_stop``.
+    keep_stopped : bool
+        A log that stops floating within the window stays in its island as a fixed body (at
+        rest, zero inverse mass) to the window's end, as it is a grounded obstacle from the
+        next window on (``[contact] grounded``, docs/model.md 13); False: it leaves the island
+        and the others pass over it.
     active_in : sorted int64
         Pair keys (``model._body_pairs``) touching or pushing at t0 (a hit is a contact that
         starts pushing).
@@ -534,8 +594,8 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                        method, lf, ang, drag_fraction, explicit, max_step, min_step, tracer,
                        rotation, thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
                        t_split, dry_depth, recovered, loc, tolerance, eps, iterations,
-                       motion_share, relative_motion, island_stop, active_in, fx, fy, box,
-                       obst_impulse, True, rec_o, rec_j, nrec, hit_t[0:nh], hit_log[0:nh],
+                       motion_share, relative_motion, island_stop, keep_stopped, active_in, fx, fy,
+                       box, obst_impulse, True, rec_o, rec_j, nrec, hit_t[0:nh], hit_log[0:nh],
                        hit_other[0:nh], hit_j[0:nh], hit_x[0:nh], hit_y[0:nh], nhit,
                        active_out[0:na_], nactive, stats, lim, code, t_code, mem, S0l, Sl, ln,
                        rd, lm, li, margin, near):
@@ -549,8 +609,8 @@ def _island_apart(q, members, start, S, F, flag, face, D0, lin0, P, opt, length,
                   ang, drag_fraction, explicit, max_step, min_step, tracer, rotation, thr,
                   friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
                   recovered, loc, tolerance, eps, iterations, motion_share, relative_motion,
-                  island_stop, active_in, fx, fy, box, obst_impulse, rec_o, rec_j, hit_t,
-                  hit_log, hit_other, hit_j, hit_x, hit_y, act, cnt, st, lm, code, t_code):
+                  island_stop, keep_stopped, active_in, fx, fy, box, obst_impulse, rec_o, rec_j,
+                  hit_t, hit_log, hit_other, hit_j, hit_x, hit_y, act, cnt, st, lm, code, t_code):
     """``_island`` q on copies of its logs' rows (a thread's own memory), then copied back.
 
     Islands on other threads write, every step, the rows of their own logs; neighbouring
@@ -577,9 +637,9 @@ def _island_apart(q, members, start, S, F, flag, face, D0, lin0, P, opt, length,
                  caps, owner, oc, ost0, t0, t_stop, time_tol, method, lf, ang, drag_fraction,
                  explicit, max_step, min_step, tracer, rotation, thx, friction, vals_c, T0c,
                  gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc, tolerance, eps,
-                 iterations, motion_share, relative_motion, island_stop, active_in, fx, fy, boxx,
-                 obst_impulse, False, rec_o, rec_j, c3[2:3], hit_t, hit_log, hit_other, hit_j,
-                 hit_x, hit_y, c3[0:1], act, c3[1:2], stl, lml, cx, tx,
+                 iterations, motion_share, relative_motion, island_stop, keep_stopped, active_in,
+                 fx, fy, boxx, obst_impulse, False, rec_o, rec_j, c3[2:3], hit_t, hit_log,
+                 hit_other, hit_j, hit_x, hit_y, c3[0:1], act, c3[1:2], stl, lml, cx, tx,
                  np.empty(n, np.int64), np.empty((n, 6)), np.empty((n, 6)), np.empty(n),
                  np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.bool_))
     if not ok:
@@ -622,9 +682,9 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
                             min_step, tracer, rotation, thr, friction, vals_c, T0c, gap_c,
                             vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc, tolerance,
                             eps, iterations, motion_share, relative_motion, island_stop,
-                            active_in, fx, fy, box, obst_impulse, hit_t, hit_log, hit_other,
-                            hit_j, hit_x, hit_y, nhit, active_out, nactive, stats, lim, code,
-                            t_code, room, nthreads):
+                            keep_stopped, active_in, fx, fy, box, obst_impulse, hit_t, hit_log,
+                            hit_other, hit_j, hit_x, hit_y, nhit, active_out, nactive, stats, lim,
+                            code, t_code, room, nthreads):
     """``moreau_islands`` with the islands on numba's threads: the same results, bit for bit.
 
     Each island runs on one thread (the islands share no log), on copies of its logs' rows
@@ -703,9 +763,9 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
                 drag_fraction, explicit, max_step, min_step, tracer, rotation, thr, friction,
                 vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc,
                 tolerance, eps, iterations, motion_share, relative_motion, island_stop,
-                active_in, fx, fy, box, obst_impulse, rec_o[r0:r1], rec_j[r0:r1], h_t[h0:h1],
-                h_log[h0:h1], h_other[h0:h1], h_j[h0:h1], h_x[h0:h1], h_y[h0:h1], act[a0:a1],
-                cnt[q], st[q], lm_[q], code, t_code)
+                keep_stopped, active_in, fx, fy, box, obst_impulse, rec_o[r0:r1], rec_j[r0:r1],
+                h_t[h0:h1], h_log[h0:h1], h_other[h0:h1], h_j[h0:h1], h_x[h0:h1], h_y[h0:h1],
+                act[a0:a1], cnt[q], st[q], lm_[q], code, t_code)
     # island by island in order: into the caller's buffers, as moreau_islands
     nmax = max(1, size.max()) if nisl else 1
     rec_none = np.empty(0, np.int64)
@@ -745,8 +805,8 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
                        method, lf, ang, drag_fraction, explicit, max_step, min_step, tracer,
                        rotation, thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
                        t_split, dry_depth, recovered, loc, tolerance, eps, iterations,
-                       motion_share, relative_motion, island_stop, active_in, fx, fy, box,
-                       obst_impulse, True, rec_none, recj_none, nrec, hit_t[0:nh],
+                       motion_share, relative_motion, island_stop, keep_stopped, active_in, fx, fy,
+                       box, obst_impulse, True, rec_none, recj_none, nrec, hit_t[0:nh],
                        hit_log[0:nh], hit_other[0:nh], hit_j[0:nh], hit_x[0:nh], hit_y[0:nh],
                        nhit, active_out[0:na_], nactive, stats, lim, code, t_code,
                        np.empty(n, np.int64), np.empty((n, 6)), np.empty((n, 6)), np.empty(n),

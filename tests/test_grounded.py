@@ -130,3 +130,45 @@ def test_a_stranded_log_is_grounded_and_a_lifted_one_is_not():
         np.testing.assert_array_equal(model.ground_rows, rows)
     assert model.capsules.shape[0] == 0 and caps0.shape[0] == 1
     assert model.ground_version == 2  # the stranded log at the same place changed nothing
+
+
+def _stranding_scene():
+    """A heavy log across a channel, pushed by a light one behind it, rests in the shallows.
+
+    0.5 m/s over a bed rising from x = 8 m: the depth falls from 0.4 to 0.12 m at x = 12.37 m,
+    below the heavy log's flotation depth (0.224 m) from x = 10.75 m; the light log (0.05 m)
+    floats on.  Sub-steps of at most 0.05 s, so the heavy log stops within a per-log contact
+    window (0.5 median L / |U| = 2.5 s), not at its end.
+    """
+    from driftlog.flow import InMemorySnapshots, MeshFlowField
+
+    mesh = Mesh.regular_grid(40, 10, 0.5)
+    h = np.interp(mesh.face_x, [0.0, 8.0, 12.37, 20.0], [0.4, 0.4, 0.12, 0.12])
+    flow = MeshFlowField(mesh, -h, InMemorySnapshots([0.0], h[None], 0.5 * h[None],
+                                                     0.0 * h[None]))
+    logs = Logs(np.array([6.0, 4.83]), np.array([2.5, 2.5]), np.array([np.pi / 2, 0.0]),
+                np.array([3.0, 2.0]), np.array([0.15, 0.05]), np.array([800.0, 500.0]))
+    return flow, logs
+
+
+@pytest.mark.parametrize("clock", ["global", "per_log"])
+def test_a_log_that_comes_to_rest_in_a_contact_window_holds_the_one_behind_it(clock):
+    """Moreau-Jean: a log that stops floating stays a fixed body of its island.
+
+    Before, under per-log clocks it left its island when it stopped, and the light log behind
+    it ran on through it to the window's end (its front end 0.2 m into the heavy log, at the
+    heavy log's axis, at the next record), until the grounded capsule pushed it back.
+    """
+    flow, logs = _stranding_scene()
+    model = ContactModel(Obstacles(), method="moreau", restitution=0.0, grounded=True)
+    tr = Tracker(flow, logs, PhysicsOptions(level="full"), "rk4",
+                 StepOptions(clock=clock, max_step=0.05), contact=model, t_end=10.0,
+                 output_interval=10.0)
+    tr.run()
+    assert logs.status[0] == RESTING and logs.status[1] == FLOATING
+    assert 10.7 < logs.state[0, 0] < 10.8  # resting from x = 10.75 m on, at 9.5 s
+    # the light log's front end against the heavy log's upstream face, not into it
+    front = logs.state[1, 0] + 0.5 * logs.length[1]
+    back = logs.state[0, 0] - logs.radius[0]
+    assert -1e-3 < back - front < 0.06
+    assert model.stats["min_gap"] > -0.03  # (the seeding's 2.4 cm; 0.2 m before)

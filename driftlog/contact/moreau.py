@@ -119,6 +119,8 @@ def _gained(labels, count, S, V, inv_m, inv_i):
     e1 = np.zeros(count)
     floor = np.zeros(count)
     for b in range(labels.size):
+        if inv_m[b] == 0.0:  # a fixed body (a log stopped in its window) gains nothing
+            continue
         q = labels[b]
         m, i = 1.0 / inv_m[b], 1.0 / inv_i[b]
         e0[q] += 0.5 * (m * (S[b, UB] ** 2 + S[b, VB] ** 2) + i * S[b, OMEGA] ** 2)
