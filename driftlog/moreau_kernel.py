@@ -42,7 +42,7 @@ import numba as nb
 import numpy as np
 
 from driftlog.clock_kernel import _own_bound
-from driftlog.columns import CX, CY, GAP, NRES, NVAR, NX, NY, OMEGA, THETA, UB, VB, X, Y
+from driftlog.columns import CX, CY, GAP, NRES, NVAR, NX, NY, OMEGA, OUTSIDE, THETA, UB, VB, X, Y
 from driftlog.contact.geometry import capsule_gap, capsule_row, log_endpoints
 from driftlog.contact.moreau import moreau_solve
 from driftlog.contact.native import _ends_against
@@ -274,25 +274,28 @@ def _moving_pairs(Sl, ln, rd, na, nt, margin, caps, ocaps):
 
 @nb.njit(cache=True)
 def _split_stopped(S, F, flag, P, thr, friction, opt, box, mem, na, nx, length, fx, fy, tau):
-    """``_still_floating`` keeping the logs that stop: (floating, stopped) counts.
+    """``_still_floating`` keeping the logs that stop in the mesh: (floating, stopped) counts.
 
     mem[:na] the floating logs, mem[na:na + nx] those stopped before; after the call the
-    floating ones come first, in order, then the newly stopped, then the earlier stopped.
+    floating ones come first, in order, then the newly stopped ones still in the mesh
+    (resting or stranded: grounded from the next window on), then the earlier stopped.  A
+    log that left the mesh leaves the island.
     """
     old = mem[:na].copy()
     k = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx, fy, tau)
     if k == na:
         return na, nx
-    # the newly stopped ones into mem[k:na], before the earlier stopped (mem[na:na + nx])
     j = 0
     b = k
     for a in range(na):
         if j < k and mem[j] == old[a]:
             j += 1
-        else:
+        elif flag[old[a]] != OUTSIDE:
             mem[b] = old[a]
             b += 1
-    return k, nx + na - k
+    for a in range(nx):  # the earlier stopped ones, behind the new (b <= na: moving down)
+        mem[b + a] = mem[na + a]
+    return k, b - k + nx
 
 
 @nb.njit(cache=True)
