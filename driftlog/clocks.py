@@ -542,7 +542,8 @@ def contact_window(tr, stop, max_tries=3):
                     mk.moreau_islands(*args)
             else:
                 ik.island_advance(*head, C.tolerance, C.restitution, C.rest_speed, C.near,
-                                  C.max_events, active_in, *tail)
+                                  C.max_events, bool(getattr(C, "grounded", False)),
+                                  active_in, *tail)
             if not np.any(code == ik.HIT_FULL):
                 break
             if not in_kernel:

@@ -42,6 +42,7 @@ from driftlog.columns import (
     NX,
     NY,
     OMEGA,
+    OUTSIDE,
     THETA,
     UB,
     VB,
@@ -75,9 +76,12 @@ def _pair_key(id1, id2):
 
 
 @nb.njit(cache=True)
-def _contacts(S, length, radius, mem, na, caps, ocaps, o0, o1, margin, use_margin, gmax,
+def _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, use_margin, gmax,
               c1, c2, cres):
     """Pairs of active members (and member - obstacle capsule) whose boxes overlap.
+
+    The members mem[:na] move; mem[na:nt] are fixed (logs stopped in the window,
+    ``keep_stopped``): a pair needs a moving member (the first), obstacles only moving ones.
 
     Boxes: ``broadphase.log_boxes`` with ``margin`` per member (``use_margin``) or the scalar
     ``gmax``; kept when the gap is <= gmax (``use_margin`` False: the tolerance check) or the
@@ -94,7 +98,7 @@ def _contacts(S, length, radius, mem, na, caps, ocaps, o0, o1, margin, use_margi
         exi = hi * abs(np.cos(S[i, THETA])) + radius[i] + mi
         eyi = hi * abs(np.sin(S[i, THETA])) + radius[i] + mi
         ax, ay, bx, by = log_endpoints(S[i, X], S[i, Y], S[i, THETA], length[i])
-        for b in range(a + 1, na):
+        for b in range(a + 1, nt):
             j = mem[b]
             mj = margin[b] if use_margin else gmax
             hj = 0.5 * length[j]
@@ -181,6 +185,32 @@ def _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx,
     return k
 
 
+@nb.njit(cache=True)
+def split_stopped(S, F, flag, P, thr, friction, opt, box, mem, na, nx, length, fx, fy, tau):
+    """``_still_floating`` keeping the logs that stop in the mesh: (floating, stopped) counts.
+
+    mem[:na] the floating logs, mem[na:na + nx] those stopped before; after the call the
+    floating ones come first, in order, then the newly stopped ones still in the mesh
+    (resting or stranded: grounded from the next window on), then the earlier stopped.  A
+    log that left the mesh leaves the island.
+    """
+    old = mem[:na].copy()
+    k = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx, fy, tau)
+    if k == na:
+        return na, nx
+    j = 0
+    b = k
+    for a in range(na):
+        if j < k and mem[j] == old[a]:
+            j += 1
+        elif flag[old[a]] != OUTSIDE:
+            mem[b] = old[a]
+            b += 1
+    for a in range(nx):  # the earlier stopped ones, behind the new (b <= na: moving down)
+        mem[b + a] = mem[na + a]
+    return k, b - k + nx
+
+
 @nb.njit(cache=True, inline="always")
 def _sample_at(x, y, hint, ts, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
                recovered, loc):
@@ -238,7 +268,8 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                    lf, ang, drag_fraction, explicit, max_step, min_step, tracer, rotation,
                    thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
                    recovered, loc, tolerance, eps, rest_speed, near_share, max_events,
-                   active_in, fx, fy, box, obst_impulse, hit_t, hit_log, hit_other, hit_j,
+                   keep_stopped, active_in, fx, fy, box, obst_impulse, hit_t, hit_log,
+                   hit_other, hit_j,
                    hit_x, hit_y, nhit, active_out, nactive, stats, dt_lim, code, t_code):
     """Run each island of ``members``/``start`` from t0 to t_stop on its own clock.
 
@@ -260,6 +291,11 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
     tolerance, eps, rest_speed, near_share, max_events
         The contact model's tolerance (share of the smallest radius), restitution, resting
         speed, ``near`` and ``max_events``.
+    keep_stopped : bool
+        A log that stops floating within the window, in the mesh, stays in its island as a
+        fixed body (its velocity set to 0, zero inverse mass) to the window's end, as it is a
+        grounded obstacle from the next window on (``[contact] grounded``, docs/model.md 13);
+        False: it leaves the island and the others pass over it.
     active_in : sorted int64
         Pair keys (``model._body_pairs``) in contact at t0 (a hit is a contact that starts).
     fx, fy, box
@@ -316,6 +352,7 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                 npv += 1
         t = t0
         w_t, w_dt, w_ev, w_st = -np.inf, 0.0, 0, 0
+        nt = na  # mem[na:nt]: logs stopped in the window, fixed (keep_stopped)
         while t < t_stop and na > 0:
             # the island's own bound (Tracker.max_step over its logs)
             _first_stage(S, F, D0, lin0, P, opt, mem, na)
@@ -333,7 +370,7 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                 break
             tol = tolerance * rmin
             # contacts within tol: impulses (ContactModel._event)
-            nc = _contacts(S, length, radius, mem, na, caps, ocaps, o0, o1, margin, False,
+            nc = _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, False,
                            tol, c1, c2, cres)
             events = 0
             for c in range(nc):
@@ -343,11 +380,14 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                 ckey[c] = _pair_key(ids[i], other)
             if nc:
                 vmax = 0.0
-                for a in range(na):
+                for a in range(nt):
                     i = mem[a]
                     for k in range(6):
                         Sl[a, k] = S[i, k]
-                    lm[a], li[a] = inv_m[i], inv_i[i]
+                    if a < na:
+                        lm[a], li[a] = inv_m[i], inv_i[i]
+                    else:  # fixed
+                        lm[a] = li[a] = 0.0
                     vmax = max(vmax, max(abs(S[i, UB]), abs(S[i, VB])))
                 vtol = 1e-10 * (vmax + 1e-3)
                 for c in range(nc):
@@ -428,12 +468,12 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                 break
             # conservative advancement on the candidates within the motion of dt
             h = dt
-            for a in range(na):
+            for a in range(nt):
                 i = mem[a]
                 sp = (np.hypot(S[i, UB], S[i, VB])
                       + abs(S[i, OMEGA]) * (0.5 * length[i] + radius[i]))
                 margin[a] = sp * dt + tol
-            ncand = _contacts(S, length, radius, mem, na, caps, ocaps, o0, o1, margin, True,
+            ncand = _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, True,
                               tol, e1, e2, eres)
             if ncand:
                 h = _conservative(S, length, radius, mem, caps, ocaps, o0, e1, e2, eres, ncand,
@@ -457,7 +497,7 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                               tracer, rotation, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
                               t_split, dry_depth, recovered, loc)
                 stats[ST_ADVANCES] += 1
-                ne = _contacts(S, length, radius, mem, na, caps, ocaps, o0, o1, margin, False,
+                ne = _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, False,
                                tol, e1, e2, eres)
                 gmin = np.inf
                 kdeep = -1
@@ -495,9 +535,20 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
             if _diverged(S, mem, na):
                 code[q], t_code[q] = DIVERGED, t
                 break
-            # swept boxes; statuses: a log that stops floating leaves the island
-            na = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx,
-                                 fy, t - t0)
+            # swept boxes; statuses: a log that stops floating leaves the island's motion;
+            # with keep_stopped it stays a fixed body, at rest, to the window's end
+            if keep_stopped:
+                na, nx = split_stopped(S, F, flag, P, thr, friction, opt, box, mem, na, nt - na,
+                                       length, fx, fy, t - t0)
+                nt = na + nx
+                for a in range(na, nt):
+                    i = mem[a]
+                    for k in range(UB, OMEGA + 1):
+                        S[i, k] = 0.0
+            else:
+                na = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length,
+                                     fx, fy, t - t0)
+                nt = na
         if code[q] == HIT_FULL:
             return
         # the pairs in contact at the end (the model's _active after its last step)

@@ -42,7 +42,7 @@ import numba as nb
 import numpy as np
 
 from driftlog.clock_kernel import _own_bound
-from driftlog.columns import CX, CY, GAP, NRES, NVAR, NX, NY, OMEGA, OUTSIDE, THETA, UB, VB, X, Y
+from driftlog.columns import CX, CY, GAP, NRES, NVAR, NX, NY, OMEGA, THETA, UB, VB, X, Y
 from driftlog.contact.geometry import capsule_gap, capsule_row, log_endpoints
 from driftlog.contact.moreau import moreau_solve
 from driftlog.contact.native import _ends_against
@@ -60,6 +60,7 @@ from driftlog.island_kernel import (
     _step_one,
     _still_floating,
     add_hit,
+    split_stopped,
 )
 
 __all__ = ["moreau_islands", "moreau_islands_parallel", "island_pairs", "NSTAT", "OK",
@@ -260,8 +261,8 @@ def _manifold(Sl, ln, rd, pairs, caps, ocaps, margin):
 def _moving_pairs(Sl, ln, rd, na, nt, margin, caps, ocaps):
     """``island_pairs`` of the nt bodies whose first is one of the na moving logs.
 
-    The bodies na .. nt - 1 are fixed (stopped logs, ``_split_stopped``): a pair of two fixed
-    bodies, or of a fixed body and an obstacle, has nothing to solve.
+    The bodies na .. nt - 1 are fixed (stopped logs, ``island_kernel.split_stopped``): a
+    pair of two fixed bodies, or of a fixed body and an obstacle, has nothing to solve.
     """
     pairs, _ = island_pairs(Sl, ln, rd, nt, margin, caps, ocaps)
     if nt == na:
@@ -270,32 +271,6 @@ def _moving_pairs(Sl, ln, rd, na, nt, margin, caps, ocaps):
     for c in range(pairs.shape[0]):
         keep[c] = pairs[c, 0] < na  # log pairs are (a, b) with a < b
     return pairs[keep]
-
-
-@nb.njit(cache=True)
-def _split_stopped(S, F, flag, P, thr, friction, opt, box, mem, na, nx, length, fx, fy, tau):
-    """``_still_floating`` keeping the logs that stop in the mesh: (floating, stopped) counts.
-
-    mem[:na] the floating logs, mem[na:na + nx] those stopped before; after the call the
-    floating ones come first, in order, then the newly stopped ones still in the mesh
-    (resting or stranded: grounded from the next window on), then the earlier stopped.  A
-    log that left the mesh leaves the island.
-    """
-    old = mem[:na].copy()
-    k = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx, fy, tau)
-    if k == na:
-        return na, nx
-    j = 0
-    b = k
-    for a in range(na):
-        if j < k and mem[j] == old[a]:
-            j += 1
-        elif flag[old[a]] != OUTSIDE:
-            mem[b] = old[a]
-            b += 1
-    for a in range(nx):  # the earlier stopped ones, behind the new (b <= na: moving down)
-        mem[b + a] = mem[na + a]
-    return k, b - k + nx
 
 
 @nb.njit(cache=True)
@@ -519,7 +494,7 @@ def _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radiu
         # keep_stopped it stays in the island as a fixed body to the window's end (as it is a
         # grounded obstacle from then on, docs/model.md 13), else the others pass over it
         if keep_stopped:
-            na, nx = _split_stopped(S, F, flag, P, thr, friction, opt, box, mem, na, nx,
+            na, nx = split_stopped(S, F, flag, P, thr, friction, opt, box, mem, na, nx,
                                     length, fx, fy, t - t0)
         else:
             na = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx,

@@ -151,16 +151,17 @@ def _stranding_scene():
     return flow, logs
 
 
-@pytest.mark.parametrize("clock", ["global", "per_log"])
-def test_a_log_that_comes_to_rest_in_a_contact_window_holds_the_one_behind_it(clock):
-    """Moreau-Jean: a log that stops floating stays a fixed body of its island.
+@pytest.mark.parametrize("clock,method", [("global", "moreau"), ("per_log", "moreau"),
+                                          ("global", "event"), ("per_log", "event")])
+def test_a_log_that_comes_to_rest_in_a_contact_window_holds_the_one_behind_it(clock, method):
+    """A log that stops floating stays a fixed body of its contact island (both kernels).
 
     Before, under per-log clocks it left its island when it stopped, and the light log behind
     it ran on through it to the window's end (its front end 0.2 m into the heavy log, at the
     heavy log's axis, at the next record), until the grounded capsule pushed it back.
     """
     flow, logs = _stranding_scene()
-    model = ContactModel(Obstacles(), method="moreau", restitution=0.0, grounded=True)
+    model = ContactModel(Obstacles(), method=method, restitution=0.0, grounded=True)
     tr = Tracker(flow, logs, PhysicsOptions(level="full"), "rk4",
                  StepOptions(clock=clock, max_step=0.05), contact=model, t_end=10.0,
                  output_interval=10.0)
@@ -171,4 +172,5 @@ def test_a_log_that_comes_to_rest_in_a_contact_window_holds_the_one_behind_it(cl
     front = logs.state[1, 0] + 0.5 * logs.length[1]
     back = logs.state[0, 0] - logs.radius[0]
     assert -1e-3 < back - front < 0.06
-    assert model.stats["min_gap"] > -0.03  # (the seeding's 2.4 cm; 0.2 m before)
+    if method == "moreau":  # (the seeding's 2.4 cm; 0.2 m before)
+        assert model.stats["min_gap"] > -0.03
