@@ -45,6 +45,27 @@ def _parts(scen, t0, t1, step=None):
     return s, ref, cp, cm, tr
 
 
+def _run_balance(s, cp, tr):
+    """Run the coupled tracker; (the flow's momentum loss beyond its walls', the logs' gain).
+
+    The walls' pressure impulse is summed from the boundary fluxes of each solver step.
+    """
+    wall = np.zeros(2)
+    step = s.step
+
+    def counted(dt_max=np.inf):
+        dt = step(dt_max)
+        be = s.boundaries.edges
+        wall[0] -= dt * s._flux[1][be].sum()
+        wall[1] -= dt * s._flux[2][be].sum()
+        return dt
+
+    s.step = counted
+    w0, l0 = cp.water_momentum(), tr.momentum()
+    tr.run()
+    return -(cp.water_momentum() - w0 - 1000.0 * wall), tr.momentum() - l0
+
+
 def test_momentum_is_conserved_between_flow_logs_and_obstacles():
     """Closed channel, water sloshing at 0.8 m/s, six logs thrown on a post and the walls.
 
@@ -69,21 +90,7 @@ def test_momentum_is_conserved_between_flow_logs_and_obstacles():
         "coupling": {"enabled": True},
     })
     s, _, cp, cm, tr = _parts(scen, 0.0, 5.0)
-    wall = np.zeros(2)
-    step = s.step
-
-    def counted(dt_max=np.inf):
-        dt = step(dt_max)
-        be = s.boundaries.edges
-        wall[0] -= dt * s._flux[1][be].sum()
-        wall[1] -= dt * s._flux[2][be].sum()
-        return dt
-
-    s.step = counted
-    w0, l0 = cp.water_momentum(), tr.momentum()
-    tr.run()
-    flow_loss = -(cp.water_momentum() - w0 - 1000.0 * wall)
-    logs_gain = tr.momentum() - l0
+    flow_loss, logs_gain = _run_balance(s, cp, tr)
     passed = cm.obstacle_impulse.sum(axis=0) + tr.to_contacts
     scale = np.abs(flow_loss).max()
     assert scale > 100.0  # kg m/s: the logs took real momentum from the flow
@@ -383,21 +390,7 @@ def test_per_log_clocks_keep_the_momentum_balance_and_the_global_clocks_logs():
             "coupling": {"enabled": True},
         })
         s, _, cp, _, tr = _parts(scen, 0.0, 5.0, StepOptions(clock=clock))
-        wall = np.zeros(2)
-        step = s.step
-
-        def counted(dt_max=np.inf):
-            dt = step(dt_max)
-            be = s.boundaries.edges
-            wall[0] -= dt * s._flux[1][be].sum()
-            wall[1] -= dt * s._flux[2][be].sum()
-            return dt
-
-        s.step = counted
-        w0, l0 = cp.water_momentum(), tr.momentum()
-        tr.run()
-        flow_loss = -(cp.water_momentum() - w0 - 1000.0 * wall)
-        gain = tr.momentum() - l0
+        flow_loss, gain = _run_balance(s, cp, tr)
         scale = np.abs(flow_loss).max()
         assert scale > 5.0  # kg m/s: the logs took real momentum from the flow
         np.testing.assert_allclose(flow_loss, gain + tr.to_contacts, rtol=0, atol=1e-10 * scale)
