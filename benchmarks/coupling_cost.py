@@ -168,15 +168,16 @@ def main(argv=None):
 
     tmp = Path(tempfile.mkdtemp(prefix="driftlog-coupling-"))
     rows = []
-    # warm the kernels (numba cache) on a few steps, so no run pays for compiling
-    warm = scenario(20.0, 10, True)
-    track(warm, output=tmp / "warm.nc")
-
-    scen = scenario(a.end, a.logs, False, flow_path=tmp / "flow.nc")
     clocks = [c.strip() for c in a.clocks.split(",") if c.strip()]
-    cscens = {c: scenario(a.end, a.logs, True, clock=c) for c in clocks}
     if clocks[0] != "global":
         raise SystemExit(f"--clocks {a.clocks}: the first is the reference, 'global'")
+    # warm the kernels (numba cache) on a few steps under each clock, so no run pays for
+    # compiling
+    for c in clocks:
+        track(scenario(20.0, 10, True, clock=c), output=tmp / "warm.nc")
+
+    scen = scenario(a.end, a.logs, False, flow_path=tmp / "flow.nc")
+    cscens = {c: scenario(a.end, a.logs, True, clock=c) for c in clocks}
     import netCDF4
 
     best = {}  # run -> (CPU s, wall s, extra, checkpoints): the fastest of the repetitions
@@ -219,12 +220,15 @@ def main(argv=None):
             digests = dict(
                 trajectories=digest(tmp / "coupled.nc", TRAJ_VARS),
                 flow=digest(tmp / "coupled_flow.nc", FLOW_VARS))
-            keep(f"coupled {clock}", c, w, (parts, digests, res, steps, given, region, widened),
-                 at)
+            keep(f"coupled {clock}", c, w, dict(parts=parts, digests=digests, res=res,
+                                                steps=steps, given=given, region=region,
+                                                widened=widened), at)
     c_solve, w_solve, _, at_solve = best["solve"]
     c_off, w_off, (c_track, substeps), at_off = best["offline"]
-    c_c, w_c, (parts, digests, res, steps, given, region, widened), at_c = best["coupled global"]
-    per = {c: best[f"coupled {c}"] for c in clocks[1:]}
+    c_c, w_c, ref, at_c = best["coupled global"]
+    parts, digests, res, steps = ref["parts"], ref["digests"], ref["res"], ref["steps"]
+    given, region, widened = ref["given"], ref["region"], ref["widened"]
+    per = {c: best[f"coupled {c}"] for c in clocks[1:]}  # (CPU s, wall s, extra, checkpoints)
     rows.append(dict(run="solve (solver alone, no output)", wall_s=w_solve, cpu_s=c_solve,
                      solver_steps=s.steps, cpu_ratio_to_solve=1.0))
     rows.append(dict(run="offline: solve with output + track", wall_s=w_off, cpu_s=c_off,
@@ -233,7 +237,7 @@ def main(argv=None):
                      solver_steps=steps, cpu_ratio_to_solve=c_c / c_solve))
     for c, (cp_, wp, ex, _) in per.items():
         rows.append(dict(run=f"coupled, {c} clocks (no contacts)", wall_s=wp, cpu_s=cp_,
-                         solver_steps=ex[3], cpu_ratio_to_solve=cp_ / c_solve))
+                         solver_steps=ex["steps"], cpu_ratio_to_solve=cp_ / c_solve))
     floating = int((res.logs.status == 1).sum())
     label = "" if a.end >= 4000.0 else f" (shortened run: {a.end:g} s of the 4000-s flood)"
     notes = (f"Malpasset, 46,691 triangles, order 1, {a.logs} logs released in the reservoir, no "
@@ -244,9 +248,9 @@ def main(argv=None):
              f"logs floating at the end, momentum given to the water ({given[0]:.3g}, "
              f"{given[1]:.3g}) kg m/s."
              + "".join(f"  Coupled, {c} clocks / global clock: {v[0] / c_c:.3f} (CPU); "
-                       f"log sub-steps {v[2][2].stats.get('log_substeps', 0):,} against "
+                       f"log sub-steps {v[2]['res'].stats.get('log_substeps', 0):,} against "
                        f"{res.stats['substeps']:,} shared sub-steps of up to {a.logs} logs; "
-                       f"momentum given ({v[2][4][0]:.4g}, {v[2][4][1]:.4g}) kg m/s"
+                       f"momentum given ({v[2]['given'][0]:.4g}, {v[2]['given'][1]:.4g}) kg m/s"
                        for c, v in per.items()))
     write_table(a.name, rows, ["run", "wall_s", "cpu_s", "solver_steps", "cpu_ratio_to_solve"],
                 f"Cost of two-way coupling: Malpasset with {a.logs} logs{label}", notes)
@@ -256,7 +260,7 @@ def main(argv=None):
             for k, v in parts.items()]
     pcols = ["part", "cpu_s", "ms_per_solver_step", "share_of_solve"]
     for c, v in per.items():
-        pp = dict(v[2][0])
+        pp = dict(v[2]["parts"])
         pp["rest"] = v[0] - sum(pp.values())
         for row, k in zip(prow, parts, strict=True):
             row[f"cpu_s_{c}"] = pp[k]
@@ -300,11 +304,11 @@ def main(argv=None):
         coupled_over_offline=c_c / c_off, repeat=a.repeat, floating_at_end=floating,
         momentum_given=given, region_nodes=region, n_nodes=s.mesh.n_nodes,
         region_widenings=widened, coupled_parts_cpu_s=parts, coupled_digests=digests,
-        coupled_other_clocks={c: dict(cpu_s=v[0], wall_s=v[1], solver_steps=v[2][3],
-                                      log_substeps=v[2][2].stats.get("log_substeps", 0),
-                                      over_global=v[0] / c_c, momentum_given=v[2][4],
-                                      parts_cpu_s=v[2][0], digests=v[2][1],
-                                      region_widenings=v[2][6])
+        coupled_other_clocks={c: dict(cpu_s=v[0], wall_s=v[1], solver_steps=v[2]["steps"],
+                                      log_substeps=v[2]["res"].stats.get("log_substeps", 0),
+                                      over_global=v[0] / c_c, momentum_given=v[2]["given"],
+                                      parts_cpu_s=v[2]["parts"], digests=v[2]["digests"],
+                                      region_widenings=v[2]["widened"])
                               for c, v in per.items()},
         coupled_substeps=res.stats["substeps"],
         evolution=evo), indent=1))

@@ -191,8 +191,9 @@ def split_stopped(S, F, flag, P, thr, friction, opt, box, mem, na, nx, length, f
 
     mem[:na] the floating logs, mem[na:na + nx] those stopped before; after the call the
     floating ones come first, in order, then the newly stopped ones still in the mesh
-    (resting or stranded: grounded from the next window on), then the earlier stopped.  A
-    log that left the mesh leaves the island.
+    (resting or stranded: grounded from the next window on), at rest (their velocity set to
+    0, as the tracker sets it after the window), then the earlier stopped.  A log that left
+    the mesh leaves the island.
     """
     old = mem[:na].copy()
     k = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx, fy, tau)
@@ -206,6 +207,8 @@ def split_stopped(S, F, flag, P, thr, friction, opt, box, mem, na, nx, length, f
         elif flag[old[a]] != OUTSIDE:
             mem[b] = old[a]
             b += 1
+            for q in range(UB, OMEGA + 1):
+                S[old[a], q] = 0.0
     for a in range(nx):  # the earlier stopped ones, behind the new (b <= na: moving down)
         mem[b + a] = mem[na + a]
     return k, b - k + nx
@@ -541,10 +544,6 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                 na, nx = split_stopped(S, F, flag, P, thr, friction, opt, box, mem, na, nt - na,
                                        length, fx, fy, t - t0)
                 nt = na + nx
-                for a in range(na, nt):
-                    i = mem[a]
-                    for k in range(UB, OMEGA + 1):
-                        S[i, k] = 0.0
             else:
                 na = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length,
                                      fx, fy, t - t0)

@@ -347,8 +347,7 @@ def _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radiu
         for a in range(na, nt):  # a stopped log: at rest, immovable (zero inverse mass)
             i = mem[a]
             for k in range(6):
-                S0l[a, k] = S[i, k] if k < UB else 0.0
-                Sl[a, k] = S0l[a, k]
+                S0l[a, k] = Sl[a, k] = S[i, k]
             ln[a], rd[a] = length[i], radius[i]
             lm[a] = li[a] = 0.0
             rmin = min(rmin, radius[i])
