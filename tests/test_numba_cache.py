@@ -23,7 +23,8 @@ def test_hash_changes_with_an_inlined_module_only(tmp_path):
     pkg = _copy_tree(tmp_path)
     h0 = _cache._source_hash(pkg)
     assert _cache._source_hash(pkg) == h0  # deterministic
-    # the Riemann solver is inlined into the flux kernel of another file: a change must show
+    # the Riemann solver's machine code is in the cached flux kernel of another file: a change
+    # must show
     riemann = pkg / "solver" / "riemann.py"
     riemann.write_text(riemann.read_text() + "\n# changed\n")
     h1 = _cache._source_hash(pkg)

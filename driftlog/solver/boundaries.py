@@ -235,7 +235,7 @@ def _by_conveyance(q_total, h, length, dry_depth, inflow):
     return q_total * k / np.sum(k * length)
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _inflow_depth(qn, rplus, g):
     """Depth at an inflow edge with unit discharge qn < 0 and outgoing invariant rplus.
 
@@ -257,7 +257,7 @@ def _inflow_depth(qn, rplus, g):
     return x * x
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def boundary_flux(kind, value, hL, zL, unL, utL, g, hdry, riemann):
     """Flux (mass, normal, tangential momentum per unit length; max speed) at a boundary edge.
 
