@@ -29,7 +29,7 @@ install-test: venv
 	$(PIP) install -q -e ".[test]"
 
 test: install-test
-	$(BIN)/python -m pytest -n 2 --dist loadgroup $(PYTEST_ARGS)
+	$(BIN)/python -m pytest -n 2 $(PYTEST_ARGS)
 
 report: install
 	$(BIN)/driftlog report

@@ -13,21 +13,7 @@ def pytest_addoption(parser):
     parser.addoption("--runslow", action="store_true", default=False, help="run slow tests")
 
 
-# Tests that run the per-log clock and contact-island kernels: numba takes minutes to compile
-# each of these kernels from a cold cache (CI's), so under `pytest -n 2 --dist loadgroup` they
-# all run on one worker, which compiles them once, while the other takes the rest; without
-# the group both workers compiled them at the same time (measured on a cold cache: 260 and 175
-# CPU s per worker for island_kernel.island_advance and clock_kernel.per_log_mesh_advance)
-PER_LOG_KERNELS = ("test_clocks.py", "test_contact_islands.py", "test_islands_parallel.py",
-                   "test_grounded.py")
-
-
 def pytest_collection_modifyitems(config, items):
-    group = pytest.mark.xdist_group("per_log_kernels")
-    for item in items:
-        if item.path.name in PER_LOG_KERNELS or "per_log_clocks" in item.name \
-                or "-per_log]" in item.name:
-            item.add_marker(group)
     if config.getoption("--runslow") or os.environ.get("DRIFTLOG_SLOW") == "1":
         return
     skip = pytest.mark.skip(reason="slow: use --runslow or DRIFTLOG_SLOW=1")
