@@ -19,7 +19,7 @@ def _copy_tree(tmp_path):
     return dst
 
 
-def test_hash_changes_with_an_inlined_module_only(tmp_path):
+def test_hash_changes_with_a_module_a_kernel_calls(tmp_path):
     pkg = _copy_tree(tmp_path)
     h0 = _cache._source_hash(pkg)
     assert _cache._source_hash(pkg) == h0  # deterministic
