@@ -17,7 +17,8 @@ time: there the end-of-step stage uses the next snapshot pair (as the general pa
 flow's ``node_values`` chooses), so the stage times get their own (node values, weight).
 
 The integrator arithmetic is ``driftlog.integrators``' own (``euler_row``, ``rk4_stage_row``,
-``rk4_final_row``): one RK4 for both paths.
+``rk4_sum_row``, which ``rk4_final_row`` calls): one RK4 for both paths.  The three RK4
+stages run as one loop, so that the inlined sampling and forces are compiled once per kernel.
 
 In the tracker's own loop (no contact model, motion "floating", no waterlogging) the step
 also *settles* each log: what the tracker did before in separate passes over the arrays after
@@ -65,7 +66,15 @@ from driftlog.columns import (
     Y,
 )
 from driftlog.flow import _triangle_weights, sample_point, sample_point_columns
-from driftlog.integrators import RK4_C, euler_row, put_row, rk4_final_row, rk4_stage_row, row
+from driftlog.integrators import (
+    RK4_C,
+    add_row,
+    euler_row,
+    put_row,
+    rk4_stage_row,
+    rk4_sum_row,
+    row,
+)
 from driftlog.locate import MAX_WALK, _bin_search, _edge_side
 from driftlog.logs import FLOATING, LEFT, RESTING, STRANDED
 from driftlog.physics import O_LEVEL, O_MOTION, O_ROT, TRACER, log_rhs, stage_columns
@@ -182,10 +191,22 @@ def rk4_row(s0, d0, dt, hint, a_m, inv_m, vals_m, a_3, inv_3, vals_3, dry_depth,
     Stages 1 and 2 read the flow at t0 + dt/2 (``a_m``, ``inv_m``, ``vals_m``), stage 3 at
     t0 + dt (``a_3``, ...); every stage's point location starts from the face ``hint``.
     """
-    d1 = _rk4_stage(s0, 1, dt, d0, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p, opt)
-    d2 = _rk4_stage(s0, 2, dt, d1, hint, a_m, inv_m, vals_m, dry_depth, recovered, loc, p, opt)
-    d3 = _rk4_stage(s0, 3, dt, d2, hint, a_3, inv_3, vals_3, dry_depth, recovered, loc, p, opt)
-    return rk4_final_row(s0, dt, d0, d1, d2, d3)
+    # the three stages in one loop, so that the inlined sampling and forces are compiled once
+    # rather than three times (the kernels that inline a step compile several times faster);
+    # the same arithmetic in the same order as rk4_final_row
+    d = d0
+    d1 = d0
+    d12 = d0
+    for k in range(1, 4):
+        a, inv, vals = a_m, inv_m, vals_m
+        if k == 3:
+            a, inv, vals = a_3, inv_3, vals_3
+        d = _rk4_stage(s0, k, dt, d, hint, a, inv, vals, dry_depth, recovered, loc, p, opt)
+        if k == 1:
+            d1 = d
+        elif k == 2:
+            d12 = add_row(d1, d)
+    return rk4_sum_row(s0, dt, d0, d12, d)
 
 
 @nb.njit(cache=True, inline="always")

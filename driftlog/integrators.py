@@ -45,7 +45,8 @@ from driftlog.columns import (
 from driftlog.schema import Key, Section
 
 __all__ = ["Integrator", "make_integrator", "phi_functions", "METHODS", "RK4_C", "row",
-           "put_row", "euler_row", "rk4_stage_row", "rk4_final_row"]
+           "put_row", "euler_row", "rk4_stage_row", "rk4_final_row", "rk4_sum_row",
+           "add_row"]
 
 METHODS = ("euler", "rk4", "exponential")
 # classical RK4 nodes: stage k (0 to 3) at t0 + RK4_C[k] dt
@@ -86,21 +87,40 @@ def rk4_stage_row(s0, k, dt, d):
 
 
 @nb.njit(cache=True, inline="always")
+def _rk4_mix12(s, c6, d0, d12, d3):
+    """One component of the RK4 combination from d12 = d1 + d2: s + dt/6 (d0 + 2 d12 + d3)."""
+    return s + c6 * (d0 + 2.0 * d12 + d3)
+
+
+@nb.njit(cache=True, inline="always")
 def _rk4_mix(s, c6, d0, d1, d2, d3):
     """One component of the RK4 combination: s + dt/6 (d0 + 2 (d1 + d2) + d3), c6 = dt/6."""
-    return s + c6 * (d0 + 2.0 * (d1 + d2) + d3)
+    return _rk4_mix12(s, c6, d0, d1 + d2, d3)
+
+
+@nb.njit(cache=True, inline="always")
+def add_row(a, b):
+    """The 6-tuple a + b."""
+    return (a[X] + b[X], a[Y] + b[Y], a[THETA] + b[THETA], a[UB] + b[UB], a[VB] + b[VB],
+            a[OMEGA] + b[OMEGA])
+
+
+@nb.njit(cache=True, inline="always")
+def rk4_sum_row(s0, dt, d0, d12, d3):
+    """The RK4 step's end state from s0, d0, d12 = d1 + d2 (``add_row``) and d3."""
+    c6 = dt / 6.0
+    return (_rk4_mix12(s0[X], c6, d0[X], d12[X], d3[X]),
+            _rk4_mix12(s0[Y], c6, d0[Y], d12[Y], d3[Y]),
+            _rk4_mix12(s0[THETA], c6, d0[THETA], d12[THETA], d3[THETA]),
+            _rk4_mix12(s0[UB], c6, d0[UB], d12[UB], d3[UB]),
+            _rk4_mix12(s0[VB], c6, d0[VB], d12[VB], d3[VB]),
+            _rk4_mix12(s0[OMEGA], c6, d0[OMEGA], d12[OMEGA], d3[OMEGA]))
 
 
 @nb.njit(cache=True, inline="always")
 def rk4_final_row(s0, dt, d0, d1, d2, d3):
     """The RK4 step's end state from s0 and the four stage derivatives."""
-    c6 = dt / 6.0
-    return (_rk4_mix(s0[X], c6, d0[X], d1[X], d2[X], d3[X]),
-            _rk4_mix(s0[Y], c6, d0[Y], d1[Y], d2[Y], d3[Y]),
-            _rk4_mix(s0[THETA], c6, d0[THETA], d1[THETA], d2[THETA], d3[THETA]),
-            _rk4_mix(s0[UB], c6, d0[UB], d1[UB], d2[UB], d3[UB]),
-            _rk4_mix(s0[VB], c6, d0[VB], d1[VB], d2[VB], d3[VB]),
-            _rk4_mix(s0[OMEGA], c6, d0[OMEGA], d1[OMEGA], d2[OMEGA], d3[OMEGA]))
+    return rk4_sum_row(s0, dt, d0, add_row(d1, d2), d3)
 
 
 # --------------------------------------------------------------------- whole arrays
