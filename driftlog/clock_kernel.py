@@ -191,38 +191,34 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t_from, t0, t_stop,
         s = row(S, i)
         p = P[i]
         t = t_from[i]
-        if restart:
-            s = (s[X], s[Y], s[THETA], 0.0, 0.0, 0.0)
-            a_r, inv_r, vals_r = _pair_at(t, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split,
-                                          False)
-            f, fg, fl = sample_point(s[X], s[Y], face[i], a_r, inv_r, vals_r, dry_depth,
-                                     recovered, loc)
-            face[i] = f
-            flag[i] = fg
-            for q in range(NVAR):
-                F[i, q] = fl[q]
-            d, ln2 = log_rhs(s, fl, p, opt, True)
-            put_row(D0, i, d)
-            for q in range(NLIN):
-                lin0[i, q] = ln2[q]
         k = 0
         lo, hi = np.inf, 0.0
         tau = t - t0
         ax, ay, bx, by = log_endpoints(s[X] - fx * tau, s[Y] - fy * tau, s[THETA], length[i])
         x0, y0, x1, y1 = min(ax, bx), min(ay, by), max(ax, bx), max(ay, by)
         c = OK
-        while t < t_stop:
-            ln = (lin0[i, 0], lin0[i, 1], lin0[i, 2], lin0[i, 3], lin0[i, 4])
-            dt = min(_own_bound(s, length[i], ln, lf, ang, drag_fraction, explicit, max_step),
-                     t_stop - t)
-            if dt < min_step and t_stop - t > min_step:
-                c = TOO_SMALL
-                break
+        # with ``restart`` the first pass only samples the flow and the forces at the log at
+        # rest (one copy of the inlined sampling and forces for both: it compiles faster)
+        first = restart
+        if restart:
+            s = (s[X], s[Y], s[THETA], 0.0, 0.0, 0.0)
+        while first or t < t_stop:
             hint = face[i]
-            d0 = row(D0, i)
-            s, a_e, inv_e, vals_e = _free_step(s, d0, hint, t, dt, method, p, opt, vals_c,
-                                               T0c, gap_c, vals_n, T0n, gap_n, t_split,
-                                               dry_depth, recovered, loc)
+            if first:
+                a_e, inv_e, vals_e = _pair_at(t, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
+                                              t_split, False)
+                dt = 0.0
+            else:
+                ln = (lin0[i, 0], lin0[i, 1], lin0[i, 2], lin0[i, 3], lin0[i, 4])
+                dt = min(_own_bound(s, length[i], ln, lf, ang, drag_fraction, explicit,
+                                    max_step), t_stop - t)
+                if dt < min_step and t_stop - t > min_step:
+                    c = TOO_SMALL
+                    break
+                d0 = row(D0, i)
+                s, a_e, inv_e, vals_e = _free_step(s, d0, hint, t, dt, method, p, opt, vals_c,
+                                                   T0c, gap_c, vals_n, T0n, gap_n, t_split,
+                                                   dry_depth, recovered, loc)
             f, fg, fl = sample_point(s[X], s[Y], hint, a_e, inv_e, vals_e, dry_depth,
                                      recovered, loc)
             face[i] = f
@@ -233,6 +229,9 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t_from, t0, t_stop,
             put_row(D0, i, d)
             for q in range(NLIN):
                 lin0[i, q] = ln2[q]
+            if first:
+                first = False
+                continue
             if tracer:
                 om = 0.5 * (fl[DVDX] - fl[DUDY]) if rotation else 0.0
                 s = (s[X], s[Y], s[THETA], fl[U], fl[V], om)
