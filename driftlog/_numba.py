@@ -39,6 +39,8 @@ class _InlineCopy:
     the same; only the copying is cheaper.  Anything else is ``copy``'s own.
     """
 
+    installed = None  # the instance in numba's inliner
+
     def __init__(self):
         self._local = threading.local()
 
@@ -85,7 +87,7 @@ def _share_inlined_scopes():
             return
     except (ImportError, AttributeError):
         return
-    shim = _InlineCopy()
+    shim = _InlineCopy.installed = _InlineCopy()
     icc.copy = shim
     worker.inline_ir = shim.inline_ir(worker.inline_ir)
 
