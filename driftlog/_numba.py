@@ -134,13 +134,14 @@ def kernel(func=None, *, size_arg=0):
 COMPILE_SECONDS = {"tracking": 20, "solver": 20, "contacts": 15}
 # the tracker's multi-threaded kernels (from PARALLEL_MIN floating logs on: the fused steps of
 # the global clock, the per-log kernels) take far longer (measured: a 1e4-log Malpasset run on
-# per-log clocks with Moreau contacts, 900 s of flood, 652 CPU s, nearly all compiling them, at
-# load 2); any of them cached counts
+# per-log clocks with Moreau contacts, 900 s of flood, 1 thread: 309 CPU s from an empty cache
+# against 62 cached, so about 4 CPU minutes compiling; 1033 CPU s before the inliner's scope
+# sharing above, BENCHMARKS.md "Compile time"); any of them cached counts
 _PROBES = {"tracking": ("", ("physics.rhs_kernel",)),
            "solver": ("solver", ("fluxes.edge_fluxes_1",)),
            "contacts": ("contact", ("geometry.capsule_gap",)),
            "parallel": ("", ("fused.*_parallel", "clock_kernel.*_parallel"))}
-PARALLEL_COMPILE = "the multi-threaded ones (over 2,048 logs) up to about 10 min"
+PARALLEL_COMPILE = "the multi-threaded ones (over 2,048 logs) up to about 4 min"
 
 
 def kernels_cached(part: str) -> bool:

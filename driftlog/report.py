@@ -47,6 +47,9 @@ ITEMS = [
      "importing regular grids: GeoTIFF series, LISFLOOD-FP ASCII, CF grid"),
     ("stability", "stability_figures.py", ["--quick"],
      "stability where methods fail (stiff drag, jams, dry fronts) and the remedies"),
+    ("compile_times", "compile_times.py",
+     ["--tests", "tests/test_fused.py::test_steady_vortex_on_a_mesh_rk4_bit_for_bit"],
+     "compile time from an empty numba cache, numba's inliner against driftlog's"),
 ]
 
 
