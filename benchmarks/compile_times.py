@@ -60,8 +60,8 @@ def _worker(variant, tests, out):
 
     t0 = time.process_time()
     code = pytest.main(["-q", "-p", "no:cacheprovider", "-p", "no:xdist", *tests])
-    json.dump({"exit": int(code), "cpu_s": time.process_time() - t0, "kernels": rec},
-              open(out, "w"))
+    Path(out).write_text(json.dumps({"exit": int(code), "cpu_s": time.process_time() - t0,
+                                     "kernels": rec}))
 
 
 def main():

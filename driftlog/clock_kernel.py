@@ -207,7 +207,6 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t_from, t0, t_stop,
             if first:
                 a_e, inv_e, vals_e = _pair_at(t, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
                                               t_split, False)
-                dt = 0.0
             else:
                 ln = (lin0[i, 0], lin0[i, 1], lin0[i, 2], lin0[i, 3], lin0[i, 4])
                 dt = min(_own_bound(s, length[i], ln, lf, ang, drag_fraction, explicit,

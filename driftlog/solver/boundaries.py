@@ -235,6 +235,7 @@ def _by_conveyance(q_total, h, length, dry_depth, inflow):
     return q_total * k / np.sum(k * length)
 
 
+# plain calls from the flux kernels, not inlined: see solver.riemann
 @nb.njit(cache=True)
 def _inflow_depth(qn, rplus, g):
     """Depth at an inflow edge with unit discharge qn < 0 and outgoing invariant rplus.

@@ -22,10 +22,13 @@ __all__ = ["wave_speeds", "hll_flux", "hllc_flux", "riemann_flux", "HLL", "HLLC"
 HLL, HLLC = 0, 1
 RIEMANN = {"hll": HLL, "hllc": HLLC}
 
-# Plain calls, not numba's inline="always": inlining them into the IR of the four flux
-# kernels took 17 s of compile per kernel (measured from a cold cache: a second-order run's
-# solver kernels compile in 11 s instead of 41), while the machine code runs at the same speed
-# (1e5 triangles, both orders, 1 thread) and gives the same results bit for bit
+# Plain calls, not numba's inline="always" (the boundary flux of solver.boundaries likewise):
+# with numba's own inliner, inlining them into the IR of the four flux kernels took 17 s of
+# compile per kernel (a second-order run's solver kernels compiled in 11 s instead of 41,
+# measured by hand from a cold cache, before driftlog._numba's fix of the inliner's copying),
+# while the calls run at the same speed (1e5 triangles, both orders, 1 thread) and give the
+# same results bit for bit; `benchmarks/compile_times.py --tests tests/test_solver_scheme.py`
+# shows what they compile in now
 
 
 @nb.njit(cache=True)
