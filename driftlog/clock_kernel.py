@@ -55,8 +55,8 @@ from driftlog.fused import rk4_row
 from driftlog.integrators import euler_row, put_row, row
 from driftlog.physics import log_rhs, rest_drive
 
-__all__ = ["CLOCKS", "per_log_mesh_advance", "idle_lift", "OK", "TOO_SMALL", "DIVERGED",
-           "STOPPED", "EULER", "RK4"]
+__all__ = ["CLOCKS", "per_log_mesh_advance", "idle_lift", "free_summary", "OK", "TOO_SMALL",
+           "DIVERGED", "STOPPED", "EULER", "RK4"]
 
 CLOCKS = ("global", "per_log")
 # per-log outcome codes of per_log_mesh_advance (STOPPED: its status would change, left,
@@ -318,3 +318,41 @@ def idle_lift(S, face, P, opt, thr, friction, t_from, t_stop, dt_check, tol, val
                 t_lift[i] = hi
                 break
             ta = tb
+
+
+@nb.njit(cache=True)
+def free_summary(nsteps, dt_min, dt_max, code, own):
+    """What ``clocks._advance_rows`` reads of ``per_log_mesh_advance``'s outputs, in one pass.
+
+    Returns (sub-steps in all, the shortest sub-step of the logs that took any, the longest
+    over all logs (0 for a log without any), first TOO_SMALL row, first DIVERGED row (-1:
+    none)); ``own`` gets each log's shortest sub-step, inf for a log without any.  The same
+    numbers as numpy's ``nsteps.sum()``, ``dt_min[nsteps > 0].min()``, ``dt_max.max()`` (a
+    NaN propagates), ``np.flatnonzero(code == c)[0]`` and ``np.where(nsteps > 0, dt_min,
+    np.inf)``, without their temporaries.
+    """
+    k = 0
+    lo, hi = np.inf, -np.inf
+    lo_nan = hi_nan = False
+    small = diverged = -1
+    for i in range(nsteps.shape[0]):
+        v = dt_max[i]
+        if v != v:
+            hi_nan = True
+        elif v > hi:
+            hi = v
+        if nsteps[i] > 0:
+            k += nsteps[i]
+            v = dt_min[i]
+            own[i] = v
+            if v != v:
+                lo_nan = True
+            elif v < lo:
+                lo = v
+        else:
+            own[i] = np.inf
+        if small < 0 and code[i] == TOO_SMALL:
+            small = i
+        if diverged < 0 and code[i] == DIVERGED:
+            diverged = i
+    return k, np.nan if lo_nan else lo, np.nan if hi_nan else hi, small, diverged

@@ -33,9 +33,9 @@ import numpy as np
 from driftlog.columns import NQ, UB, VB
 from driftlog.coupling_kernels import (
     account_advance,
-    account_contacts,
+    all_finite,
+    contact_changes,
     gather_reaction,
-    held_drag,
     keep_linearisation,
     node_rows,
     refocus,
@@ -268,11 +268,9 @@ class CoupledTracker(Tracker):
         The drag the held logs bore beyond their free sub-step (``held_drag``), then the
         entrained water's share (``account_contacts``).
         """
-        held_drag(self.act, self.state, self._last_u, self._stamp, self._advances,
-                  self.logs.mass, self.added_mass, self._lin, self._dt, self.received,
-                  self.to_contacts)
-        account_contacts(self.act, self.state, self._last_u, self._stamp, self._advances,
-                         self.added_mass, self.to_contacts)
+        contact_changes(self.act, self.state, self._last_u, self._stamp, self._advances,
+                        self.logs.mass, self.added_mass, self._lin, self._dt, self.received,
+                        self.to_contacts)
 
     def advance(self, dt, have_d0=False):
         """``Tracker.advance``, keeping the momentum the water gives each floating log.
@@ -296,8 +294,7 @@ class CoupledTracker(Tracker):
             if self.coupling.flow.partial:
                 saved = Tracker.save(self)
         super().advance(dt, have_d0)
-        if saved is not None and not (np.isfinite(self.state).all()
-                                      and np.isfinite(self.F).all()):
+        if saved is not None and not all_finite(self.state, self.F):
             Tracker.restore(self, saved)
             self.coupling.flow.widen()
             self._rhs(self.state, self.t, self.D0, self.lin0)
@@ -332,7 +329,7 @@ class CoupledTracker(Tracker):
                     self._stamp.copy(), self._advances, dict(self.stats))
         try:
             relift_advance(self, stop, self._gain)
-            ok = bool(np.isfinite(self.state).all() and np.isfinite(self.F).all())
+            ok = kept is None or all_finite(self.state, self.F)
         except (IntegrationError, StepTooSmallError):
             if kept is None:
                 raise
@@ -544,9 +541,10 @@ class Coupling:
         if b is None or b[0].shape[0] < len(L):
             n = len(L)
             b = self._rows = (np.empty((n, 2)), np.empty(n), np.empty(n), np.empty(n),
-                              np.empty(n), np.empty(n, np.int64), np.full(n, -1, np.int64))
+                              np.empty(n), np.empty(n, np.int64), np.full(n, -1, np.int64),
+                              np.empty(n), np.empty(n))
             self._touched = np.empty(n * self.points, np.int64)
-        g, x, y, theta, length, hint, where = b
+        g, x, y, theta, length, hint, where, cos_t, sin_t = b
         m = gather_reaction(tracker.received, tracker.act, tracker.state, tracker.face,
                             L.state, L.face, L.length, where, g, x, y, theta, length, hint)
         if m == 0:
@@ -554,12 +552,17 @@ class Coupling:
         s = self.solver
         h, hu, hv = _arrays(s)
         th = theta[:m]
+        # numpy's cos and sin (into buffers), as before: numba's may differ in the last bit
+        c, sn = np.cos(th, out=cos_t[:m]), np.sin(th, out=sin_t[:m])
         gx, gy, ux, uy = scatter_reaction(
-            g[:m], x[:m], y[:m], np.cos(th), np.sin(th), length[:m], hint[:m], self.points,
+            g[:m], x[:m], y[:m], c, sn, length[:m], hint[:m], self.points,
             s.mesh.locator(), h, self.flow._state_face, s.mesh.face_area, self.rho,
             s.dry_depth, hu, hv, self._sx, self._sy, self._touched)
-        self.given += (gx, gy)
-        self.undelivered += (ux, uy)
+        given, undelivered = self.given, self.undelivered
+        given[0] += gx
+        given[1] += gy
+        undelivered[0] += ux
+        undelivered[1] += uy
         self.handovers += 1
         return True
 

@@ -18,7 +18,10 @@
 - ``account_advance`` and ``account_contacts``: the momentum the water gave each floating log
   over a free sub-step, and the entrained water's share of the contacts' velocity changes;
 - ``keep_linearisation`` and ``held_drag``: the drag a contact-held log bears beyond what its
-  free sub-step integrated (docs/model.md (73a)).
+  free sub-step integrated (docs/model.md (73a));
+- ``contact_changes``: ``held_drag`` then ``account_contacts``, in one call;
+- ``all_finite``: whether a sub-step's logs stayed in the region (no NaN in their state or
+  flow), without numpy's temporaries.
 """
 
 import numba as nb
@@ -47,7 +50,8 @@ from driftlog.locate import _edge_side, locate_one
 __all__ = ["mark_region", "node_rows", "shift_rows", "poison_rows", "scatter_reaction",
            "region_points", "refocus",
            "gather_reaction",
-           "account_advance", "account_contacts", "keep_linearisation", "held_drag"]
+           "account_advance", "account_contacts", "keep_linearisation", "held_drag",
+           "contact_changes", "all_finite"]
 
 
 @nb.njit(cache=True)
@@ -456,3 +460,27 @@ def held_drag(act, state, last_u, stamp, advances, mass, added_mass, lin_last, d
         sy += jy
     to_contacts[0] += sx
     to_contacts[1] += sy
+
+
+@nb.njit(cache=True)
+def contact_changes(act, state, last_u, stamp, advances, mass, added_mass, lin_last, dt_last,
+                    received, to_contacts):
+    """``held_drag`` then ``account_contacts`` (``CoupledTracker._contact_changes``), one call."""
+    held_drag(act, state, last_u, stamp, advances, mass, added_mass, lin_last, dt_last,
+              received, to_contacts)
+    account_contacts(act, state, last_u, stamp, advances, added_mass, to_contacts)
+
+
+@nb.njit(cache=True)
+def _finite_2d(x):
+    for i in range(x.shape[0]):
+        for j in range(x.shape[1]):
+            if not np.isfinite(x[i, j]):
+                return False
+    return True
+
+
+@nb.njit(cache=True)
+def all_finite(a, b):
+    """``np.isfinite(a).all() and np.isfinite(b).all()`` for two 2-D arrays, in one pass each."""
+    return _finite_2d(a) and _finite_2d(b)
