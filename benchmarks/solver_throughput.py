@@ -132,6 +132,52 @@ def breakdown(mesh, order, steps, repeat):
     return rows
 
 
+def malpasset_breakdown(end, repeat):
+    """CPU seconds per step of each kernel on Malpasset's first ``end`` s (order 1) and
+    ``end`` / 2 s (order 2): serial kernels, 1 thread, best of ``repeat`` by total CPU time.
+
+    The active set is split into its marking (``mark_active``) and its compaction (the face
+    and edge lists, ``layout._compact``); the faces of the flux passes are reported as a share
+    of the mesh (the valley is mostly dry early in the flood).
+    """
+    from malpasset import data_dir
+
+    import driftlog.solver.layout as layout
+    from driftlog.floodsetup import malpasset_solver
+
+    numba.set_num_threads(1)
+    names = list(KERNELS.values()) + ["active set compaction", "extremes"]
+    compact = layout._compact
+    rows = []
+    try:
+        for order, stop in ((1, end), (2, 0.5 * end)):
+            best = None
+            for _ in range(repeat + 1):  # the first run compiles / loads the kernels
+                s = malpasset_solver(data_dir() / "malpasset_mesh.nc", order=order,
+                                     parallel=False)
+                acc = dict.fromkeys(names, 0.0)
+                for attr, name in KERNELS.items():
+                    setattr(s, attr, _Timed(getattr(s, attr), acc, name))
+                s.extremes._kernel = _Timed(s.extremes._kernel, acc, "extremes")
+                layout._compact = _Timed(compact, acc, "active set compaction")
+                c0 = time.process_time()
+                s.advance_to(stop)
+                acc["total"] = time.process_time() - c0
+                acc["active"] = s.face_updates / (s.steps * order * s.mesh.n_faces)
+                acc["steps"] = s.steps
+                if best is None or acc["total"] < best["total"]:
+                    best = acc
+            n, active = best.pop("steps"), best.pop("active")
+            best["other"] = best["total"] - sum(best[k] for k in names)
+            rows += [dict(faces=s.mesh.n_faces, order=order, end_s=stop, steps=n,
+                          active_fraction=active, kernel=k, ms_per_step=1e3 * v / n,
+                          share=v / best["total"], load_after=os.getloadavg()[0])
+                     for k, v in best.items() if v > 0 or k == "other"]
+    finally:
+        layout._compact = compact
+    return rows
+
+
 def malpasset(end):
     """Malpasset's first ``end`` s at first order, with and without the active set."""
     from malpasset import data_dir
@@ -178,9 +224,31 @@ def main(argv=None):
     ap.add_argument("--breakdown", type=float, default=None, metavar="FACES",
                     help="only the CPU time per kernel of a step on a mesh of about FACES "
                          "triangles, orders 1 and 2, 1 thread")
+    ap.add_argument("--breakdown-malpasset", type=float, default=None, metavar="END",
+                    help="only the CPU time per kernel of a step on Malpasset's first END s "
+                         "(order 2: END / 2), 1 thread")
     ap.add_argument("--repeat", type=int, default=3,
                     help="best of N runs of the steps (by CPU time; default 3)")
     args = ap.parse_args(argv)
+    if args.breakdown_malpasset:
+        start = machine()
+        rows = malpasset_breakdown(args.breakdown_malpasset, args.repeat)
+        for r in rows:
+            print(f"order {r['order']} {r['kernel']:>38}: {r['ms_per_step']:7.3f} ms/step "
+                  f"{100 * r['share']:5.1f} %", flush=True)
+        write_table("solver_breakdown_malpasset", rows,
+                    ["faces", "order", "end_s", "steps", "active_fraction", "kernel",
+                     "ms_per_step", "share", "load_after"],
+                    "Shallow-water solver on Malpasset: CPU time per kernel of a step (1 "
+                    "thread, serial kernels)",
+                    notes=f"Started on {start}. Best of {args.repeat} runs by total CPU time, "
+                          "each kernel call timed in CPU time within the run; "
+                          "active_fraction: the faces of the flux passes as a share of the "
+                          "mesh (mean); total: the whole step; other: the Python between the "
+                          "kernels (boundary volumes, the CFL max, the volume balance). "
+                          "Re-create: `python benchmarks/solver_throughput.py "
+                          f"--breakdown-malpasset {args.breakdown_malpasset:g}`.")
+        return
     if args.breakdown:
         start = machine()
         mesh = square_mesh(int(args.breakdown))
