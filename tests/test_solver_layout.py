@@ -84,6 +84,38 @@ def test_active_set_changes_nothing_where_fronts_wet_and_dry(order):
     assert s.face_updates < 0.8 * plain.face_updates
 
 
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("renumber", ["hilbert", "rcm"])
+def test_block_pass_finds_the_active_set_of_the_full_scan(order, renumber, monkeypatch):
+    """``mark_blocks`` (blocks next to the last two passes' active blocks) on a long channel
+    whose front wets it: the same flood bit for bit as the whole-mesh scan, and far fewer
+    faces looked at."""
+    import driftlog.solver.model as model
+
+    mesh = channel_mesh(40.0, 0.5, 0.08)
+    plain = _dam_break(mesh, order, renumber="none", active_set=False)
+    plain.advance_to(1.5)
+    calls, scanned = [0], [0]
+    mark = model.mark_blocks
+
+    def counted(*args):
+        calls[0] += 1
+        scanned[0] += int(args[19].sum() | 0)  # blocks active at the last pass
+        return mark(*args)
+
+    monkeypatch.setattr(model, "mark_blocks", counted)
+    s = _dam_break(mesh, order, renumber=renumber)
+    assert s._blocks is not None
+    s.advance_to(1.5)
+    _same(s, plain)
+    passes = s.steps * order + s.rejected_steps * order
+    assert calls[0] > 0.9 * passes  # the block pass, not the scan, after the first passes
+    assert scanned[0] < 0.25 * calls[0] * s._blk_new.size  # a small part of the channel
+    # the state set from outside: the next pass scans the whole mesh again
+    s.h = s.h
+    assert s._blk_active == s._blk_new.size
+
+
 def test_flow_file_and_resume_in_the_mesh_numbering(tmp_path):
     mesh = channel_mesh(4.0, 0.5, 0.08)
     plain = _dam_break(mesh, 2, renumber="none", active_set=False)

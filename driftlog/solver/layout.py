@@ -39,7 +39,8 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 from driftlog._numba import kernel
 from driftlog.solver.reconstruction import first_order_states
 
-__all__ = ["ORDERINGS", "face_order", "rcm_order", "hilbert_order", "edge_order",
+__all__ = ["ORDERINGS", "face_order", "rcm_order", "hilbert_order", "edge_order", "BLOCK",
+           "block_tables", "mark_blocks", "active_blocks",
            "active_set", "mark_active"]
 
 ORDERINGS = ("rcm", "hilbert", "none")
@@ -167,3 +168,119 @@ def active_set(mark, h, always, face_n, neighbours, edge_faces, state, all_faces
         return all_faces, all_edges
     nf, ne = _compact(state, edge_faces, faces, edges)
     return faces[:nf], edges[:ne]
+
+
+BLOCK = 64  # faces per block of the active set's block pass (``mark_blocks``)
+
+
+def block_tables(edge_faces, neighbours, n_faces, size=BLOCK):
+    """Blocks of ``size`` consecutive faces for ``mark_blocks``, or None.
+
+    Returns (adjacency start, adjacency, edge start): block b's neighbouring blocks (itself
+    included, those holding a face next to one of b's) are ``adjacency[start[b]:start[b+1]]``;
+    its edges (those whose smaller face is in b) ``edge start[b]`` to ``edge start[b+1]``.
+    None when the edges are not sorted by their smaller face (the mesher's numbering).
+    """
+    a, b = edge_faces[:, 0], edge_faces[:, 1]
+    lo = np.where(b >= 0, np.minimum(a, b), a)
+    if lo.size and np.any(np.diff(lo) < 0):
+        return None
+    nb_ = (n_faces + size - 1) // size
+    f = np.repeat(np.arange(n_faces), neighbours.shape[1])
+    g = neighbours.ravel()
+    keep = g >= 0
+    pairs = np.unique(np.concatenate([
+        np.column_stack([f[keep] // size, g[keep] // size]),
+        np.column_stack([np.arange(nb_), np.arange(nb_)])]), axis=0)
+    start = np.searchsorted(pairs[:, 0], np.arange(nb_ + 1)).astype(np.int64)
+    estart = np.searchsorted(lo, np.arange(nb_ + 1) * size).astype(np.int64)
+    return start, np.ascontiguousarray(pairs[:, 1], dtype=np.int64), estart
+
+
+@nb.njit(cache=True)
+def mark_blocks(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdry, edge_offset,
+                rows, est, edge_faces, size, bstart, badj, estart, prev, prev2, cand, new,
+                faces, edges):
+    """``mark_active`` and ``_compact`` on the blocks where water may be, not the whole mesh.
+
+    Faces come in blocks of ``size`` (``block_tables``).  A stage moves water no further than
+    a face's neighbours, and every face holding water was active at one of the last two passes
+    (the corrector writes the faces of both), so the faces active now, and those leaving, lie
+    in the blocks next to the blocks active then (``prev``, ``prev2``: 1 for a block that held
+    an active face; ``always`` faces' blocks must be set in them).  Those blocks are marked as
+    ``mark_active`` marks (the same state, the same residuals zeroed); ``new`` gets this pass's
+    active blocks; the active faces and the edges touching them are written in increasing
+    order (``_compact``'s lists).  Returns (faces, edges, active blocks).  ``cand``: zero on
+    entry and on return.
+    """
+    nbk = prev.shape[0]
+    nf_all = h.shape[0]
+    for b in range(nbk):
+        if prev[b] or prev2[b]:
+            for q in range(bstart[b], bstart[b + 1]):
+                cand[badj[q]] = 1
+    nf = 0
+    nblk = 0
+    for b in range(nbk):
+        new[b] = 0
+        if not cand[b]:
+            continue
+        cand[b] = 0
+        for f in range(b * size, min((b + 1) * size, nf_all)):
+            on = h[f] > 0.0 or always[f]
+            if not on:
+                for k in range(face_n[f]):
+                    j = neighbours[f, k]
+                    if j >= 0 and h[j] > 0.0:
+                        on = True
+                        break
+            was = state[f] & 1
+            if on:
+                state[f] = 1
+                faces[nf] = f
+                nf += 1
+                new[b] = 1
+            else:
+                state[f] = 0
+                if was:  # left the set: what the full pass computes for a face with no water
+                    dh[f] = 0.0
+                    dhu[f] = 0.0
+                    dhv[f] = 0.0
+                    rate[f] = 0.0
+                    if f < rows.shape[0]:  # no rows at first order
+                        first_order_states(est, rows, f, face_n[f], h[f], z[f], 0.0, 0.0, 0.0,
+                                           0.0, edge_offset, hdry)
+        nblk += new[b]
+    # the edges touching an active face have their smaller face in an active block or next to
+    # one: sorted by that face, they are found block by block in increasing order
+    for b in range(nbk):
+        if new[b]:
+            for q in range(bstart[b], bstart[b + 1]):
+                cand[badj[q]] = 1
+    ne = 0
+    for b in range(nbk):
+        if not cand[b]:
+            continue
+        cand[b] = 0
+        for e in range(estart[b], estart[b + 1]):
+            a = edge_faces[e, 0]
+            c = edge_faces[e, 1]
+            if state[a] or (c >= 0 and state[c]):
+                edges[ne] = e
+                ne += 1
+    return nf, ne, nblk
+
+
+@nb.njit(cache=True)
+def active_blocks(state, size, new):
+    """``new[b]`` = 1 where block b of ``size`` faces holds an active face; their number."""
+    n = 0
+    for b in range(new.shape[0]):
+        v = 0
+        for f in range(b * size, min((b + 1) * size, state.shape[0])):
+            if state[f] & 1:
+                v = 1
+                break
+        new[b] = v
+        n += v
+    return n
