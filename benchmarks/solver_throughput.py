@@ -136,18 +136,21 @@ def malpasset_breakdown(end, repeat):
     """CPU seconds per step of each kernel on Malpasset's first ``end`` s (order 1) and
     ``end`` / 2 s (order 2): serial kernels, 1 thread, best of ``repeat`` by total CPU time.
 
-    The active set is split into its marking (``mark_active``) and its compaction (the face
-    and edge lists, ``layout._compact``); the faces of the flux passes are reported as a share
-    of the mesh (the valley is mostly dry early in the flood).
+    The active set is split into the whole mesh's marking (``mark_active``) and compaction
+    (the face and edge lists, ``layout._compact``) and the block pass that replaces both
+    while the set is small (``mark_blocks``); the faces of the flux passes are reported as a
+    share of the mesh (the valley is mostly dry early in the flood).
     """
     from malpasset import data_dir
 
     import driftlog.solver.layout as layout
+    import driftlog.solver.model as model
     from driftlog.floodsetup import malpasset_solver
 
     numba.set_num_threads(1)
-    names = list(KERNELS.values()) + ["active set compaction", "extremes"]
-    compact = layout._compact
+    names = list(KERNELS.values()) + ["active set compaction", "active set (block pass)",
+                                      "extremes"]
+    compact, blocks, active_blocks = layout._compact, model.mark_blocks, model.active_blocks
     rows = []
     try:
         for order, stop in ((1, end), (2, 0.5 * end)):
@@ -160,6 +163,8 @@ def malpasset_breakdown(end, repeat):
                     setattr(s, attr, _Timed(getattr(s, attr), acc, name))
                 s.extremes._kernel = _Timed(s.extremes._kernel, acc, "extremes")
                 layout._compact = _Timed(compact, acc, "active set compaction")
+                model.mark_blocks = _Timed(blocks, acc, "active set (block pass)")
+                model.active_blocks = _Timed(active_blocks, acc, "active set (block pass)")
                 c0 = time.process_time()
                 s.advance_to(stop)
                 acc["total"] = time.process_time() - c0
@@ -175,6 +180,7 @@ def malpasset_breakdown(end, repeat):
                      for k, v in best.items() if v > 0 or k == "other"]
     finally:
         layout._compact = compact
+        model.mark_blocks, model.active_blocks = blocks, active_blocks
     return rows
 
 

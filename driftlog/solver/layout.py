@@ -10,11 +10,13 @@ Renumbering
     so that the edge loop walks the faces in order.  Every face keeps the order of its own
     edges and every edge its orientation, so that each face sums the same fluxes in the same
     order: the results are bit for bit those of the mesh's own numbering.  A Hilbert curve on
-    the centroids (``hilbert_order``) does as well on the throughput benchmark's squares
-    (``benchmarks/solver_throughput.py --ordering``); RCM needs no coordinates and adapts to
-    graded meshes (Malpasset's cells range from 10 m to 300 m).  The user never sees the
-    internal numbering: the solver's public state, its flow files, boundaries and extremes
-    are in the mesh's numbering.
+    the centroids (``hilbert_order``, the default) and RCM do as well on the throughput
+    benchmark's wet squares (``benchmarks/solver_throughput.py --ordering``); on a partly dry
+    mesh the Hilbert curve keeps the active set's blocks compact (below), where RCM's levels
+    cross the whole mesh (Malpasset's flooded 14 % of faces lie in 18 % of its 64-face blocks
+    by the Hilbert curve, 40 % by RCM).  The user never sees the internal numbering: the
+    solver's public state, its flow files, boundaries and extremes are in the mesh's
+    numbering.
 
 Active set
     A face with no water (h = 0 exactly) whose neighbours have none either gets no flux
@@ -27,6 +29,14 @@ Active set
     would compute there: an active face's edge reads them), so that the
     kernels over all faces (Euler stage, Heun average, extremes) see exact zeros.  Results are
     bit for bit those of the full pass; a dam-break valley that is mostly dry costs little.
+
+    Finding the set scans only blocks of ``BLOCK`` consecutive faces next to the blocks that
+    held active faces at the last two passes (``mark_blocks``): a stage moves water no
+    further than a face's neighbours, and the corrector writes the faces of both of Heun's
+    passes.  The edges, sorted by their smaller face, are found block by block.  The scan of
+    the whole mesh (``active_set``) runs after the state is set from outside and while half
+    the blocks or more are active.  On Malpasset's first 200 s this took the active set from
+    a quarter of a first-order step to under a tenth.
 """
 
 from __future__ import annotations
