@@ -110,6 +110,33 @@ def edge_order(edge_faces_new):
     return np.lexsort((hi, lo)).astype(np.int64)
 
 
+@nb.njit(cache=True, inline="always")
+def _mark_face(f, h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdry,
+               edge_offset, rows, est):
+    """Mark face f active or not (``mark_active``'s rule); True when active."""
+    on = h[f] > 0.0 or always[f]
+    if not on:
+        for k in range(face_n[f]):
+            j = neighbours[f, k]
+            if j >= 0 and h[j] > 0.0:
+                on = True
+                break
+    was = state[f] & 1
+    if on:
+        state[f] = 1
+    else:
+        state[f] = 0
+        if was:  # left the set: what the full pass computes for a face with no water about
+            dh[f] = 0.0
+            dhu[f] = 0.0
+            dhv[f] = 0.0
+            rate[f] = 0.0
+            if f < rows.shape[0]:  # no rows at first order
+                first_order_states(est, rows, f, face_n[f], h[f], z[f], 0.0, 0.0, 0.0, 0.0,
+                                   edge_offset, hdry)
+    return on
+
+
 @kernel
 def mark_active(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdry, edge_offset,
                 rows, est):
@@ -122,27 +149,9 @@ def mark_active(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdr
     """
     n = 0
     for f in nb.prange(h.shape[0]):
-        on = h[f] > 0.0 or always[f]
-        if not on:
-            for k in range(face_n[f]):
-                j = neighbours[f, k]
-                if j >= 0 and h[j] > 0.0:
-                    on = True
-                    break
-        was = state[f] & 1
-        if on:
-            state[f] = 1
+        if _mark_face(f, h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdry,
+                      edge_offset, rows, est):
             n += 1
-        else:
-            state[f] = 0
-            if was:  # left the set: what the full pass computes for a face with no water about
-                dh[f] = 0.0
-                dhu[f] = 0.0
-                dhv[f] = 0.0
-                rate[f] = 0.0
-                if f < rows.shape[0]:  # no rows at first order
-                    first_order_states(est, rows, f, face_n[f], h[f], z[f], 0.0, 0.0, 0.0, 0.0,
-                                       edge_offset, hdry)
     return n
 
 
@@ -237,29 +246,11 @@ def mark_blocks(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdr
             continue
         cand[b] = 0
         for f in range(b * size, min((b + 1) * size, nf_all)):
-            on = h[f] > 0.0 or always[f]
-            if not on:
-                for k in range(face_n[f]):
-                    j = neighbours[f, k]
-                    if j >= 0 and h[j] > 0.0:
-                        on = True
-                        break
-            was = state[f] & 1
-            if on:
-                state[f] = 1
+            if _mark_face(f, h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdry,
+                          edge_offset, rows, est):
                 faces[nf] = f
                 nf += 1
                 new[b] = 1
-            else:
-                state[f] = 0
-                if was:  # left the set: what the full pass computes for a face with no water
-                    dh[f] = 0.0
-                    dhu[f] = 0.0
-                    dhv[f] = 0.0
-                    rate[f] = 0.0
-                    if f < rows.shape[0]:  # no rows at first order
-                        first_order_states(est, rows, f, face_n[f], h[f], z[f], 0.0, 0.0, 0.0,
-                                           0.0, edge_offset, hdry)
         nblk += new[b]
     # the edges touching an active face have their smaller face in an active block or next to
     # one: sorted by that face, they are found block by block in increasing order
