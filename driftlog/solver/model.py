@@ -435,6 +435,12 @@ class ShallowWaterSolver:
             self._blk[1][:] = 1
             self._blk_active = self._blk_new.size
 
+    def _next_blocks(self):
+        """Rotate the block flags: the pass's new ones (``_blk_new``) become the last."""
+        last, before = self._blk
+        self._blk = [self._blk_new, last]
+        self._blk_new = before
+
     def _rates(self, h, hu, hv, t):
         """Fluxes and residuals of state (h, hu, hv) at time t; returns the max rate.
 
@@ -451,8 +457,7 @@ class ShallowWaterSolver:
                 h, m._always, m._fn, m._nbr, m._mark, dh, dhu, dhv, rate, m._z, m.dry_depth,
                 m._eoff, m._rows, m._est, m._ef, BLOCK, *m._blocks, last, before, m._blk_cand,
                 m._blk_new, m._faces_buf, m._edges_buf)
-            m._blk = [m._blk_new, last]
-            m._blk_new = before
+            m._next_blocks()
             faces, edges = ((m._all_faces, m._all_edges) if na == h.shape[0]
                             else (m._faces_buf[:na], m._edges_buf[:ne]))
         elif m.active_set:
@@ -461,10 +466,8 @@ class ShallowWaterSolver:
                                       dh, dhu, dhv, rate, m._z, m.dry_depth, m._eoff, m._rows,
                                       m._est)
             if m._blocks is not None:  # this pass's active blocks, for the next
-                last, before = m._blk
                 m._blk_active = active_blocks(m._mark, BLOCK, m._blk_new)
-                m._blk = [m._blk_new, last]
-                m._blk_new = before
+                m._next_blocks()
         else:
             faces, edges = m._all_faces, m._all_edges
         m.active_faces = faces.shape[0]
