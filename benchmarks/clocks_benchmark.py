@@ -114,6 +114,9 @@ def main(argv=None):
     p.add_argument("--serial", action="store_true",
                    help="serial kernels at every size (one thread: the parallel copies only add "
                    "their compile time and the thread pool's overhead)")
+    p.add_argument("--contact-method", default="event", choices=("event", "moreau"),
+                   help="the crowd's contact method (event-driven or Moreau-Jean)")
+    p.add_argument("--name", help="results file name (default clocks[_quick][_SCENES])")
     a = p.parse_args(argv)
     from driftlog.schema import merge
 
@@ -144,7 +147,8 @@ def main(argv=None):
     # no two logs across each other); seeded at random, 1e4 logs start with overlapping
     # clusters that jammed the event-driven contacts at t = 0 (seen on the per-log clock, whose
     # islands ran the global clock's contact step; the global clock was not tried)
-    river_c = merge(river, {"contact": {"enabled": True, "restitution": 0.5},
+    river_c = merge(river, {"contact": {"enabled": True, "restitution": 0.5,
+                                        "method": a.contact_method},
                             "time": {"end": cend}})
     river_c["logs"] = [{**crowd, "seeding": a.crowd_seeding}]
     if a.dense:  # 2.4 m grid spacing: 2-m logs that turn touch their neighbours
@@ -152,7 +156,8 @@ def main(argv=None):
         river_c["logs"][0]["polygon"] = [[x0, 8.0], [x0 + 382.0, 8.0], [x0 + 382.0, 162.0],
                                          [x0, 162.0]]
     if "crowd" in scenes:
-        scene(f"river_piers crowd ({n} logs, {cend:g} s, event-driven contacts)", RIVER,
+        how = "event-driven" if a.contact_method == "event" else "Moreau-Jean"
+        scene(f"river_piers crowd ({n} logs, {cend:g} s, {how} contacts)", RIVER,
               river_c, cend, rows, notes, reference=False)
     cols = ["scene", "clock", "logs", "span_s", "cpu_s", "run_s", "sync_steps", "log_steps",
             "contact_set", "windows", "islands", "largest_island", "log_s_per_cpu_s",
@@ -175,6 +180,7 @@ def main(argv=None):
     name = "clocks_quick" if a.quick else "clocks"
     if sorted(scenes) != ["crowd", "malpasset", "river"]:
         name += "_" + "_".join(scenes)
+    name = a.name or name
     (RESULTS / f"{name}.md").write_text(text)
     (RESULTS / f"{name}.json").write_text(json.dumps(dict(rows=rows, notes=notes), indent=1))
     print(text)
