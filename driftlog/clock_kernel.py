@@ -139,7 +139,7 @@ def _floats(fg, fl, s, p, thr, friction, opt):
     return True
 
 
-@kernel
+@kernel(nrt=False)
 def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t_from, t0, t_stop, tol, method,
                          length, lf, ang, drag_fraction, explicit, max_step, min_step,
                          tracer, rotation, thr, friction,
@@ -275,7 +275,7 @@ def _idle_floats(x, y, th, hint, t, p, opt, thr, friction, vals_c, T0c, gap_c, v
     return _floats(fg, fl, (x, y, th, 0.0, 0.0, 0.0), p, thr, friction, opt)
 
 
-@kernel
+@kernel(nrt=False)
 def idle_lift(S, face, P, opt, thr, friction, t_from, t_stop, dt_check, tol, vals_c, T0c,
               gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc, t_lift):
     """The first time in (t_from, t_stop] at which each idle (resting, stranded) log floats.

@@ -364,7 +364,7 @@ def sample_point_columns(x, y, hint, a, inv_dt, nodevals, dry_depth, recovered, 
     return f, flag, (h, uval, vval, ut, vt, ux, uy, vx, vy, ex, ey, eval_)
 
 
-@kernel
+@kernel(nrt=False)
 def sample_mesh_kernel(px, py, face, out, flag, a, inv_dt, nodevals, dry_depth, recovered, loc):
     """Locate and sample n points; nodevals (n_nodes, 2 NQ): the NQ node columns at t0 then t1.
 

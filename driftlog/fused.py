@@ -219,7 +219,7 @@ def _stage_rhs(s, hint, a, inv_dt, vals, dry_depth, recovered, loc, p, opt):
     return dk
 
 
-@kernel
+@kernel(nrt=False)
 def euler_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
                     a_e, inv_e, vals_e, dry_depth, recovered, loc, settle, ctl, length, status,
                     bound):
@@ -237,7 +237,7 @@ def euler_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
                 vals_e, dry_depth, recovered, loc, settle, ctl, length, status, bound)
 
 
-@kernel
+@kernel(nrt=False)
 def rk4_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
                   a_m, inv_m, vals_m, a_e, inv_e, vals_e, dry_depth, recovered, loc, settle, ctl,
                   length, status, bound):
@@ -478,7 +478,7 @@ def _tracer_finish(i, x, y, th, c6, hint, S0, D0, lin0, out, face, F, flag, P, r
     bound[i] = b
 
 
-@kernel
+@kernel(nrt=False)
 def rk4_tracer_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, a_m, pk_m, pr_m, a_e, pk_e,
                     pr_e, dry_depth, recovered, loc, settle, ctl, length, status, bound):
     """``rk4_mesh_step`` in tracer mode (``opt`` level tracer, motion "floating"), same numbers.
@@ -517,7 +517,7 @@ def rk4_tracer_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, a_m, pk_m, pr_
                        settle, ctl, length, status, bound)
 
 
-@kernel
+@kernel(nrt=False)
 def euler_tracer_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, a_e, pk_e, pr_e,
                       dry_depth, recovered, loc, settle, ctl, length, status, bound):
     """``euler_mesh_step`` in tracer mode, same numbers (see ``rk4_tracer_step``)."""

@@ -116,7 +116,7 @@ def grid_point(x, y, a, inv_dt, vals, dry_depth, nx, ny, x0, y0, dx, dy, node):
     return cell, (WET if h > dry_depth else DRY), (h, u, v, ut, vt, ux, uy, vx, vy, ex, ey, e)
 
 
-@kernel
+@kernel(nrt=False)
 def sample_grid_kernel(px, py, face, out, flag, a, inv_dt, vals, dry_depth, nx, ny, x0, y0,
                        dx, dy, node):
     """Sample n points of a regular grid (``grid_point`` for each); ``face`` gets the cells."""

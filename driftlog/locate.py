@@ -129,7 +129,7 @@ def locate_one(px, py, hint, loc):
     return _bin_search(px, py, loc)
 
 
-@kernel
+@kernel(nrt=False)
 def locate_points(px, py, face, loc):
     """Locate every point in place: ``face`` holds the hints on entry and the faces on return."""
     for i in nb.prange(px.shape[0]):

@@ -494,7 +494,7 @@ def sample_row(F, i):
             F[i, DVDX], F[i, DVDY], F[i, DETADX], F[i, DETADY], F[i, ETA])
 
 
-@kernel
+@kernel(nrt=False)
 def rhs_kernel(S, F, P, opt, D, lin, want_lin=True):
     """Time derivative D of the states S (n, 6) given flow samples F (n, NVAR).
 
