@@ -294,6 +294,101 @@ def before_after(combos=(("tracer", "rk4"), ("full", "rk4"), ("tracer", "euler")
     return rows
 
 
+def refcount(n=100_000, steps=20, repeat=7):
+    """The tracker's kernels with and without numba's reference counting, in one process.
+
+    Each ``kernel(nrt=False)`` kernel's serial code is compiled again with reference counting
+    (as before the change; uncached, so numba's cache is left alone), its arguments captured
+    from a tracker run on the vortex (1e5 logs: the fused steps, the flow sampling, the forces,
+    point location; per-log clocks for ``per_log_mesh_advance``), and both run on copies of
+    them alternately, best CPU time of ``repeat``, 1 thread, outputs compared bit for bit.
+    """
+    import os
+
+    import driftlog._numba as dn
+    import driftlog.clock_kernel as clock_kernel
+    import driftlog.clocks as clocks
+    import driftlog.flow as flow_mod
+    import driftlog.fused as fused
+    import driftlog.locate as locate_mod
+    import driftlog.physics as physics
+    import driftlog.tracker as trk
+
+    numba.set_num_threads(1)
+    keep = dn.PARALLEL_MIN
+    dn.PARALLEL_MIN = 1 << 62  # serial kernels at every size
+    mesh = malpasset_mesh()
+    flow = vortex_flow(mesh)
+    x, y = points(mesh, n, np.random.default_rng(3))
+    # where each kernel is defined, then the modules that call it by an imported name
+    homes = {"rk4_tracer_step": [fused, trk], "euler_tracer_step": [fused, trk],
+             "rk4_mesh_step": [fused, trk], "euler_mesh_step": [fused, trk],
+             "rhs_kernel": [physics, trk], "per_log_mesh_advance": [clock_kernel, clocks],
+             "sample_mesh_kernel": [flow_mod], "locate_points": [locate_mod, flow_mod]}
+    kernels = {name: getattr(mods[0], name) for name, mods in homes.items()}
+    captured = {}
+
+    def capture(name, fn):
+        def call(*args):
+            if name not in captured or args[0].shape[0] > captured[name][0].shape[0]:
+                captured[name] = [a.copy() if isinstance(a, np.ndarray) else a for a in args]
+            return fn(*args)
+        return call
+
+    saved = {}
+    for name, fn in kernels.items():
+        for mod in homes[name][1:]:
+            if hasattr(mod, name):
+                saved[(mod, name)] = getattr(mod, name)
+                setattr(mod, name, capture(name, fn))
+    try:
+        for level in ("full", "tracer"):  # the forces captured at full physics
+            for method in ("rk4", "euler"):
+                one(flow, x, y, level, method, 2)
+        logs = Logs(x[:10_000], y[:10_000], 0.3, 2.0, 0.2, 700.0)
+        tr = Tracker(flow, logs, PhysicsOptions(level="full"), "rk4",
+                     StepOptions(max_step=0.5, length_fraction=1e9, angle_step=1e9,
+                                 clock="per_log"), t_end=2.0, output_interval=2.0,
+                     hydro_step=2.0)
+        tr.run()
+    finally:
+        for (mod, name), fn in saved.items():
+            setattr(mod, name, fn)
+        dn.PARALLEL_MIN = keep
+    rows = []
+    load0 = os.getloadavg()[0]
+    for name, args in captured.items():
+        py = kernels[name].serial.py_func
+        variants = {"with": numba.njit(py), "without": numba.njit(_nrt=False)(py)}
+        best, outs = {}, {}
+        for _ in range(repeat + 1):  # the first round compiles
+            for v, k in variants.items():
+                a = [x.copy() if isinstance(x, np.ndarray) else x for x in args]
+                c0 = time.process_time()
+                k(*a)
+                c = time.process_time() - c0
+                best[v] = min(best.get(v, np.inf), c)
+                outs[v] = a
+        same = all(np.array_equal(p, q, equal_nan=True) for p, q in zip(outs["with"],
+                   outs["without"], strict=True) if isinstance(p, np.ndarray))
+        items = args[0].shape[0]
+        rows.append(dict(kernel=name, items=items, with_ns=best["with"] / items * 1e9,
+                         without_ns=best["without"] / items * 1e9,
+                         gain=best["with"] / best["without"], bit_identical=same,
+                         load=f"{load0:.1f}-{os.getloadavg()[0]:.1f}"))
+        print(rows[-1], flush=True)
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    write_table("tracking_refcount", rows, ["kernel", "items", "with_ns", "without_ns", "gain",
+                                            "bit_identical", "load"],
+                "The tracker's kernels with and without numba's reference counting (1 thread, "
+                f"serial code, best of {repeat}, one process)",
+                "with / without: CPU ns per item (log, point) of one call on the same captured "
+                "arguments; the fused steps and flow sampling on 1e5 logs on the Malpasset "
+                "vortex, the per-log clock kernel on 1e4.  Re-create: "
+                "`python benchmarks/tracking_benchmark.py --refcount`.")
+    return rows
+
+
 def forces(n=100_000, repeat=7, label=""):
     """CPU ns per force evaluation (``rhs_kernel``, serial), with and without the linearisation.
 
@@ -378,11 +473,15 @@ if __name__ == "__main__":
                    help="only the cost of one force evaluation (1 thread)")
     p.add_argument("--before-after", action="store_true",
                    help="the fused step with and without settling / tracer kernels (1 thread)")
+    p.add_argument("--refcount", action="store_true",
+                   help="the tracker's kernels with and without numba's reference counting")
     p.add_argument("--threads", action="store_true",
                    help="only 2 threads against 1 on 1e5 logs (full and tracer RK4)")
     p.add_argument("--label", default="", help="name of the code measured (--targets, --forces)")
     a = p.parse_args()
-    if a.threads:
+    if a.refcount:
+        refcount()
+    elif a.threads:
         thread_scaling()
     elif a.forces:
         forces(label=a.label)

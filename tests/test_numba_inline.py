@@ -83,3 +83,58 @@ def test_one_scope_copy_per_ir_copy():
     # outside the inliner, copy's own behaviour: a scope copy per block
     outside = copy_blocks(None, fir)
     assert len({id(b.scope) for b in outside}) == len(blocks)
+
+
+@nb.njit(inline="always")
+def _active(f, h, nbr):
+    # branches on array reads: the inlined call kept a count update of each array argument
+    on = h[f] > 0.0
+    if not on:
+        for k in range(nbr.shape[1]):
+            j = nbr[f, k]
+            if j >= 0 and h[j] > 0.0:
+                on = True
+                break
+    return on
+
+
+def _count_active(h, nbr, out):
+    n = 0
+    for f in range(h.shape[0]):
+        if _active(f, h, nbr):
+            out[n] = f
+            n += 1
+    return n
+
+
+def _increfs(dispatcher):
+    (ir,) = dispatcher.inspect_llvm().values()
+    body = ir.split("\ndefine ")[1]  # the kernel itself, not its wrappers
+    return body.count("call void @NRT_incref")
+
+
+def test_kernels_without_reference_counting():
+    """``kernel(nrt=False)``: compiled without count updates, the same results."""
+    import numpy as np
+
+    rng = np.random.default_rng(0)
+    h = np.where(rng.random(500) < 0.3, 1.0, 0.0)
+    nbr = rng.integers(-1, 500, (500, 3))
+    counted = nb.njit(_count_active)
+    uncounted = nb.njit(_nrt=False)(_count_active)  # uncached: its code can be inspected
+    out0, out1 = np.empty(500, np.int64), np.empty(500, np.int64)
+    n0, n1 = counted(h, nbr, out0), uncounted(h, nbr, out1)
+    wet = (h > 0) | ((nbr >= 0) & (h[np.maximum(nbr, 0)] > 0)).any(axis=1)
+    assert np.array_equal(out0[:n0], np.flatnonzero(wet))
+    assert np.array_equal(out1[:n1], out0[:n0])
+    assert _increfs(uncounted) == 0
+    k = _numba.kernel(nrt=False)(_count_active)
+    assert k.serial(h, nbr, out1) == n0 and np.array_equal(out0[:n0], out1[:n0])
+    # the tracker's per-log kernels are compiled so
+    from driftlog import clock_kernel, flow, fused, physics
+
+    for kern in (k, fused.rk4_tracer_step, fused.euler_tracer_step, fused.rk4_mesh_step,
+                 fused.euler_mesh_step, clock_kernel.per_log_mesh_advance,
+                 flow.sample_mesh_kernel, physics.rhs_kernel):
+        for d in (kern.serial, kern.parallel):
+            assert d.targetoptions.get("_nrt") is False, d
