@@ -113,8 +113,9 @@ def kernel(func=None, *, size_arg=0, nrt=True):
     compile it) but inlines helpers taking arrays.  numba's inliner gives an inlined
     callee's array arguments new variables, and where the callee branches the optimised
     code keeps an atomic increment and decrement of each array's count at every call (seen
-    in the LLVM of ``fused.rk4_tracer_step``: 9 arrays per flow sample, 71 increments), a
-    third of a tracer step.  The arithmetic, and so the results, are the same bit for bit.
+    in the LLVM of ``fused.rk4_tracer_step``: 71 increments, 9 per flow sample in its loop;
+    more than half of that kernel's time, BENCHMARKS.md).  The arithmetic, and so the
+    results, are the same bit for bit.
     """
 
     def wrap(f):
