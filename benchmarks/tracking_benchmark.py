@@ -299,8 +299,8 @@ def refcount(n=100_000, steps=20, repeat=7):
 
     Each ``kernel(nrt=False)`` kernel's serial code is compiled again with reference counting
     (as before the change; uncached, so numba's cache is left alone), its arguments captured
-    from a tracker run on the vortex (1e5 logs: the fused steps, the flow sampling, the forces,
-    point location; per-log clocks for ``per_log_mesh_advance``), and both run on copies of
+    from a tracker run on the vortex (1e5 logs: the fused steps and the forces; per-log clocks
+    for ``per_log_mesh_advance``), and both run on copies of
     them alternately, best CPU time of ``repeat``, 1 thread, outputs compared bit for bit.
     """
     import os
@@ -308,9 +308,7 @@ def refcount(n=100_000, steps=20, repeat=7):
     import driftlog._numba as dn
     import driftlog.clock_kernel as clock_kernel
     import driftlog.clocks as clocks
-    import driftlog.flow as flow_mod
     import driftlog.fused as fused
-    import driftlog.locate as locate_mod
     import driftlog.physics as physics
     import driftlog.tracker as trk
 
@@ -320,12 +318,12 @@ def refcount(n=100_000, steps=20, repeat=7):
     mesh = malpasset_mesh()
     flow = vortex_flow(mesh)
     x, y = points(mesh, n, np.random.default_rng(3))
-    # where each kernel is defined, then the modules that call it by an imported name
-    homes = {"rk4_tracer_step": [fused, trk], "euler_tracer_step": [fused, trk],
-             "rk4_mesh_step": [fused, trk], "euler_mesh_step": [fused, trk],
-             "rhs_kernel": [physics, trk], "per_log_mesh_advance": [clock_kernel, clocks],
-             "sample_mesh_kernel": [flow_mod], "locate_points": [locate_mod, flow_mod]}
-    kernels = {name: getattr(mods[0], name) for name, mods in homes.items()}
+    # where each kernel is defined, and the module that calls it by an imported name (the
+    # flow's sampling and point location run inside the fused steps, not on their own)
+    homes = {"rk4_tracer_step": (fused, trk), "euler_tracer_step": (fused, trk),
+             "rk4_mesh_step": (fused, trk), "euler_mesh_step": (fused, trk),
+             "rhs_kernel": (physics, trk), "per_log_mesh_advance": (clock_kernel, clocks)}
+    kernels = {name: getattr(home, name) for name, (home, _caller) in homes.items()}
     captured = {}
 
     def capture(name, fn):
@@ -337,10 +335,9 @@ def refcount(n=100_000, steps=20, repeat=7):
 
     saved = {}
     for name, fn in kernels.items():
-        for mod in homes[name][1:]:
-            if hasattr(mod, name):
-                saved[(mod, name)] = getattr(mod, name)
-                setattr(mod, name, capture(name, fn))
+        caller = homes[name][1]
+        saved[(caller, name)] = getattr(caller, name)
+        setattr(caller, name, capture(name, fn))
     try:
         for level in ("full", "tracer"):  # the forces captured at full physics
             for method in ("rk4", "euler"):
@@ -383,7 +380,7 @@ def refcount(n=100_000, steps=20, repeat=7):
                 "The tracker's kernels with and without numba's reference counting (1 thread, "
                 f"serial code, best of {repeat}, one process)",
                 "with / without: CPU ns per item (log, point) of one call on the same captured "
-                "arguments; the fused steps and flow sampling on 1e5 logs on the Malpasset "
+                "arguments; the fused steps and the forces on 1e5 logs on the Malpasset "
                 "vortex, the per-log clock kernel on 1e4.  Re-create: "
                 "`python benchmarks/tracking_benchmark.py --refcount`.")
     return rows
