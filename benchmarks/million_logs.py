@@ -193,12 +193,23 @@ def check_output(path, n, flow):
                 final_status={s: int(np.sum(status[has] == k)) for k, s in enumerate(STATUS)})
 
 
+# the parts of a per-log run timed in ``run_one`` (module, function): inclusive CPU seconds
+# (``contact_window`` holds the other three and the island kernel; what it spends beside them
+# is its own Python: copies, masks, set operations)
+PARTS = (("clocks", "contact_window"), ("clocks", "free_advance"), ("clocks", "_pairs"),
+         ("clocks", "_obstacle_pairs"))
+
+
 def time_island_kernels():
-    """Wall and CPU time in the Moreau-Jean island kernels (and calls of each), from now on.
+    """Wall and CPU time in the Moreau-Jean island kernels (and calls of each), from now on,
+    and the CPU time of each part in ``PARTS`` (``part_<name>_cpu_s``).
 
     Wraps ``moreau_kernel.moreau_islands`` and ``moreau_islands_parallel`` (looked up by
-    ``clocks.contact_window`` at each call); returns the dict the wrappers add to.
+    ``clocks.contact_window`` at each call) and the functions of ``PARTS`` (module globals
+    of ``driftlog.clocks``, looked up at each call); returns the dict the wrappers add to.
     """
+    import importlib
+
     import driftlog.moreau_kernel as mk
 
     acc = dict(kernel_wall_s=0.0, kernel_cpu_s=0.0, kernel_calls_serial=0,
@@ -217,6 +228,20 @@ def time_island_kernels():
                 acc[_key] += 1
 
         setattr(mk, name, timed)
+    for mod, name in PARTS:
+        m = importlib.import_module(f"driftlog.{mod}")
+        key = f"part_{name.lstrip('_')}_cpu_s"
+        acc[key] = 0.0
+        f = getattr(m, name)
+
+        def part(*args, _f=f, _key=key, **kw):
+            c = time.process_time()
+            try:
+                return _f(*args, **kw)
+            finally:
+                acc[_key] += time.process_time() - c
+
+        setattr(m, name, part)
     return acc
 
 
