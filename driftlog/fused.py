@@ -82,7 +82,7 @@ from driftlog.physics import O_LEVEL, O_MOTION, O_ROT, TRACER, log_rhs, stage_co
 __all__ = ["euler_mesh_step", "rk4_mesh_step", "rk4_tracer_step", "euler_tracer_step",
            "sample_tracer",
            "pack_tracer_nodes", "aligned_rows", "settle_summary", "FUSED_METHODS", "NCTL",
-           "take_rows", "subset_positions",
+           "take_rows", "drop_rows", "drop_items", "subset_positions",
            "PK_N", "PR_N"]
 
 FUSED_METHODS = ("euler", "rk4")
@@ -285,6 +285,28 @@ def take_rows(pos, src, out):
         k = pos[i]
         for j in range(m):
             out[i, j] = src[k, j]
+
+
+@nb.njit(cache=True)
+def drop_rows(pos, a):
+    """``a[i] = a[pos[i]]`` in place for the rows of a 2-D array, ``pos`` ascending.
+
+    Rows only move up (pos[i] >= i), so a forward pass reads each row before it is written
+    over: the compact arrays lose the rows of logs that stopped without a new allocation.
+    """
+    m = a.shape[1]
+    for i in range(pos.shape[0]):
+        k = pos[i]
+        if k != i:
+            for j in range(m):
+                a[i, j] = a[k, j]
+
+
+@nb.njit(cache=True)
+def drop_items(pos, a):
+    """``drop_rows`` for a 1-D array."""
+    for i in range(pos.shape[0]):
+        a[i] = a[pos[i]]
 
 
 @nb.njit(cache=True)

@@ -293,6 +293,21 @@ class Integrator:
         self._buffers(n, 4)
         return self.D[0], self.lin[0]
 
+    def adopt(self, D0, lin0):
+        """Take D0 and lin0 (n rows) as the first stage's buffers, the others cut to n rows.
+
+        The tracker compacted its first stage in place (``Tracker._drop_stopped``); the other
+        buffers are scratch, views of their first n rows where they are long enough.
+        """
+        n = D0.shape[0]
+        if self._n < n:
+            self._buffers(n, 4)
+        self._n = n
+        self.D = [D0] + [d[:n] for d in self.D[1:]]
+        self.lin = [lin0] + [a[:n] for a in self.lin[1:]]
+        self.stage = [a[:n] for a in self.stage]
+        return D0, lin0
+
 
 class Euler(Integrator):
     def step(self, S0, t0, dt, rhs, out, have_d0=False):

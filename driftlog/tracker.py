@@ -50,6 +50,8 @@ from driftlog.fused import (
     PK_N,
     PR_N,
     aligned_rows,
+    drop_items,
+    drop_rows,
     euler_mesh_step,
     euler_tracer_step,
     pack_tracer_nodes,
@@ -252,6 +254,49 @@ class Tracker:
         if self.contact is not None and getattr(self.contact, "grounded", False):
             self._ground()
 
+    def _drop_stopped(self, idx):
+        """``_set_active(idx)`` where ``idx`` only loses logs, the compact arrays kept.
+
+        Where every log of ``idx`` was floating and the flow sample and first stage are kept
+        (``_kept_stage``), the rows of the logs that stopped are dropped in place
+        (``drop_rows``) and every array becomes a view of its first ``idx.size`` rows: the
+        same numbers as gathering them again, without allocating and filling some 50 columns
+        per log each time a few logs strand or leave.  False (nothing done) otherwise.
+        Only for ``_update_status`` over all logs: no caller holds the compact arrays across
+        it (contact islands, which do, keep ``_set_active``).
+        """
+        old = self.act
+        if not (self.fused and self._d0_valid and self._F_valid and idx.size and old.size
+                and idx.size < old.size):
+            return False
+        pos = np.empty(idx.size, np.int64)
+        if not subset_positions(old, idx, pos):
+            return False
+        n = idx.size
+        for a in (self.state, self.P, self.F, self.D0, self.lin0):
+            drop_rows(pos, a)
+        for a in (self.face, self.ids, self.length, self.radius, self.mass, self.inertia,
+                  self.flag):
+            drop_items(pos, a)
+        self.act = idx
+        self.state, self.P, self.F = self.state[:n], self.P[:n], self.F[:n]
+        self.face, self.ids, self.flag = self.face[:n], self.ids[:n], self.flag[:n]
+        self.length, self.radius = self.length[:n], self.radius[:n]
+        self.mass, self.inertia = self.mass[:n], self.inertia[:n]
+        self.D0, self.lin0 = self.integrator.adopt(self.D0[:n], self.lin0[:n])
+        # scratch: written before they are read (the stage sample's unwritten columns are 0)
+        self._stage_F = self._stage_F[:n]
+        self._stage_F[:] = 0.0
+        self._stage_flag = self._stage_flag[:n]
+        self._stage_face = self._stage_face[:n]
+        self._sx, self._sy = self._sx[:n], self._sy[:n]
+        self._next, self._nolin = self._next[:n], self._nolin[:n]
+        self._st, self._bound = self._st[:n], self._bound[:n]
+        self._settled = None
+        if self.contact is not None and getattr(self.contact, "grounded", False):
+            self._ground()
+        return True
+
     def _ground(self):
         """Resting and stranded logs: fixed capsules of the contact model (docs/model.md 13)."""
         from driftlog.contact.geometry import log_capsules
@@ -307,10 +352,14 @@ class Tracker:
         self.D0[rows] = D
         self.lin0[rows] = lin
 
-    def _scatter(self):
-        """Write the compact state back into the full arrays."""
-        self.logs.state[self.act] = self.state
-        self.logs.face[self.act] = self.face
+    def _scatter(self, rows=None):
+        """Write the compact state back into the full arrays (only ``rows`` if given)."""
+        if rows is None:
+            self.logs.state[self.act] = self.state
+            self.logs.face[self.act] = self.face
+        else:
+            self.logs.state[self.act[rows]] = self.state[rows]
+            self.logs.face[self.act[rows]] = self.face[rows]
 
     # ----------------------------------------------------------------- flow at the logs
     def _sample_current(self):
@@ -591,11 +640,19 @@ class Tracker:
                 st = np.full(self.act.size, FLOATING, np.int8)
                 moved = self._classify(self.F, self.flag, self.act, st, self.state, self.P)
             if moved:
-                self._scatter()
-                scattered = changed = True
+                changed = True
+                if pool is None:
+                    # the logs that stopped go back to the full arrays now, the others when
+                    # they are gathered again (``_set_active``) or stay in place
+                    # (``_drop_stopped``); resting logs do not move (docs/model.md section 6)
+                    stopped = np.flatnonzero(st != FLOATING)
+                    self.state[stopped, VELOCITY] = 0.0
+                    self._scatter(stopped)
+                else:
+                    self._scatter()
+                    scattered = True
+                    L.state[self.act[st != FLOATING], VELOCITY] = 0.0
                 L.status[self.act] = st
-                # resting logs do not move (docs/model.md section 6)
-                L.state[self.act[st != FLOATING], VELOCITY] = 0.0
         # on a steady flow an idle log can only change when it has just stopped
         # (waterlogging changes the logs themselves)
         if pool is None and check:
@@ -605,10 +662,12 @@ class Tracker:
                 changed |= self._check_idle(idle)
         self._first_check = False
         if changed:
-            if not scattered and self.act.size:
-                self._scatter()
-            self._set_active(np.flatnonzero(L.status == FLOATING) if pool is None
-                             else pool[L.status[pool] == FLOATING])
+            idx = (np.flatnonzero(L.status == FLOATING) if pool is None
+                   else pool[L.status[pool] == FLOATING])
+            if pool is not None or not self._drop_stopped(idx):
+                if not scattered and self.act.size:
+                    self._scatter()
+                self._set_active(idx)
 
     def _check_idle(self, idx):
         L = self.logs

@@ -103,3 +103,53 @@ def test_fused_path_only_where_it_applies():
     assert not Tracker(FLOW, logs, method="rk4", t_end=1.0, fused=False).fused
     analytic = FreeVortex(20.0, center=(15.0, 5.0), core_radius=1.0, depth=2.0)
     assert not Tracker(analytic, logs, method="rk4", t_end=1.0).fused
+
+
+@pytest.mark.parametrize("level,method,waterlogging", [("tracer", "rk4", "off"),
+                                                       ("full", "rk4", "off"),
+                                                       ("full", "euler", "off"),
+                                                       ("full", "rk4", "exponential")])
+def test_dropping_stopped_logs_in_place_changes_no_number(monkeypatch, level, method,
+                                                          waterlogging):
+    """Logs that strand or leave are dropped from the compact arrays in place
+    (``Tracker._drop_stopped``): the same trajectories, bit for bit, as gathering the
+    floating logs again into new arrays, and the in-place path is the one taken where the
+    first stage is kept."""
+    real = Tracker._drop_stopped
+
+    def go(drop):
+        calls = []
+
+        def spy(self, idx):
+            done = real(self, idx) if drop else False
+            calls.append(done)
+            return done
+
+        monkeypatch.setattr(Tracker, "_drop_stopped", spy)
+        rng = np.random.default_rng(11)
+        n = 300
+        logs = Logs(rng.uniform(0.5, 29.5, n), rng.uniform(0.5, 9.5, n),
+                    rng.uniform(0, np.pi, n), rng.uniform(0.5, 1.5, n), 0.1,
+                    rng.uniform(500.0, 900.0, n), release_time=rng.choice([0.0, 3.0], n))
+        physics = PhysicsOptions(level=level)
+        if waterlogging != "off":
+            physics = PhysicsOptions(level=level, waterlogging=waterlogging,
+                                     saturated_density=1100.0, waterlogging_time=30.0)
+        tr = Tracker(FLOW, logs, physics, method, StepOptions(max_step=0.7), t_end=20.0,
+                     output_interval=2.5)
+        tr.run()
+        return tr, logs, calls
+
+    gathered, a, c0 = go(False)
+    dropped, b, c1 = go(True)
+    # waterlogging changes the logs' parameters each sub-step, so their first stage is not
+    # kept and the floating logs are gathered again
+    assert dropped.fused and not any(c0)
+    assert sum(c1) >= 5 if waterlogging == "off" else not any(c1)
+    np.testing.assert_array_equal(b.state, a.state)
+    np.testing.assert_array_equal(b.status, a.status)
+    np.testing.assert_array_equal(b.face, a.face)
+    np.testing.assert_array_equal(b.mass, a.mass)
+    for k in ("substeps", "rhs_evaluations", "min_dt", "max_dt"):
+        assert dropped.stats[k] == gathered.stats[k], k
+    assert np.sum(b.status == LEFT) > 10 and np.sum(b.status == FLOATING) > 10
