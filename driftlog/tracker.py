@@ -223,10 +223,11 @@ class Tracker:
         self.radius = L.radius[idx]
         self.mass = L.mass[idx]
         self.inertia = L.inertia[idx]
-        self.F = np.zeros((n, NVAR))
+        # every row of F is taken from the kept rows below when they are kept
+        self.F = np.zeros((n, NVAR)) if kept is None else np.empty((n, NVAR))
         self.flag = np.zeros(n, np.int8)
         self._F_valid = False
-        self._stage_F = np.zeros((n, NVAR))
+        self._stage_F = None  # made when a general-path stage first samples (``_rhs``)
         self._stage_flag = np.zeros(n, np.int8)
         self._stage_face = np.empty(n, np.int64)
         self._sx, self._sy = np.empty(n), np.empty(n)
@@ -284,9 +285,9 @@ class Tracker:
         self.length, self.radius = self.length[:n], self.radius[:n]
         self.mass, self.inertia = self.mass[:n], self.inertia[:n]
         self.D0, self.lin0 = self.integrator.adopt(self.D0[:n], self.lin0[:n])
-        # scratch: written before they are read (the stage sample's unwritten columns are 0)
-        self._stage_F = self._stage_F[:n]
-        self._stage_F[:] = 0.0
+        # scratch: written before they are read; the stage samples' array is made (zeros)
+        # when a general-path step first needs it (``_rhs``)
+        self._stage_F = None
         self._stage_flag = self._stage_flag[:n]
         self._stage_face = self._stage_face[:n]
         self._sx, self._sy = self._sx[:n], self._sy[:n]
@@ -374,6 +375,8 @@ class Tracker:
             self._sample_current()
             F = self.F
         else:
+            if self._stage_F is None:
+                self._stage_F = np.zeros((self.act.size, NVAR))
             np.copyto(self._stage_face, self.face)
             np.copyto(self._sx, S[:, X])  # contiguous coordinates sample faster than strided
             np.copyto(self._sy, S[:, Y])
