@@ -287,19 +287,47 @@ def take_rows(pos, src, out):
             out[i, j] = src[k, j]
 
 
-@nb.njit(cache=True)
-def drop_rows(pos, a):
+@kernel
+def drop_rows(pos, a, chunks):
     """``a[i] = a[pos[i]]`` in place for the rows of a 2-D array, ``pos`` ascending.
 
-    Rows only move up (pos[i] >= i), so a forward pass reads each row before it is written
-    over: the compact arrays lose the rows of logs that stopped without a new allocation.
+    Rows only move up (pos[i] >= i): the compact arrays lose the rows of logs that stopped
+    without a new allocation.  In chunks of rows, in parallel: a chunk's rows are written
+    by its own thread only, in order, and read from the chunk itself before they are
+    written, except the sources past the chunk's end (at most as many rows as were
+    dropped), which another chunk may overwrite: those are copied aside first.  ``chunks``:
+    how many (a few per thread).
     """
+    n = pos.shape[0]
     m = a.shape[1]
-    for i in range(pos.shape[0]):
-        k = pos[i]
-        if k != i:
+    nc = min(n, max(chunks, 1))
+    if nc == 0:
+        return
+    lo = np.empty(nc + 1, np.int64)
+    for c in range(nc + 1):
+        lo[c] = c * n // nc
+    first = np.empty(nc, np.int64)  # first row of each chunk whose source is past its end
+    off = np.zeros(nc + 1, np.int64)
+    for c in range(nc):
+        hi = lo[c + 1]
+        first[c] = lo[c] + np.searchsorted(pos[lo[c]:hi], hi)
+        off[c + 1] = off[c] + hi - first[c]
+    aside = np.empty((off[nc], m))
+    for c in nb.prange(nc):
+        for i in range(first[c], lo[c + 1]):
+            r = off[c] + i - first[c]
             for j in range(m):
-                a[i, j] = a[k, j]
+                aside[r, j] = a[pos[i], j]
+    for c in nb.prange(nc):
+        for i in range(lo[c], first[c]):
+            k = pos[i]
+            if k != i:
+                for j in range(m):
+                    a[i, j] = a[k, j]
+        for i in range(first[c], lo[c + 1]):
+            r = off[c] + i - first[c]
+            for j in range(m):
+                a[i, j] = aside[r, j]
 
 
 @nb.njit(cache=True)

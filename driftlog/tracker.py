@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import time as _time
 
+import numba
 import numpy as np
 
 from driftlog.clocks import CLOCKS, per_log_interval
@@ -274,8 +275,9 @@ class Tracker:
         if not subset_positions(old, idx, pos):
             return False
         n = idx.size
+        chunks = 8 * numba.get_num_threads()
         for a in (self.state, self.P, self.F, self.D0, self.lin0):
-            drop_rows(pos, a)
+            drop_rows(pos, a, chunks)
         for a in (self.face, self.ids, self.length, self.radius, self.mass, self.inertia,
                   self.flag):
             drop_items(pos, a)

@@ -153,3 +153,28 @@ def test_dropping_stopped_logs_in_place_changes_no_number(monkeypatch, level, me
     for k in ("substeps", "rhs_evaluations", "min_dt", "max_dt"):
         assert dropped.stats[k] == gathered.stats[k], k
     assert np.sum(b.status == LEFT) > 10 and np.sum(b.status == FLOATING) > 10
+
+
+@pytest.mark.parametrize("compiled", ["serial", "parallel"])
+def test_drop_rows_in_place_equals_a_gather(compiled):
+    """``fused.drop_rows`` in place gives ``a[pos]`` for any ascending subset ``pos``: a few
+    rows dropped, most of them, the first or last ones, none, all but one."""
+    from driftlog.fused import drop_rows
+
+    kernel = getattr(drop_rows, compiled)
+    rng = np.random.default_rng(2)
+    for n, keep in [(5000, 0.999), (5000, 0.5), (5000, 0.02), (3000, 1.0), (37, 0.7),
+                    (1, 1.0)]:
+        for cut in ("random", "head", "tail", "one"):
+            a = rng.normal(size=(n, 7))
+            if cut == "random":
+                pos = np.flatnonzero(rng.random(n) < keep)
+            elif cut == "head":
+                pos = np.arange(n // 3, n)
+            elif cut == "tail":
+                pos = np.arange(0, n - n // 3)
+            else:
+                pos = np.array([n - 1])
+            want = a[pos].copy()
+            kernel(pos.astype(np.int64), a, 16)
+            np.testing.assert_array_equal(a[:pos.size], want)
