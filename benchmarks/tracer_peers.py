@@ -469,10 +469,74 @@ def main(quick=False, only=None):
     markdown(info, speed_rows, acc_rows, name)
 
 
+def gradients_ab(sizes=(10_000, 100_000), repeat=6):
+    """driftlog with and without the recovered node gradients (which tracer mode without
+    rotation does not read), alternately in one process, best CPU time of ``repeat`` each.
+
+    ``Tracker._tracer_values`` leaves them out of each snapshot it loads; the other arm
+    takes the flow's full node values, as before that change.  The positions must agree bit
+    for bit.  Writes ``tracer_peers_gradients_ab.{csv,md}``.
+    """
+    from _common import write_table
+
+    from driftlog.tracker import Tracker
+
+    lean = Tracker._tracer_values
+
+    def full(self, t):
+        return self._kernel.node_values(t)
+
+    nb.set_num_threads(1)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        x, y, tri = triangle_mesh()
+        tools = Tools(write_schism(Path(tmp) / "eddy_schism.nc", x, y, tri), tmp, [])
+        xs, ys = seed(4096, np.random.default_rng(1))
+        tools.run("driftlog", xs, ys, SNAPSHOT, 4 * SNAPSHOT, timed=False)
+        try:
+            for n in sizes:
+                px, py = seed(n, np.random.default_rng(11))
+                best, ends = {}, {}
+                for _ in range(repeat):
+                    for arm, fn in (("with gradients", full), ("without", lean)):
+                        Tracker._tracer_values = fn
+                        f = tools.flow
+                        f._snap.clear()
+                        f._nograd.clear()
+                        f._pair = None
+                        xe, ye, (_, cpu) = tools.run("driftlog", px, py, SNAPSHOT, 300.0)
+                        best[arm] = min(best.get(arm, np.inf), cpu)
+                        ends[arm] = (xe, ye)
+                same = all(np.array_equal(a, b) for a, b in
+                           zip(ends["without"], ends["with gradients"], strict=True))
+                for arm in ("with gradients", "without"):
+                    rows.append(dict(particles=n, steps=30, node_gradients=arm,
+                                     cpu_s=best[arm], per_cpu_s=n * 30 / best[arm],
+                                     gain=best["with gradients"] / best[arm],
+                                     same_positions=same))
+                    print(rows[-1], flush=True)
+        finally:
+            Tracker._tracer_values = lean
+    write_table("tracer_peers_gradients_ab", rows,
+                ["particles", "steps", "node_gradients", "cpu_s", "per_cpu_s", "gain",
+                 "same_positions"],
+                "driftlog tracer RK4 with and without the recovered node gradients (1 thread, "
+                f"best of {repeat}, alternately in one process)",
+                "The scene of the peers' table (Selafin file, 30 steps of 10 s, a snapshot per "
+                "step).  per_cpu_s: particle-steps per CPU second of Tracker.run.  Re-create: "
+                "`python benchmarks/tracer_peers.py --gradients-ab`.")
+    return rows
+
+
 if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--gradients-ab", action="store_true",
+                   help="only driftlog with and without the recovered node gradients")
     p.add_argument("--quick", action="store_true", help="fewer particles and steps")
     p.add_argument("--tools", nargs="+", choices=["driftlog", "OceanTracker", "Parcels"],
                    help="run only these tools (driftlog always)")
     a = p.parse_args()
-    main(a.quick, a.tools)
+    if a.gradients_ab:
+        gradients_ab()
+    else:
+        main(a.quick, a.tools)

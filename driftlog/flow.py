@@ -473,8 +473,10 @@ class MeshFlowField(FlowField):
         self.gradient = gradient
         self.attrs = dict(attrs or {})
         self._snap = OrderedDict()  # i -> (h, hu, hv, nodevals(n_nodes, 4)); two at most
+        self._nograd = set()  # cached snapshots whose recovered gradients are not computed
         self._pair = None
         self._pair_vals = None
+        self._pair_grad = True
 
     @classmethod
     def from_arrays(cls, mesh, bed, times, h, hu, hv, location="face", **kwargs):
@@ -555,49 +557,74 @@ class MeshFlowField(FlowField):
                                 f"{bad[:5].tolist()} (min {h.min()})")
         return h, hu, hv
 
-    def _load(self, i):
+    def _load(self, i, gradients=True):
+        """Snapshot i's (h, hu, hv on faces, node columns), read once and cached.
+
+        ``gradients=False``: the recovered gradient columns (Q_UX ...) may be left unset (NaN)
+        for a reader that does not use them (tracer mode without rotation); they are
+        computed when a later call asks for them, the same numbers.
+        """
         if i in self._snap:
             self._snap.move_to_end(i)
+            if gradients and i in self._nograd:
+                self._fill_gradients(i)
             return self._snap[i]
         if self.location == "node":
-            return self._load_nodes(i)
+            return self._load_nodes(i, gradients)
         h, hu, hv = self.read_snapshot(i)
-        P, Px, Py = self.mesh.node_operators()
+        P = self.mesh.node_operators()[0]
         u, v = self._velocity(h, hu, hv)
         nodes = np.empty((self.mesh.n_nodes, NQ))
         # Q_H, Q_U, Q_V, Q_ETA: the first four columns
         nodes[:, Q_H:Q_ETA + 1] = P @ np.column_stack([h, u, v, h + self.bed])
         np.maximum(nodes[:, Q_H], 0.0, out=nodes[:, Q_H])
-        if self.gradient == "recovered":
-            _set_gradients(nodes, Px, Py, np.column_stack([u, v, h + self.bed]))
-        else:
+        return self._keep(i, (h, hu, hv, nodes), gradients)
+
+    def _fill_gradients(self, i):
+        """The gradient columns of cached snapshot i.
+
+        Recovered (left out until asked for when ``_keep`` had ``gradients=False``), or
+        zeros for ``gradient = "p1"``.
+        """
+        h, _, _, nodes = self._snap[i]
+        self._nograd.discard(i)
+        if self.gradient != "recovered":
             nodes[:, Q_UX:] = 0.0
-        return self._keep(i, (h, hu, hv, nodes))
-
-    def _keep(self, i, entry):
-        """Cache snapshot i's (h, hu, hv, node columns): the two latest are kept."""
-        self._snap[i] = entry
-        while len(self._snap) > 2:
-            self._snap.popitem(last=False)
-        return entry
-
-    def _load_nodes(self, i):
-        """``_load`` for node-located data: the node columns are the data themselves."""
-        h, hu, hv = self.read_source(i)
-        u, v = self._velocity(h, hu, hv)
-        nodes = np.empty((self.mesh.n_nodes, NQ))
-        nodes[:, Q_H], nodes[:, Q_U], nodes[:, Q_V] = h, u, v
-        nodes[:, Q_ETA] = h + self.node_bed
-        if self.gradient == "recovered":
+        elif self.location == "node":
             if getattr(self, "_node_grad", None) is None:
                 from driftlog.nodal import node_gradient_operators
 
                 self._node_grad = node_gradient_operators(self.mesh)
             _set_gradients(nodes, *self._node_grad, nodes[:, Q_U:Q_ETA + 1])
         else:
-            nodes[:, Q_UX:] = 0.0
+            _, Px, Py = self.mesh.node_operators()
+            u, v = self._velocity(h, *self._snap[i][1:3])
+            _set_gradients(nodes, Px, Py, np.column_stack([u, v, h + self.bed]))
+
+    def _keep(self, i, entry, gradients=True):
+        """Cache snapshot i's (h, hu, hv, node columns): the two latest are kept.
+
+        Its gradient columns are filled now, or NaN until asked for (``gradients=False``).
+        """
+        self._snap[i] = entry
+        while len(self._snap) > 2:
+            self._nograd.discard(self._snap.popitem(last=False)[0])
+        if gradients or self.gradient != "recovered":
+            self._fill_gradients(i)
+        else:
+            entry[3][:, Q_UX:] = np.nan
+            self._nograd.add(i)
+        return entry
+
+    def _load_nodes(self, i, gradients=True):
+        """``_load`` for node-located data: the node columns are the data themselves."""
+        h, hu, hv = self.read_source(i)
+        u, v = self._velocity(h, hu, hv)
+        nodes = np.empty((self.mesh.n_nodes, NQ))
+        nodes[:, Q_H], nodes[:, Q_U], nodes[:, Q_V] = h, u, v
+        nodes[:, Q_ETA] = h + self.node_bed
         A = self._face_mean
-        return self._keep(i, (A @ h, A @ hu, A @ hv, nodes))
+        return self._keep(i, (A @ h, A @ hu, A @ hv, nodes), gradients)
 
     def _interval(self, t):
         """Snapshot pair (i, i+1) around t, and the weight of i+1."""
@@ -618,14 +645,18 @@ class MeshFlowField(FlowField):
         """The pair of snapshots of the sub-step around ``t_mid`` (``FlowField``'s)."""
         self._step_middle = t_mid
 
-    def node_values(self, t):
-        """(n_nodes, 2 NQ) node columns at the snapshots around t; the time weight, 1 / dt."""
+    def node_values(self, t, gradients=True):
+        """(n_nodes, 2 NQ) node columns at the snapshots around t; the time weight, 1 / dt.
+
+        ``gradients=False``: the recovered gradient columns may be NaN (``_load``).
+        """
         i, j, a, inv_dt = self._interval(t)
-        if self._pair != (i, j):
-            ni = self._load(i)[3]
-            nj = self._load(j)[3]
+        if self._pair != (i, j) or (gradients and not self._pair_grad):
+            ni = self._load(i, gradients)[3]
+            nj = self._load(j, gradients)[3]
             self._pair_vals = np.ascontiguousarray(np.hstack([ni, nj]))
             self._pair = (i, j)
+            self._pair_grad = gradients
         return self._pair_vals, a, inv_dt
 
     def node_pair(self, t):
@@ -675,6 +706,7 @@ class MeshFlowField(FlowField):
         new = copy.copy(self)
         new._times = self._times - float(origin)
         new._snap = OrderedDict()
+        new._nograd = set()
         new._pair = new._pair_vals = None
         new.attrs = dict(self.attrs)
         return new

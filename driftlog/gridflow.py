@@ -255,7 +255,8 @@ class GridFlowField(MeshFlowField):
         X, Y = np.meshgrid(x0 + dx * (np.arange(nx) + shift), y0 + dy * (np.arange(ny) + shift))
         return X.ravel(), Y.ravel()
 
-    def _load(self, i):
+    def _load(self, i, gradients=True):
+        """The base class's, on the grid's columns (``gradients``: none to leave out)."""
         if i in self._snap:
             self._snap.move_to_end(i)
             return self._snap[i]

@@ -178,3 +178,60 @@ def test_drop_rows_in_place_equals_a_gather(compiled):
             want = a[pos].copy()
             kernel(pos.astype(np.int64), a, 16)
             np.testing.assert_array_equal(a[:pos.size], want)
+
+
+def _node_located_channel():
+    """The draining channel's flow given at the nodes (as TELEMAC or SCHISM write it)."""
+    from driftlog.flow import MeshFlowField
+
+    x, y = MESH.node_x, MESH.node_y
+    h = np.array([np.where((x > 12) & (x < 20) & (y > 6), max(0.6 - 0.05 * t, 0.0), 0.6)
+                  for t in TIMES])
+    u = np.array([0.8 + 0.3 * np.sin(y / 2.0) + 0.01 * t for t in TIMES])
+    v = np.array([0.25 * np.cos(x / 3.0) for _ in TIMES])
+    return MeshFlowField.from_arrays(MESH, np.zeros(MESH.n_nodes), TIMES, h, h * u, h * v,
+                                     location="node")
+
+
+@pytest.mark.parametrize("where", ["face", "node"])
+def test_gradients_left_out_until_asked_for(where):
+    """``node_values(t, gradients=False)`` leaves the recovered gradient columns out (NaN);
+    asked for later, they are the numbers computed at once; the other columns unchanged."""
+    from driftlog.flow import Q_UX
+
+    make = (lambda: draining_channel(MESH, TIMES)) if where == "face" else _node_located_channel
+    for t in (1.0, 5.0, 6.0, 13.0):
+        lean, full = make(), make()
+        a, wa, _ = lean.node_values(t, gradients=False)
+        b, wb, _ = full.node_values(t)
+        assert wa == wb
+        nq = a.shape[1] // 2
+        cols = np.r_[0:Q_UX, nq:nq + Q_UX]
+        np.testing.assert_array_equal(a[:, cols], b[:, cols])
+        assert np.isnan(a[:, Q_UX:nq]).all() and np.isfinite(b).all()
+        np.testing.assert_array_equal(lean.node_values(t)[0], b)  # now computed: the same
+
+
+@pytest.mark.parametrize("where", ["face", "node"])
+def test_tracer_without_rotation_reads_no_gradients(monkeypatch, where):
+    """Tracer mode without rotation takes the flow's node values without the gradients
+    (``Tracker._tracer_values``): the same trajectories as with them, bit for bit."""
+    from driftlog.flow import MeshFlowField
+
+    flow = draining_channel(MESH, TIMES) if where == "face" else _node_located_channel()
+    lean, a = run("tracer", False, "rk4", fused=True, flow=flow)
+    real = MeshFlowField.node_values
+    asked = []
+
+    def always(self, t, gradients=True):
+        asked.append(gradients)
+        return real(self, t)
+
+    monkeypatch.setattr(MeshFlowField, "node_values", always)
+    flow = draining_channel(MESH, TIMES) if where == "face" else _node_located_channel()
+    full, b = run("tracer", False, "rk4", fused=True, flow=flow)
+    assert False in asked  # the tracer asked to leave them out
+    np.testing.assert_array_equal(b.state, a.state)
+    np.testing.assert_array_equal(b.status, a.status)
+    np.testing.assert_array_equal(b.face, a.face)
+    assert np.sum(b.status == LEFT) > 10
