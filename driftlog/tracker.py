@@ -275,11 +275,13 @@ class Tracker:
         if not subset_positions(old, idx, pos):
             return False
         n = idx.size
+        # the settling step's bounds of the logs kept are the step bound (44) at their state
+        settled = self._settled_now() is not None
         chunks = 8 * numba.get_num_threads()
         for a in (self.state, self.P, self.F, self.D0, self.lin0):
             drop_rows(pos, a, chunks)
         for a in (self.face, self.ids, self.length, self.radius, self.mass, self.inertia,
-                  self.flag):
+                  self.flag) + ((self._st, self._bound) if settled else ()):
             drop_items(pos, a)
         self.act = idx
         self.state, self.P, self.F = self.state[:n], self.P[:n], self.F[:n]
@@ -296,6 +298,8 @@ class Tracker:
         self._next, self._nolin = self._next[:n], self._nolin[:n]
         self._st, self._bound = self._st[:n], self._bound[:n]
         self._settled = None
+        if settled:  # the smallest bound of the logs kept, as ``max_step`` would find it
+            self._settled = (self.state, self.t, *settle_summary(self._st, self._bound))
         if self.contact is not None and getattr(self.contact, "grounded", False):
             self._ground()
         return True
