@@ -478,6 +478,7 @@ def gradients_ab(sizes=(10_000, 100_000), repeat=6):
     for bit.  Writes ``tracer_peers_gradients_ab.{csv,md}``.
     """
     from _common import write_table
+    from driftlog.adapters import selafin
 
     from driftlog.tracker import Tracker
 
@@ -500,10 +501,7 @@ def gradients_ab(sizes=(10_000, 100_000), repeat=6):
                 for _ in range(repeat):
                     for arm, fn in (("with gradients", full), ("without", lean)):
                         Tracker._tracer_values = fn
-                        f = tools.flow
-                        f._snap.clear()
-                        f._nograd.clear()
-                        f._pair = None
+                        tools.flow = selafin.open(Path(tmp) / "eddy.slf")  # nothing cached
                         xe, ye, (_, cpu) = tools.run("driftlog", px, py, SNAPSHOT, 300.0)
                         best[arm] = min(best.get(arm, np.inf), cpu)
                         ends[arm] = (xe, ye)

@@ -586,7 +586,7 @@ class MeshFlowField(FlowField):
         Recovered (left out until asked for when ``_keep`` had ``gradients=False``), or
         zeros for ``gradient = "p1"``.
         """
-        h, _, _, nodes = self._snap[i]
+        h, hu, hv, nodes = self._snap[i]
         self._nograd.discard(i)
         if self.gradient != "recovered":
             nodes[:, Q_UX:] = 0.0
@@ -598,7 +598,7 @@ class MeshFlowField(FlowField):
             _set_gradients(nodes, *self._node_grad, nodes[:, Q_U:Q_ETA + 1])
         else:
             _, Px, Py = self.mesh.node_operators()
-            u, v = self._velocity(h, *self._snap[i][1:3])
+            u, v = self._velocity(h, hu, hv)
             _set_gradients(nodes, Px, Py, np.column_stack([u, v, h + self.bed]))
 
     def _keep(self, i, entry, gradients=True):

@@ -87,15 +87,19 @@ def breaking_after(flow, t_break):
     return broken
 
 
-def draining_channel(mesh, times):
+def draining_channel(mesh, times, location="face"):
     """Sheared, meandering flow to the east (out through the mesh's east side) over a bank
     (12 < x < 20, y > 6) that dries from 0.6 m at 0.05 m/s: the scene of the fused-step and
-    per-log-clock tests."""
+    per-log-clock tests.  ``location="node"``: the same flow given at the nodes (as TELEMAC
+    or SCHISM write it)."""
     import numpy as np
 
     from driftlog.flow import MeshFlowField
 
-    xc, yc = mesh.face_x, mesh.face_y
+    if location == "node":
+        xc, yc = mesh.node_x, mesh.node_y
+    else:
+        xc, yc = mesh.face_x, mesh.face_y
     h, hu, hv = [], [], []
     for t in times:
         depth = np.where((xc > 12) & (xc < 20) & (yc > 6), max(0.6 - 0.05 * t, 0.0), 0.6)
@@ -104,5 +108,5 @@ def draining_channel(mesh, times):
         h.append(depth)
         hu.append(depth * u)
         hv.append(depth * v)
-    return MeshFlowField.from_arrays(mesh, np.zeros(mesh.n_faces), times, np.array(h),
-                                     np.array(hu), np.array(hv))
+    return MeshFlowField.from_arrays(mesh, np.zeros(xc.size), times, np.array(h),
+                                     np.array(hu), np.array(hv), location=location)

@@ -16,6 +16,15 @@ TIMES = np.arange(0.0, 21.0, 4.0)  # sub-steps land on each snapshot: the node p
 FLOW = draining_channel(MESH, TIMES)
 
 
+def assert_same_runs(tb, b, ta, a):
+    """Two trackers' logs the same bit for bit (state, status, face) and their steps too."""
+    np.testing.assert_array_equal(b.state, a.state)
+    np.testing.assert_array_equal(b.status, a.status)
+    np.testing.assert_array_equal(b.face, a.face)
+    for k in ("substeps", "rhs_evaluations", "min_dt", "max_dt"):
+        assert tb.stats[k] == ta.stats[k], k
+
+
 def run(level, rotation, method, fused, flow=FLOW, t_end=20.0):
     rng = np.random.default_rng(7)
     n = 200
@@ -36,11 +45,7 @@ def test_fused_step_equals_general_path_bit_for_bit(level, rotation, method):
     general, a = run(level, rotation, method, fused=False)
     fused, b = run(level, rotation, method, fused=True)
     assert fused.fused and not general.fused
-    np.testing.assert_array_equal(b.state, a.state)
-    np.testing.assert_array_equal(b.status, a.status)
-    np.testing.assert_array_equal(b.face, a.face)
-    for k in ("substeps", "rhs_evaluations", "min_dt", "max_dt"):
-        assert fused.stats[k] == general.stats[k], k
+    assert_same_runs(fused, b, general, a)
     # the scene exercises what the fused kernel must reproduce: logs left through the outlet,
     # stranded on the dried bank, still floating after crossing many faces
     assert np.sum(b.status == LEFT) > 10
@@ -87,11 +92,7 @@ def test_tracer_kernels_on_triangles_bit_for_bit(method, gradient):
     flow = _triangle_channel(gradient)
     general, a = run("tracer", True, method, fused=False, flow=flow)
     fused, b = run("tracer", True, method, fused=True, flow=flow)
-    np.testing.assert_array_equal(b.state, a.state)
-    np.testing.assert_array_equal(b.status, a.status)
-    np.testing.assert_array_equal(b.face, a.face)
-    for k in ("substeps", "rhs_evaluations", "min_dt", "max_dt"):
-        assert fused.stats[k] == general.stats[k], k
+    assert_same_runs(fused, b, general, a)
     assert np.sum(b.status == LEFT) > 10 and np.sum(b.status == FLOATING) > 10
     assert np.ptp(b.state[b.status == FLOATING, 2]) > 0.0  # the rotation turned them
 
@@ -146,12 +147,8 @@ def test_dropping_stopped_logs_in_place_changes_no_number(monkeypatch, level, me
     # kept and the floating logs are gathered again
     assert dropped.fused and not any(c0)
     assert sum(c1) >= (5 if clock == "global" else 1) if waterlogging == "off" else not any(c1)
-    np.testing.assert_array_equal(b.state, a.state)
-    np.testing.assert_array_equal(b.status, a.status)
-    np.testing.assert_array_equal(b.face, a.face)
+    assert_same_runs(dropped, b, gathered, a)
     np.testing.assert_array_equal(b.mass, a.mass)
-    for k in ("substeps", "rhs_evaluations", "min_dt", "max_dt"):
-        assert dropped.stats[k] == gathered.stats[k], k
     assert np.sum(b.status == LEFT) > 10 and np.sum(b.status == FLOATING) > 10
 
 
@@ -180,28 +177,14 @@ def test_drop_rows_in_place_equals_a_gather(compiled):
             np.testing.assert_array_equal(a[:pos.size], want)
 
 
-def _node_located_channel():
-    """The draining channel's flow given at the nodes (as TELEMAC or SCHISM write it)."""
-    from driftlog.flow import MeshFlowField
-
-    x, y = MESH.node_x, MESH.node_y
-    h = np.array([np.where((x > 12) & (x < 20) & (y > 6), max(0.6 - 0.05 * t, 0.0), 0.6)
-                  for t in TIMES])
-    u = np.array([0.8 + 0.3 * np.sin(y / 2.0) + 0.01 * t for t in TIMES])
-    v = np.array([0.25 * np.cos(x / 3.0) for _ in TIMES])
-    return MeshFlowField.from_arrays(MESH, np.zeros(MESH.n_nodes), TIMES, h, h * u, h * v,
-                                     location="node")
-
-
 @pytest.mark.parametrize("where", ["face", "node"])
 def test_gradients_left_out_until_asked_for(where):
     """``node_values(t, gradients=False)`` leaves the recovered gradient columns out (NaN);
     asked for later, they are the numbers computed at once; the other columns unchanged."""
     from driftlog.flow import Q_UX
 
-    make = (lambda: draining_channel(MESH, TIMES)) if where == "face" else _node_located_channel
     for t in (1.0, 5.0, 6.0, 13.0):
-        lean, full = make(), make()
+        lean, full = (draining_channel(MESH, TIMES, where) for _ in range(2))
         a, wa, _ = lean.node_values(t, gradients=False)
         b, wb, _ = full.node_values(t)
         assert wa == wb
@@ -218,8 +201,7 @@ def test_tracer_without_rotation_reads_no_gradients(monkeypatch, where):
     (``Tracker._tracer_values``): the same trajectories as with them, bit for bit."""
     from driftlog.flow import MeshFlowField
 
-    flow = draining_channel(MESH, TIMES) if where == "face" else _node_located_channel()
-    lean, a = run("tracer", False, "rk4", fused=True, flow=flow)
+    lean, a = run("tracer", False, "rk4", fused=True, flow=draining_channel(MESH, TIMES, where))
     real = MeshFlowField.node_values
     asked = []
 
@@ -228,10 +210,7 @@ def test_tracer_without_rotation_reads_no_gradients(monkeypatch, where):
         return real(self, t)
 
     monkeypatch.setattr(MeshFlowField, "node_values", always)
-    flow = draining_channel(MESH, TIMES) if where == "face" else _node_located_channel()
-    full, b = run("tracer", False, "rk4", fused=True, flow=flow)
+    full, b = run("tracer", False, "rk4", fused=True, flow=draining_channel(MESH, TIMES, where))
     assert False in asked  # the tracer asked to leave them out
-    np.testing.assert_array_equal(b.state, a.state)
-    np.testing.assert_array_equal(b.status, a.status)
-    np.testing.assert_array_equal(b.face, a.face)
+    assert_same_runs(full, b, lean, a)
     assert np.sum(b.status == LEFT) > 10
