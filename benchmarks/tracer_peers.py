@@ -526,15 +526,64 @@ def gradients_ab(sizes=(10_000, 100_000), repeat=6):
     return rows
 
 
+def order_ab(sizes=(100_000, 1_000_000), repeat=2):
+    """driftlog with the particles listed as seeded (at random) and sorted by their face.
+
+    The same particles, the same trajectories (tracer mode: each particle on its own); only
+    the order of the rows changes, and with it how often consecutive particles read the same
+    node rows.  Alternately in one process, best CPU time of ``repeat``.  Writes
+    ``tracer_peers_order_ab.{csv,md}``.
+    """
+    from _common import write_table
+
+    nb.set_num_threads(1)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        x, y, tri = triangle_mesh()
+        tools = Tools(write_schism(Path(tmp) / "eddy_schism.nc", x, y, tri), tmp, [])
+        xs, ys = seed(4096, np.random.default_rng(1))
+        tools.run("driftlog", xs, ys, SNAPSHOT, 4 * SNAPSHOT, timed=False)
+        for n in sizes:
+            px, py = seed(n, np.random.default_rng(11))
+            o = np.argsort(tools.flow.sample(px, py, 0.0).face, kind="stable")
+            best, ends = {}, {}
+            for _ in range(repeat):
+                for arm, (ax, ay) in (("as seeded", (px, py)), ("by face", (px[o], py[o]))):
+                    xe, ye, (_, cpu) = tools.run("driftlog", ax, ay, SNAPSHOT, 300.0)
+                    best[arm] = min(best.get(arm, np.inf), cpu)
+                    ends[arm] = (xe, ye)
+            back = np.empty(n, np.int64)
+            back[o] = np.arange(n)  # the sorted run's rows in the seeded order
+            same = all(np.array_equal(a, b[back]) for a, b in
+                       zip(ends["as seeded"], ends["by face"], strict=True))
+            for arm in ("as seeded", "by face"):
+                rows.append(dict(particles=n, steps=30, order=arm, cpu_s=best[arm],
+                                 per_cpu_s=n * 30 / best[arm],
+                                 gain=best["as seeded"] / best[arm], same_positions=same))
+                print(rows[-1], flush=True)
+    write_table("tracer_peers_order_ab", rows,
+                ["particles", "steps", "order", "cpu_s", "per_cpu_s", "gain", "same_positions"],
+                "driftlog tracer RK4 with the particles as seeded and sorted by face (1 thread, "
+                f"best of {repeat}, alternately in one process)",
+                "The scene of the peers' table (Selafin file, 30 steps of 10 s).  per_cpu_s: "
+                "particle-steps per CPU second of Tracker.run.  Re-create: `python "
+                "benchmarks/tracer_peers.py --order-ab`.")
+    return rows
+
+
 if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--gradients-ab", action="store_true",
                    help="only driftlog with and without the recovered node gradients")
+    p.add_argument("--order-ab", action="store_true",
+                   help="only driftlog with the particles as seeded and sorted by face")
     p.add_argument("--quick", action="store_true", help="fewer particles and steps")
     p.add_argument("--tools", nargs="+", choices=["driftlog", "OceanTracker", "Parcels"],
                    help="run only these tools (driftlog always)")
     a = p.parse_args()
     if a.gradients_ab:
         gradients_ab()
+    elif a.order_ab:
+        order_ab()
     else:
         main(a.quick, a.tools)

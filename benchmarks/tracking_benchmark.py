@@ -11,7 +11,8 @@ CPU second of the process (``time.process_time``: the machine is shared, wall ti
 other people's jobs), i.e. per core.
 
     python benchmarks/tracking_benchmark.py [--quick | --breakdown | --targets | --forces |
-                                             --before-after | --threads] [--label NAME]
+                                             --before-after | --threads | --drop-ab]
+                                            [--label NAME]
 
 writes benchmarks/results/tracking.csv and .md, and tracking_breakdown.csv and .md (where
 an RK4 log-step's time goes); ``--targets`` only the issue's two targets at 1e5 logs on one
@@ -234,6 +235,69 @@ def thread_scaling(n=100_000, steps=20, repeat=3):
                 "machine's 1-minute load average before and after (2 cores).  Flow: free "
                 "vortex on the Malpasset mesh.  Re-create: "
                 "`python benchmarks/tracking_benchmark.py --threads`.")
+    return rows
+
+
+def drop_ab(n=100_000, steps=20, repeat=4):
+    """Stopped logs dropped in place against gathered again, in one process.
+
+    ``Tracker._drop_stopped`` switched off (every status change gathers the floating logs
+    into new arrays, as before it) and on, alternately, tracer and full RK4 on 1 thread and
+    on 2, and on 2 threads with numba's dynamic scheduling (``set_parallel_chunksize``) beside
+    its static default; best wall time of ``repeat`` runs (on one thread wall = CPU time).
+    """
+    import os
+
+    from driftlog.tracker import Tracker
+
+    mesh = malpasset_mesh()
+    flow = vortex_flow(mesh)
+    x, y = points(mesh, n, np.random.default_rng(3))
+    real = Tracker._drop_stopped
+    arms = [("gather", 1, 0), ("in place", 1, 0), ("gather", 2, 0), ("in place", 2, 0),
+            ("in place", 2, 256), ("in place", 2, 2048)]
+    rows = []
+    try:
+        for level in ("tracer", "full"):
+            for threads in (1, 2):
+                numba.set_num_threads(threads)
+                one(flow, x[:4096], y[:4096], level, "rk4", 2)  # compile / load the cache
+            best = {}
+            load0 = os.getloadavg()[0]
+            for _ in range(repeat):
+                for arm in arms:
+                    path, threads, chunk = arm
+                    Tracker._drop_stopped = real if path == "in place" else (
+                        lambda self, idx: False)
+                    numba.set_num_threads(threads)
+                    numba.set_parallel_chunksize(chunk)
+                    sub, wall, cpu, _used = one(flow, x, y, level, "rk4", steps)
+                    if arm not in best or wall < best[arm][1]:
+                        best[arm] = (sub, wall, cpu)
+            load1 = os.getloadavg()[0]
+            for arm in arms:
+                path, threads, chunk = arm
+                sub, wall, cpu = best[arm]
+                rows.append(dict(logs=n, level=level, stopped_logs=path, threads=threads,
+                                 chunksize=chunk or "static", substeps=sub, seconds=wall,
+                                 cpu_seconds=cpu, log_steps_per_s=n * sub / wall,
+                                 vs_gather_1_thread=best[("gather", 1, 0)][1] / wall,
+                                 load=f"{load0:.1f}-{load1:.1f}"))
+                print(rows[-1], flush=True)
+    finally:
+        Tracker._drop_stopped = real
+        numba.set_parallel_chunksize(0)
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    write_table("tracking_drop_ab", rows,
+                ["logs", "level", "stopped_logs", "threads", "chunksize", "substeps",
+                 "seconds", "cpu_seconds", "log_steps_per_s", "vs_gather_1_thread", "load"],
+                f"Stopped logs dropped in place against gathered again ({n:.0e} logs, fused "
+                f"RK4, best wall time of {repeat} alternating runs)",
+                "stopped_logs: in place (Tracker._drop_stopped) or gathered into new arrays; "
+                "chunksize: numba's parallel schedule (static default, or dynamic chunks); "
+                "vs_gather_1_thread: wall time of the gather on 1 thread / this one.  Flow: free "
+                "vortex on the Malpasset mesh (a few logs leave at nearly every sub-step).  "
+                "Re-create: `python benchmarks/tracking_benchmark.py --drop-ab`.")
     return rows
 
 
@@ -474,9 +538,13 @@ if __name__ == "__main__":
                    help="the tracker's kernels with and without numba's reference counting")
     p.add_argument("--threads", action="store_true",
                    help="only 2 threads against 1 on 1e5 logs (full and tracer RK4)")
+    p.add_argument("--drop-ab", action="store_true",
+                   help="stopped logs dropped in place against gathered again (1 process)")
     p.add_argument("--label", default="", help="name of the code measured (--targets, --forces)")
     a = p.parse_args()
-    if a.refcount:
+    if a.drop_ab:
+        drop_ab()
+    elif a.refcount:
         refcount()
     elif a.threads:
         thread_scaling()
