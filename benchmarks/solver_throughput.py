@@ -218,6 +218,103 @@ def malpasset(end):
     return rows
 
 
+WAIT_POLICIES = {"passive": {"OMP_WAIT_POLICY": "PASSIVE"},
+                 "spin": {"GOMP_SPINCOUNT": "30000"}}
+
+
+def threads_worker(end, repeat):
+    """In this process (its wait policy set by the caller): one thread against two.
+
+    Malpasset's first ``end`` s at order 1 (1 thread on the serial kernels; 2 threads with
+    the serial kernels below PARALLEL_ACTIVE active faces, the default, and with the prange
+    kernels at every step, ``parallel=True``, as before the default changed) and the dam
+    break on about 1e4 and 1e5 triangles, orders 1 and 2.  Best wall time of ``repeat``
+    runs, the arms alternated; rows to stdout.
+    """
+    from malpasset import data_dir
+
+    from driftlog.floodsetup import malpasset_solver
+
+    # parallel: False (serial kernels), None (the default: parallel from PARALLEL_FACES
+    # faces, serial steps while fewer than PARALLEL_ACTIVE are active), True (always)
+    arms = [("serial", 1, False), ("2 threads", 2, None),
+            ("2 threads, every step parallel", 2, True)]
+    best = {}
+    for _ in range(repeat):
+        for arm in arms:
+            name, threads, parallel = arm
+            numba.set_num_threads(threads)
+            s = malpasset_solver(data_dir() / "malpasset_mesh.nc", order=1, parallel=parallel)
+            s.step(1e-4)  # compile / load the kernels
+            t0, c0 = time.perf_counter(), time.process_time()
+            s.advance_to(end)
+            w, c = time.perf_counter() - t0, time.process_time() - c0
+            if arm not in best or w < best[arm][0]:
+                best[arm] = (w, c, s.steps, s.h.copy())
+    rows = []
+    w1, _, _, h1 = best[arms[0]]
+    for arm in arms:
+        w, c, n, h = best[arm]
+        rows.append(dict(case=f"Malpasset 0-{end:g} s", order=1, kernels=arm[0],
+                         threads=arm[1], steps=n, wall_s=w, cpu_s=c, speed_up=w1 / w,
+                         same=bool(np.array_equal(h, h1))))
+    for target, steps in ((1e4, 300), (1e5, 40)):
+        mesh = square_mesh(int(target))
+        for order in (1, 2):
+            n = steps if order == 1 else steps // 2
+            r = {t: measure(mesh, order, t, n, "rcm", repeat) for t in (1, 2)}
+            for t in (1, 2):
+                rows.append(dict(case=f"dam break, {mesh.n_faces} faces", order=order,
+                                 kernels="serial" if t == 1 else "2 threads", threads=t,
+                                 steps=n, wall_s=r[t]["wall_s"], cpu_s=r[t]["cpu_s"],
+                                 speed_up=r[1]["wall_s"] / r[t]["wall_s"]))
+    for r in rows:
+        r["load_after"] = os.getloadavg()[0]
+    print("ROWS " + json.dumps(rows), flush=True)
+
+
+def threads_wait(end, repeat, busy):
+    """``threads_worker`` in a fresh process per libgomp wait policy (set before it loads),
+    with ``busy`` busy-looping processes beside it (another job taking cores)."""
+    import subprocess
+
+    start = machine()
+    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(busy)]
+    rows = []
+    try:
+        for policy, env in WAIT_POLICIES.items():
+            e = {k: v for k, v in os.environ.items()
+                 if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
+            e.update(env)
+            out = subprocess.run([sys.executable, __file__, "--threads-worker", str(end),
+                                  "--repeat", str(repeat)], env=e, capture_output=True,
+                                 text=True, check=True).stdout
+            got = json.loads(out.split("ROWS ", 1)[1])
+            for r in got:
+                r["policy"] = policy
+                r["busy_processes"] = busy
+                print(f"{policy:>8} {r['case']:>26} order {r['order']} {r['kernels']:>31}: "
+                      f"{r['wall_s']:.3f} s wall, {r['cpu_s']:.3f} s CPU, x{r['speed_up']:.2f}",
+                      flush=True)
+            rows += got
+    finally:
+        for h in hogs:
+            h.kill()
+    name = "solver_threads_wait" + (f"_busy{busy}" if busy else "")
+    write_table(name, rows, ["policy", "busy_processes", "case", "order", "kernels", "threads",
+                             "steps", "wall_s", "cpu_s", "speed_up", "same", "load_after"],
+                "Shallow-water solver, two threads against one, by libgomp's wait policy",
+                notes=f"Started on {start}. Each policy in its own process, set before "
+                      "libgomp loads: passive (OMP_WAIT_POLICY=PASSIVE, driftlog's default: an "
+                      "idle worker sleeps at once) or spin (GOMP_SPINCOUNT=30000: it spins "
+                      "about 1 ms first). speed_up: wall time of the serial run / this one "
+                      f"(best of {repeat}, arms alternated); same: the final depths equal bit "
+                      "for bit to the serial run's. busy_processes: busy-looping processes "
+                      "run beside it. Re-create: `python benchmarks/solver_throughput.py "
+                      f"--threads-wait {end:g}" + (f" --busy {busy}`." if busy else "`."))
+    (RESULTS / f"{name}.json").write_text(json.dumps(dict(machine=start, rows=rows), indent=1))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="1e4 and 1e5 faces only")
@@ -235,7 +332,20 @@ def main(argv=None):
                          "(order 2: END / 2), 1 thread")
     ap.add_argument("--repeat", type=int, default=3,
                     help="best of N runs of the steps (by CPU time; default 3)")
+    ap.add_argument("--threads-wait", type=float, default=None, metavar="END",
+                    help="only two threads against one by libgomp's wait policy (passive, "
+                         "spin), each in its own process: Malpasset's first END s at order 1 "
+                         "and the dam break on 1e4 and 1e5 triangles")
+    ap.add_argument("--busy", type=int, default=0,
+                    help="with --threads-wait: this many busy-looping processes beside it")
+    ap.add_argument("--threads-worker", type=float, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.threads_worker is not None:
+        threads_worker(args.threads_worker, args.repeat)
+        return
+    if args.threads_wait is not None:
+        threads_wait(args.threads_wait, args.repeat, args.busy)
+        return
     if args.breakdown_malpasset:
         start = machine()
         rows = malpasset_breakdown(args.breakdown_malpasset, args.repeat)

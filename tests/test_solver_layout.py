@@ -117,6 +117,41 @@ def test_block_pass_finds_the_active_set_of_the_full_scan(order, renumber, monke
     assert s._blk_active == s._blk_new.size
 
 
+@pytest.mark.parametrize("order", [1, 2])
+def test_parallel_solver_runs_small_active_sets_on_the_serial_kernels(order, monkeypatch):
+    """A parallel solver runs a step on the serial kernels while fewer faces than
+    PARALLEL_ACTIVE are active (waking numba's workers costs more than the work): it changes
+    which kernels run, on both sides of the threshold as the front wets the channel, not one
+    number."""
+    import driftlog.solver.model as model
+
+    mesh = channel_mesh(8.0, 0.5, 0.08)
+    plain = _dam_break(mesh, order, renumber="none", active_set=False, parallel=False)
+    plain.advance_to(1.0)
+    monkeypatch.setattr(model, "PARALLEL_FACES", 0)  # parallel chosen by the mesh's size
+    monkeypatch.setattr(model, "PARALLEL_ACTIVE", mesh.n_faces // 4)
+    s = _dam_break(mesh, order, renumber="rcm")
+    assert s.parallel
+    serial_steps = []
+    step = s.step
+
+    def counted(dt_max=np.inf):
+        dt = step(dt_max)
+        serial_steps.append(s._small)
+        return dt
+
+    s.step = counted
+    s.advance_to(1.0)
+    _same(s, plain)
+    # the set grew past the threshold: both kinds of step were taken
+    assert 0 < sum(serial_steps) < len(serial_steps)
+    assert serial_steps[0] and not serial_steps[-1]
+    # parallel=True runs the prange kernels at every step
+    forced = _dam_break(mesh, order, renumber="rcm", parallel=True)
+    forced.advance_to(0.1)
+    assert forced._k_serial is None and not forced._small
+
+
 def test_flow_file_and_resume_in_the_mesh_numbering(tmp_path):
     mesh = channel_mesh(4.0, 0.5, 0.08)
     plain = _dam_break(mesh, 2, renumber="none", active_set=False)

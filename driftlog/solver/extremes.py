@@ -91,10 +91,11 @@ class Extremes:
         self.max_speed = np.zeros(n_faces)
         self.arrival = np.full(n_faces, np.nan)
 
-    def update(self, h, hu, hv, z, t, hdry, arrival_depth):
-        """Fold the state at time t in."""
-        self._kernel(h, hu, hv, z, t, hdry, arrival_depth, self.max_level, self.max_depth,
-                        self.max_speed, self.arrival)
+    def update(self, h, hu, hv, z, t, hdry, arrival_depth, serial=False):
+        """Fold the state at time t in (``serial``: the serial kernel, same numbers)."""
+        (update_extremes.serial if serial else self._kernel)(
+            h, hu, hv, z, t, hdry, arrival_depth, self.max_level, self.max_depth, self.max_speed,
+            self.arrival)
 
     def arrays(self):
         """Flow-file variable name -> array (in the mesh's numbering)."""

@@ -47,6 +47,12 @@ THIN_FRACTION = 0.03
 # faces from which the kernels run on numba's threads: below, waking the thread pool at each
 # of the ~8 kernel calls of a step costs more than the work (and far more on a loaded machine)
 PARALLEL_FACES = 20000
+# and a parallel solver runs a whole step on the serial kernels while fewer faces than this are
+# active (the flux passes run over the active set; a dam-break valley is mostly dry for most
+# of the flood): numba's workers wait passively (driftlog/_numba.py) and waking them costs
+# 50-100 us a kernel call on a virtual machine.  Serial and prange kernels give the same
+# numbers (no reductions in them).
+PARALLEL_ACTIVE = 20000
 # faces from which the mesh is renumbered for locality (reverse Cuthill-McKee): below, the
 # state and the edge arrays fit in the caches and the mesher's numbering costs nothing
 RENUMBER_FACES = 20000
@@ -90,7 +96,8 @@ class ShallowWaterSolver:
         Depth (m) that marks the arrival of the flood at a face (default 0.05 m).
     gravity : float
     parallel : bool, optional
-        Run the kernels on numba's threads (default: from PARALLEL_FACES faces on).
+        Run the kernels on numba's threads (default: from PARALLEL_FACES faces on, and then
+        on one thread while fewer than PARALLEL_ACTIVE faces are active; True: always).
     thin_depth : float
         Depth (m) below which velocities are desingularised after every stage (Kurganov &
         Petrova 2007: u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, thin_depth^4)), hu reset to
@@ -191,11 +198,14 @@ class ShallowWaterSolver:
         par = nf >= PARALLEL_FACES if parallel is None else bool(parallel)
         self.parallel = par
         pick = (lambda k: k.parallel) if par else (lambda k: k.serial)
+        kernels = (limited_gradients, edge_fluxes_1 if order == 1 else edge_fluxes_2,
+                   face_residuals, euler_stage, predictor_stage, corrector_stage, mark_active)
         self._k_grad, self._k_edges, self._k_faces, self._k_euler, self._k_pred, \
-            self._k_corr, self._k_mark = map(pick, (limited_gradients,
-                                                    edge_fluxes_1 if order == 1 else edge_fluxes_2,
-                                                    face_residuals, euler_stage, predictor_stage,
-                                                    corrector_stage, mark_active))
+            self._k_corr, self._k_mark = map(pick, kernels)
+        # the kernels of a step whose active set is small (PARALLEL_ACTIVE), where the
+        # parallel ones were chosen by the mesh's size (``parallel=True`` runs them always)
+        self._k_serial = tuple(k.serial for k in kernels) if par and parallel is None else None
+        self._small = False  # this step runs on them
         if renumber is None:
             renumber = "hilbert" if nf >= RENUMBER_FACES else "none"
         if renumber not in ORDERINGS:
@@ -450,6 +460,11 @@ class ShallowWaterSolver:
         bs = m.boundaries
         bs.update(t, h, m._z, m.dry_depth)
         dh, dhu, dhv, rate = m._res
+        ser = m._k_serial
+        if ser is not None:  # the last pass's set decides the marking's kernel
+            m._small = m.active_faces < PARALLEL_ACTIVE
+        k_grad, k_edges, k_faces, _, _, _, k_mark = ser if m._small else (
+            m._k_grad, m._k_edges, m._k_faces, None, None, None, m._k_mark)
         if m.active_set and m._blocks is not None and 2 * m._blk_active < m._blk_new.size:
             # a small set: only the blocks of faces next to the last two sets' blocks
             last, before = m._blk
@@ -461,7 +476,7 @@ class ShallowWaterSolver:
             faces, edges = ((m._all_faces, m._all_edges) if na == h.shape[0]
                             else (m._faces_buf[:na], m._edges_buf[:ne]))
         elif m.active_set:
-            faces, edges = active_set(m._k_mark, h, m._always, m._fn, m._nbr, m._ef, m._mark,
+            faces, edges = active_set(k_mark, h, m._always, m._fn, m._nbr, m._ef, m._mark,
                                       m._all_faces, m._all_edges, m._faces_buf, m._edges_buf,
                                       dh, dhu, dhv, rate, m._z, m.dry_depth, m._eoff, m._rows,
                                       m._est)
@@ -472,23 +487,26 @@ class ShallowWaterSolver:
             faces, edges = m._all_faces, m._all_edges
         m.active_faces = faces.shape[0]
         m.face_updates += faces.shape[0]
+        if ser is not None and m._small != (faces.shape[0] < PARALLEL_ACTIVE):
+            m._small = not m._small
+            k_grad, k_edges, k_faces = ser[:3] if m._small else (m._k_grad, m._k_edges,
+                                                                 m._k_faces)
         if m.order == 2:
             offset, minv, eoff = m._lsq
-            m._k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._gnbr, offset, minv, eoff,
-                      m._rows, m._est, m._open_edge, m._fe, bs.slot, bs.kind, bs.value,
-                      m._zedge, m._edge_bed, m._ebound, m.energy_widen, m.gravity,
-                      m._fallback)
+            k_grad(faces, h, hu, hv, m._z, m.dry_depth, m._fn, m._gnbr, offset, minv, eoff,
+                   m._rows, m._est, m._open_edge, m._fe, bs.slot, bs.kind, bs.value, m._zedge,
+                   m._edge_bed, m._ebound, m.energy_widen, m.gravity, m._fallback)
         fm, fx0, fy0, fx1, fy1, sp, sp1 = m._flux
         if m.order == 1:
-            m._k_edges(edges, m._ef, m._nx, m._ny, m._len, h, hu, hv, m._z, RIEMANN[m.riemann],
-                       m.gravity, m.dry_depth, bs.slot, bs.kind, bs.value, fm, fx0, fy0, fx1,
-                       fy1, sp)
+            k_edges(edges, m._ef, m._nx, m._ny, m._len, h, hu, hv, m._z, RIEMANN[m.riemann],
+                    m.gravity, m.dry_depth, bs.slot, bs.kind, bs.value, fm, fx0, fy0, fx1, fy1,
+                    sp)
         else:
-            m._k_edges(edges, m._ef, m._nx, m._ny, m._len, h, m._z, m._est,
-                       RIEMANN[m.riemann], m.gravity, m.dry_depth, bs.slot, bs.kind, bs.value,
-                       fm, fx0, fy0, fx1, fy1, sp, sp1)
-        m._k_faces(faces, m._fe, m._fn, m._side, m._area, fm, fx0, fy0, fx1, fy1, sp, sp1,
-                   m.order, dh, dhu, dhv, rate)
+            k_edges(edges, m._ef, m._nx, m._ny, m._len, h, m._z, m._est, RIEMANN[m.riemann],
+                    m.gravity, m.dry_depth, bs.slot, bs.kind, bs.value, fm, fx0, fy0, fx1, fy1,
+                    sp, sp1)
+        k_faces(faces, m._fe, m._fn, m._side, m._area, fm, fx0, fy0, fx1, fy1, sp, sp1, m.order,
+                dh, dhu, dhv, rate)
         return float(rate.max())
 
     def step(self, dt_max=np.inf) -> float:
@@ -504,8 +522,9 @@ class ShallowWaterSolver:
         dh, dhu, dhv, _ = self._res
         if self.order == 1:
             self._bflux_sum[:] = fm[bedges]
-            self._k_euler(self._h, self._hu, self._hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
-                          self._thin, self._h, self._hu, self._hv)
+            k_euler = self._k_serial[3] if self._small else self._k_euler
+            k_euler(self._h, self._hu, self._hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
+                    self._thin, self._h, self._hu, self._hv)
         else:
             # the predictor and corrector stages go to work arrays; the state (h, hu, hv)
             # stays U^n until the Heun average, (U'' + U^n) / 2 written onto it (a + b is
@@ -516,8 +535,9 @@ class ShallowWaterSolver:
             while True:
                 self._bflux_sum[:] = 0.5 * fm[bedges]
                 # Euler stage and thin layer (68)-(69) in one pass
-                self._k_pred(h, hu, hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth, self._thin,
-                             eps, h1, hu1, hv1)
+                k_pred = self._k_serial[4] if self._small else self._k_pred
+                k_pred(h, hu, hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth, self._thin, eps,
+                       h1, hu1, hv1)
                 rmax1 = self._rates(h1, hu1, hv1, self.t + dt)
                 if dt * rmax1 <= 1.0:
                     break
@@ -528,8 +548,9 @@ class ShallowWaterSolver:
                 self._rates(h, hu, hv, self.t)
             self._bflux_sum += 0.5 * fm[bedges]
             # Euler stage from U', Heun average with U^n and thin layer in one pass
-            self._k_corr(h1, hu1, hv1, dh, dhu, dhv, dt, self._gn2, self.dry_depth, self._thin,
-                         eps, h, hu, hv)
+            k_corr = self._k_serial[5] if self._small else self._k_corr
+            k_corr(h1, hu1, hv1, dh, dhu, dhv, dt, self._gn2, self.dry_depth, self._thin, eps,
+                   h, hu, hv)
         vol = self._bflux_sum * dt  # m3 out (>0) or in (<0) per boundary edge
         bs = self.boundaries
         n = len(self.mesh.tag_names)
@@ -538,7 +559,7 @@ class ShallowWaterSolver:
         self.t += dt
         self.steps += 1
         self.extremes.update(self._h, self._hu, self._hv, self._z, self.t, self.dry_depth,
-                             self.arrival_depth)
+                             self.arrival_depth, serial=self._small)
         return dt
 
     def run(self, t_end, output=None, output_interval=None, progress=False, resume=False,
