@@ -300,7 +300,7 @@ def threads_wait(end, repeat, busy):
     finally:
         for h in hogs:
             h.kill()
-    name = "solver_threads_wait" + (f"_busy{busy}" if busy else "")
+    name = f"solver_threads_wait_{end:g}s" + (f"_busy{busy}" if busy else "")
     write_table(name, rows, ["policy", "busy_processes", "case", "order", "kernels", "threads",
                              "steps", "wall_s", "cpu_s", "speed_up", "same", "load_after"],
                 "Shallow-water solver, two threads against one, by libgomp's wait policy",
@@ -311,7 +311,8 @@ def threads_wait(end, repeat, busy):
                       f"(best of {repeat}, arms alternated); same: the final depths equal bit "
                       "for bit to the serial run's. busy_processes: busy-looping processes "
                       "run beside it. Re-create: `python benchmarks/solver_throughput.py "
-                      f"--threads-wait {end:g}" + (f" --busy {busy}`." if busy else "`."))
+                      f"--threads-wait {end:g} --repeat {repeat}"
+                      + (f" --busy {busy}`." if busy else "`."))
     (RESULTS / f"{name}.json").write_text(json.dumps(dict(machine=start, rows=rows), indent=1))
 
 
