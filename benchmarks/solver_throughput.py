@@ -236,7 +236,8 @@ def threads_worker(end, repeat):
     from driftlog.floodsetup import malpasset_solver
 
     # parallel: False (serial kernels), None (the default: parallel from PARALLEL_FACES
-    # faces, serial steps while fewer than PARALLEL_ACTIVE are active), True (always)
+    # faces, serial steps while fewer than PARALLEL_ACTIVE are active -- 0 under spinning
+    # workers, _numba.workers_spin, where this arm is the next one), True (always)
     arms = [("serial", 1, False), ("2 threads", 2, None),
             ("2 threads, every step parallel", 2, True)]
     best = {}

@@ -13,16 +13,29 @@ import types
 # numba's OpenMP layer (GNU libgomp) spins its idle workers by default; on a machine whose
 # cores are shared with other jobs the spinning threads take the cores the working thread
 # needs (measured: 2 threads 10-20x slower than 1 on 1e3 logs, benchmarks/peers_tracking.py).
-# Passive waiting costs microseconds per parallel region.  Set before libgomp loads; a value
-# the user gave wins.
+# Passive waiting costs 50-100 us per parallel region on a virtual machine (a sleeping worker
+# is woken; BENCHMARKS.md, "Two threads on the real flood").  Set before libgomp loads; a
+# value the user gave wins (GOMP_SPINCOUNT too, which libgomp lets override the policy).
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+
+def workers_spin(environ=os.environ):
+    """Whether libgomp's idle workers spin before they sleep, as the user asked.
+
+    ``GOMP_SPINCOUNT`` above 0 or ``OMP_WAIT_POLICY=ACTIVE``: waking them between parallel
+    regions then costs little.  False under driftlog's default, passive waiting.
+    """
+    count = environ.get("GOMP_SPINCOUNT", "").strip().lower()
+    if count:
+        return count == "infinite" or (count.isdigit() and int(count) > 0)
+    return environ.get("OMP_WAIT_POLICY", "").strip().upper() == "ACTIVE"
 
 import copy  # noqa: E402
 import threading  # noqa: E402
 
 import numba as nb  # noqa: E402
 
-__all__ = ["kernel", "PARALLEL_MIN", "announce_compile", "kernels_cached"]
+__all__ = ["kernel", "PARALLEL_MIN", "announce_compile", "kernels_cached", "workers_spin"]
 
 
 class _InlineCopy:

@@ -152,6 +152,20 @@ def test_parallel_solver_runs_small_active_sets_on_the_serial_kernels(order, mon
     assert forced._k_serial is None and not forced._small
 
 
+def test_small_active_sets_run_serially_only_under_passive_waiting():
+    """The serial steps are for numba's workers waiting passively (driftlog's default), whose
+    waking costs more than a small set's work; where the user lets them spin
+    (GOMP_SPINCOUNT, OMP_WAIT_POLICY=ACTIVE) waking is cheap and every step runs in
+    parallel."""
+    from driftlog._numba import workers_spin
+
+    assert not workers_spin({"OMP_WAIT_POLICY": "PASSIVE"})
+    assert not workers_spin({"OMP_WAIT_POLICY": "PASSIVE", "GOMP_SPINCOUNT": "0"})
+    assert workers_spin({"OMP_WAIT_POLICY": "PASSIVE", "GOMP_SPINCOUNT": "30000"})
+    assert workers_spin({"GOMP_SPINCOUNT": "infinite"})
+    assert workers_spin({"OMP_WAIT_POLICY": "active"})
+
+
 def test_flow_file_and_resume_in_the_mesh_numbering(tmp_path):
     mesh = channel_mesh(4.0, 0.5, 0.08)
     plain = _dam_break(mesh, 2, renumber="none", active_set=False)

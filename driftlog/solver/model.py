@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from driftlog._numba import workers_spin
 from driftlog.errors import ScenarioError
 from driftlog.solver.boundaries import DEPTH, DISCHARGE, LEVEL, WALL, BoundarySet
 from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes, volume_sum
@@ -50,9 +51,10 @@ PARALLEL_FACES = 20000
 # and a parallel solver runs a whole step on the serial kernels while fewer faces than this are
 # active (the flux passes run over the active set; a dam-break valley is mostly dry for most
 # of the flood): numba's workers wait passively (driftlog/_numba.py) and waking them costs
-# 50-100 us a kernel call on a virtual machine.  Serial and prange kernels give the same
-# numbers (no reductions in them).
-PARALLEL_ACTIVE = 20000
+# 50-100 us a kernel call on a virtual machine.  Where the user lets them spin
+# (GOMP_SPINCOUNT), waking costs little and every step runs in parallel.  Serial and prange
+# kernels give the same numbers (no reductions in them).
+PARALLEL_ACTIVE = 0 if workers_spin() else 20000
 # faces from which the mesh is renumbered for locality (reverse Cuthill-McKee): below, the
 # state and the edge arrays fit in the caches and the mesher's numbering costs nothing
 RENUMBER_FACES = 20000
