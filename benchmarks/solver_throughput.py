@@ -89,22 +89,24 @@ KERNELS = {"_k_mark": "active set", "_k_grad": "gradients + limiter", "_k_edges"
 
 
 class _Timed:
-    """A kernel wrapper that adds each call's CPU time to ``acc[name]``."""
+    """A kernel wrapper that adds each call's time (``clock``: CPU time) to ``acc[name]``."""
 
-    def __init__(self, fn, acc, name):
-        self.fn, self.acc, self.name = fn, acc, name
+    def __init__(self, fn, acc, name, clock=time.process_time):
+        self.fn, self.acc, self.name, self.clock = fn, acc, name, clock
 
     def __call__(self, *args):
-        c0 = time.process_time()
+        c0 = self.clock()
         out = self.fn(*args)
-        self.acc[self.name] += time.process_time() - c0
+        self.acc[self.name] += self.clock() - c0
         return out
 
 
-def breakdown(mesh, order, steps, repeat):
-    """CPU seconds per step of each kernel (1 thread, serial kernels), best of ``repeat``."""
-    numba.set_num_threads(1)
-    s = ShallowWaterSolver(mesh, order=order, manning=0.03, parallel=False)
+def breakdown(mesh, order, steps, repeat, threads=0):
+    """Seconds per step of each kernel, best of ``repeat``: CPU time of the serial kernels on
+    1 thread (``threads`` 0), or wall time of the prange kernels on ``threads`` threads."""
+    numba.set_num_threads(max(threads, 1))
+    s = ShallowWaterSolver(mesh, order=order, manning=0.03, parallel=threads > 0)
+    clock = time.perf_counter if threads else time.process_time
     h0 = np.where(mesh.face_x < 500.0, 2.0, 1.0) + 0.1 * np.sin(mesh.face_y / 50.0)
     names = list(KERNELS.values()) + ["extremes"]
     best = None
@@ -113,20 +115,22 @@ def breakdown(mesh, order, steps, repeat):
         acc = dict.fromkeys(names, 0.0)
         for attr, name in KERNELS.items():
             k = getattr(s, attr)
-            setattr(s, attr, _Timed(k.fn if isinstance(k, _Timed) else k, acc, name))
-        s.extremes._kernel = _Timed(s.extremes._kernel, acc, "extremes")
-        c0 = time.process_time()
+            setattr(s, attr, _Timed(k.fn if isinstance(k, _Timed) else k, acc, name, clock))
+        e = s.extremes._kernel
+        s.extremes._kernel = _Timed(e.fn if isinstance(e, _Timed) else e, acc, "extremes", clock)
+        c0 = clock()
         for _ in range(steps):
             s.step()
-        acc["total"] = time.process_time() - c0
+        acc["total"] = clock() - c0
         if best is None or acc["total"] < best["total"]:
             best = acc
     best["other"] = best["total"] - sum(best[n] for n in names)
     nf = mesh.n_faces
-    rows = [dict(faces=nf, order=order, kernel=k, ms_per_step=1e3 * v / steps,
+    rows = [dict(faces=nf, order=order, threads=threads, kernel=k, ms_per_step=1e3 * v / steps,
                  ns_per_face=1e9 * v / steps / nf, share=v / best["total"])
             for k, v in best.items() if k != "total" and (v > 0 or k == "other")]
-    rows.append(dict(faces=nf, order=order, kernel="step", ms_per_step=1e3 * best["total"] / steps,
+    rows.append(dict(faces=nf, order=order, threads=threads, kernel="step",
+                     ms_per_step=1e3 * best["total"] / steps,
                      ns_per_face=1e9 * best["total"] / steps / nf, share=1.0,
                      updates_per_cpu_s=nf * steps / best["total"], load_after=os.getloadavg()[0]))
     return rows
@@ -341,7 +345,30 @@ def main(argv=None):
     ap.add_argument("--busy", type=int, default=0,
                     help="with --threads-wait: this many busy-looping processes beside it")
     ap.add_argument("--threads-worker", type=float, default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--breakdown-threads", action="store_true",
+                    help="with --breakdown: order 1 only, the serial kernels (CPU time) beside "
+                         "the prange kernels on 1 and 2 threads (wall time), kernel by kernel")
     args = ap.parse_args(argv)
+    if args.breakdown and args.breakdown_threads:
+        start = machine()
+        mesh = square_mesh(int(args.breakdown))
+        steps = max(2, int(4e6 / mesh.n_faces))
+        rows = [r for t in (0, 1, 2) for r in breakdown(mesh, 1, steps, args.repeat, t)]
+        for r in rows:
+            print(f"{r['faces']:>8} faces threads {r['threads']} {r['kernel']:>20}: "
+                  f"{r['ms_per_step']:8.3f} ms/step", flush=True)
+        write_table(f"solver_breakdown_threads_{mesh.n_faces // 1000}k", rows,
+                    ["faces", "order", "threads", "kernel", "ms_per_step", "ns_per_face",
+                     "share", "load_after"],
+                    "Shallow-water solver: time per kernel of a first-order step, serial "
+                    "kernels and prange kernels on 1 and 2 threads",
+                    notes=f"Started on {start}. threads 0: the serial kernels, CPU time; 1, 2: "
+                          "the prange kernels on that many numba threads, wall time (workers "
+                          "waiting as set in the environment, driftlog's default passive). Best "
+                          f"of {args.repeat} runs of the steps. Re-create: `python "
+                          "benchmarks/solver_throughput.py --breakdown "
+                          f"{args.breakdown:g} --breakdown-threads --repeat {args.repeat}`.")
+        return
     if args.threads_worker is not None:
         threads_worker(args.threads_worker, args.repeat)
         return

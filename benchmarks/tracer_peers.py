@@ -469,6 +469,17 @@ def main(quick=False, only=None):
     markdown(info, speed_rows, acc_rows, name)
 
 
+def _driftlog_alone(tmp):
+    """driftlog's ``Tools`` on the peers' eddy (files in ``tmp``), compiled and warm, for the
+    one-process A/B runs below (1 numba thread)."""
+    nb.set_num_threads(1)
+    x, y, tri = triangle_mesh()
+    tools = Tools(write_schism(Path(tmp) / "eddy_schism.nc", x, y, tri), tmp, [])
+    xs, ys = seed(4096, np.random.default_rng(1))
+    tools.run("driftlog", xs, ys, SNAPSHOT, 4 * SNAPSHOT, timed=False)
+    return tools
+
+
 def gradients_ab(sizes=(10_000, 100_000), repeat=6):
     """driftlog with and without the recovered node gradients (which tracer mode without
     rotation does not read), alternately in one process, best CPU time of ``repeat`` each.
@@ -487,13 +498,9 @@ def gradients_ab(sizes=(10_000, 100_000), repeat=6):
     def full(self, t):
         return self._kernel.node_values(t)
 
-    nb.set_num_threads(1)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        x, y, tri = triangle_mesh()
-        tools = Tools(write_schism(Path(tmp) / "eddy_schism.nc", x, y, tri), tmp, [])
-        xs, ys = seed(4096, np.random.default_rng(1))
-        tools.run("driftlog", xs, ys, SNAPSHOT, 4 * SNAPSHOT, timed=False)
+        tools = _driftlog_alone(tmp)
         try:
             for n in sizes:
                 px, py = seed(n, np.random.default_rng(11))
@@ -536,13 +543,9 @@ def order_ab(sizes=(100_000, 1_000_000), repeat=2):
     """
     from _common import write_table
 
-    nb.set_num_threads(1)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        x, y, tri = triangle_mesh()
-        tools = Tools(write_schism(Path(tmp) / "eddy_schism.nc", x, y, tri), tmp, [])
-        xs, ys = seed(4096, np.random.default_rng(1))
-        tools.run("driftlog", xs, ys, SNAPSHOT, 4 * SNAPSHOT, timed=False)
+        tools = _driftlog_alone(tmp)
         for n in sizes:
             px, py = seed(n, np.random.default_rng(11))
             o = np.argsort(tools.flow.sample(px, py, 0.0).face, kind="stable")
