@@ -222,6 +222,67 @@ def malpasset(end):
     return rows
 
 
+def untouched_zeros(n):
+    """n float64 zeros on fresh anonymous pages, never written: what malloc hands out for a
+    large ``np.zeros`` when it maps new memory (every page the kernel's shared zero page)."""
+    import mmap
+
+    return np.frombuffer(mmap.mmap(-1, 8 * n, flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS),
+                         dtype=np.float64)
+
+
+def zero_pages(end, repeat):
+    """The extremes' arrays on untouched zero pages against written memory (``written_zeros``).
+
+    In one process, the arms alternated ``repeat`` times: the extremes kernel alone on
+    Malpasset's start state (ms per call, serial), then Malpasset's first ``end`` s at order 1
+    on one thread (CPU s), with ``max_depth`` and ``max_speed`` on untouched pages where they
+    are zero (as ``np.zeros`` gave them before, when malloc mapped new memory) or written.
+    """
+    from malpasset import data_dir
+
+    from driftlog.floodsetup import malpasset_solver
+    from driftlog.solver.extremes import update_extremes
+
+    numba.set_num_threads(1)
+    arms = ("untouched zero pages", "written (written_zeros)")
+    kern = {a: [] for a in arms}
+    solve = {a: [] for a in arms}
+    state = {}
+    for _ in range(repeat):
+        for arm in arms:
+            s = malpasset_solver(data_dir() / "malpasset_mesh.nc", order=1, parallel=False)
+            e = s.extremes
+            n = s.mesh.n_faces
+            if arm == arms[0]:  # the same values, the zero entries' pages left untouched
+                for name in ("max_depth", "max_speed"):
+                    old, new = getattr(e, name), untouched_zeros(n)
+                    nz = np.flatnonzero(old)
+                    new[nz] = old[nz]
+                    setattr(e, name, new)
+            # the kernel alone on the start state (already folded in: nothing is written)
+            args = (s._h, s._hu, s._hv, s._z, s.t, s.dry_depth, s.arrival_depth, e.max_level,
+                    e.max_depth, e.max_speed, e.arrival)
+            update_extremes.serial(*args)  # compile / load
+            c0 = time.perf_counter()
+            for _ in range(200):
+                update_extremes.serial(*args)
+            kern[arm].append((time.perf_counter() - c0) / 200)
+            c0 = time.process_time()
+            s.advance_to(end)
+            solve[arm].append(time.process_time() - c0)
+            state[arm] = (s.steps, s.h.copy(), s.extremes.arrays())
+    (n0, h0, x0), (n1, h1, x1) = state[arms[0]], state[arms[1]]
+    same = n0 == n1 and np.array_equal(h0, h1) and all(
+        np.array_equal(x0[k], x1[k], equal_nan=True) for k in x0)
+    rows = [dict(arm=a, faces=n, end_s=end, steps=state[a][0],
+                 extremes_ms_per_call=1e3 * min(kern[a]),
+                 extremes_ms_median=1e3 * float(np.median(kern[a])),
+                 solve_cpu_s=min(solve[a]), solve_cpu_s_median=float(np.median(solve[a])),
+                 same_results=bool(same), load_after=os.getloadavg()[0]) for a in arms]
+    return rows
+
+
 WAIT_POLICIES = {"passive": {"OMP_WAIT_POLICY": "PASSIVE"},
                  "spin": {"GOMP_SPINCOUNT": "30000"}}
 
@@ -345,6 +406,9 @@ def main(argv=None):
     ap.add_argument("--busy", type=int, default=0,
                     help="with --threads-wait: this many busy-looping processes beside it")
     ap.add_argument("--threads-worker", type=float, default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--zero-pages", type=float, default=None, metavar="END",
+                    help="only the extremes' arrays on untouched zero pages against written "
+                         "memory: the kernel alone and Malpasset's first END s, order 1")
     ap.add_argument("--breakdown-threads", action="store_true",
                     help="with --breakdown: order 1 only, the serial kernels (CPU time) beside "
                          "the prange kernels on 1 and 2 threads (wall time), kernel by kernel")
@@ -368,6 +432,24 @@ def main(argv=None):
                           f"of {args.repeat} runs of the steps. Re-create: `python "
                           "benchmarks/solver_throughput.py --breakdown "
                           f"{args.breakdown:g} --breakdown-threads --repeat {args.repeat}`.")
+        return
+    if args.zero_pages:
+        start = machine()
+        rows = zero_pages(args.zero_pages, args.repeat)
+        write_table("solver_zero_pages", rows,
+                    ["arm", "faces", "end_s", "steps", "extremes_ms_per_call",
+                     "extremes_ms_median", "solve_cpu_s", "solve_cpu_s_median",
+                     "same_results", "load_after"],
+                    "Shallow-water solver: the extremes' arrays on untouched zero pages "
+                    "against written memory (Malpasset, order 1, 1 thread)",
+                    notes=f"Started on {start}. One process, the two arms alternated "
+                          f"{args.repeat} times: extremes_ms: the extremes kernel (serial) "
+                          "alone on the start state, 200 calls, best and median of the "
+                          "repetitions; solve_cpu_s: the first "
+                          f"{args.zero_pages:g} s of the flood, best and median. "
+                          "same_results: steps, depths and extremes identical. Re-create: "
+                          "`python benchmarks/solver_throughput.py --zero-pages "
+                          f"{args.zero_pages:g} --repeat {args.repeat}`.")
         return
     if args.threads_worker is not None:
         threads_worker(args.threads_worker, args.repeat)

@@ -35,7 +35,27 @@ import threading  # noqa: E402
 
 import numba as nb  # noqa: E402
 
-__all__ = ["kernel", "PARALLEL_MIN", "announce_compile", "kernels_cached", "workers_spin"]
+__all__ = ["kernel", "PARALLEL_MIN", "announce_compile", "kernels_cached", "workers_spin",
+           "written_zeros"]
+
+
+def written_zeros(shape, dtype=float):
+    """An array of zeros whose memory is written, not ``np.zeros``' untouched pages.
+
+    ``np.zeros`` of more than a few hundred kB gets fresh pages from the kernel that all map
+    the one shared, read-only zero page until first written.  LLVM vectorises a kernel's
+    conditional stores (``if level > max_level[f]: max_level[f] = level``) into AVX-512
+    masked stores, and a masked store onto a read-only page costs a microcode assist even
+    where its mask is all zero: a dry face, never written, stays on the zero page and costs
+    so at every call.  Measured on this machine (AMD EPYC, Malpasset's 46,691 faces, the
+    extremes' kernel): 2.9-4.5 ms a call against 0.04-0.05 ms on written memory, and a
+    first-order Malpasset solve 5x slower in the processes where malloc handed such pages
+    out (BENCHMARKS.md, "Untouched zero pages").  Arrays that kernels store to
+    conditionally are allocated here.
+    """
+    import numpy as np
+
+    return np.full(shape, 0, dtype=dtype)
 
 
 class _InlineCopy:

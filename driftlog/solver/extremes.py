@@ -12,7 +12,7 @@ import math
 import numba as nb
 import numpy as np
 
-from driftlog._numba import kernel
+from driftlog._numba import kernel, written_zeros
 
 __all__ = ["Extremes", "update_extremes", "volume_sum", "ARRIVAL_DEPTH", "EXTREME_FIELDS"]
 
@@ -87,8 +87,8 @@ class Extremes:
             self._inv = np.empty_like(order)
             self._inv[order] = np.arange(order.size)
         self.max_level = np.full(n_faces, -np.inf)
-        self.max_depth = np.zeros(n_faces)
-        self.max_speed = np.zeros(n_faces)
+        self.max_depth = written_zeros(n_faces)  # not np.zeros: see written_zeros
+        self.max_speed = written_zeros(n_faces)
         self.arrival = np.full(n_faces, np.nan)
 
     def update(self, h, hu, hv, z, t, hdry, arrival_depth, serial=False):

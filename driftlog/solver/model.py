@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from driftlog._numba import workers_spin
+from driftlog._numba import workers_spin, written_zeros
 from driftlog.errors import ScenarioError
 from driftlog.solver.boundaries import DEPTH, DISCHARGE, LEVEL, WALL, BoundarySet
 from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes, volume_sum
@@ -274,7 +274,7 @@ class ShallowWaterSolver:
             # the reconstructed states of the two sides of each edge (written by the gradient
             # kernel once per stage, read by the edge kernel): row 2 e + s of _est, s = 0 for
             # the face edge e's normal points out of; _rows[f, k] the row of face f at its k-th
-            self._est = np.zeros((2 * ne, NSTATE))
+            self._est = written_zeros((2 * ne, NSTATE))
             # a bed given at the nodes (the default bed, mesh.face_bed()) is continuous and
             # piecewise linear: its value at an edge midpoint is the mean of the edge's two
             # nodes, the same from both sides (docs/model.md sect. 3.4)
@@ -289,7 +289,7 @@ class ShallowWaterSolver:
             # every face starts with a dry face's edge states (faces outside the active set
             # keep them)
             # what each face's reconstruction got (the gradient kernel's ``mark``)
-            self._fallback = np.zeros(nf, dtype=np.int8)
+            self._fallback = written_zeros(nf, dtype=np.int8)
             self._ebound = ENERGY_BOUNDS[energy_bound]
             limited_gradients.serial(np.arange(nf, dtype=np.int64), np.zeros(nf), np.zeros(nf),
                                      np.zeros(nf), self._z, self.dry_depth, self._fn, self._gnbr,
@@ -302,36 +302,38 @@ class ShallowWaterSolver:
             self._est = np.zeros((0, NSTATE))  # no edge states at first order
             self._rows = np.zeros((0, 1), dtype=np.int64)
             self._eoff = np.zeros((0, 1, 2))
-        self._flux = [np.zeros(ne) for _ in range(7 if self.order == 2 else 6)]
+        # work arrays that kernels store to conditionally: written memory, not np.zeros'
+        # untouched pages (``_numba.written_zeros``)
+        self._flux = [written_zeros(ne) for _ in range(7 if self.order == 2 else 6)]
         if self.order == 1:
             self._flux.append(self._flux[5])  # speed1: unused at first order
-        self._res = [np.zeros(nf) for _ in range(4)]
-        self._save = [np.zeros(nf) for _ in range(3)]
-        self._bflux_sum = np.zeros(self.boundaries.edges.size)
+        self._res = [written_zeros(nf) for _ in range(4)]
+        self._save = [written_zeros(nf) for _ in range(3)]
+        self._bflux_sum = written_zeros(self.boundaries.edges.size)
         # active set: the faces that open boundaries can fill are always in it
         bs = self.boundaries
-        self._always = np.zeros(nf, dtype=np.bool_)
+        self._always = written_zeros(nf, dtype=np.bool_)
         self._always[bs.face[np.isin(bs.kind, (LEVEL, DEPTH, DISCHARGE))]] = True
-        self._mark = np.zeros(nf, dtype=np.uint8)
+        self._mark = written_zeros(nf, dtype=np.uint8)
         self._all_faces = np.arange(nf, dtype=np.int64)
         self._all_edges = np.arange(ne, dtype=np.int64)
-        self._faces_buf = np.zeros(nf, dtype=np.int64)
-        self._edges_buf = np.zeros(ne, dtype=np.int64)
+        self._faces_buf = written_zeros(nf, dtype=np.int64)
+        self._edges_buf = written_zeros(ne, dtype=np.int64)
         # the active set's block pass (``mark_blocks``): blocks of faces next to the blocks
         # active at the last two passes; None where the edges are not sorted by face
         self._blocks = block_tables(self._ef, self._nbr, nf) if self.active_set else None
         if self._blocks is not None:
             nbk = self._blocks[2].size - 1
             self._blk = [np.ones(nbk, np.uint8), np.ones(nbk, np.uint8)]  # last, before
-            self._blk_new = np.zeros(nbk, np.uint8)
-            self._blk_cand = np.zeros(nbk, np.uint8)
+            self._blk_new = written_zeros(nbk, np.uint8)
+            self._blk_cand = written_zeros(nbk, np.uint8)
             self._blk_active = nbk  # active blocks at the last pass
         self.active_faces = nf  # faces of the last flux pass
         self.face_updates = 0   # faces of all flux passes so far (statistics)
         # state, in the internal numbering (h, hu, hv give the mesh's)
-        self._h = np.zeros(nf)
-        self._hu = np.zeros(nf)
-        self._hv = np.zeros(nf)
+        self._h = written_zeros(nf)
+        self._hu = written_zeros(nf)
+        self._hv = written_zeros(nf)
         self.t = 0.0
         self.steps = 0
         self.rejected_steps = 0  # second order: steps redone at the corrector's bound
