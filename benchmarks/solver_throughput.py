@@ -436,7 +436,7 @@ def main(argv=None):
     if args.zero_pages:
         start = machine()
         rows = zero_pages(args.zero_pages, args.repeat)
-        write_table("solver_zero_pages", rows,
+        write_table(f"solver_zero_pages_{args.zero_pages:g}s", rows,
                     ["arm", "faces", "end_s", "steps", "extremes_ms_per_call",
                      "extremes_ms_median", "solve_cpu_s", "solve_cpu_s_median",
                      "same_results", "load_after"],
