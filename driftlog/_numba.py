@@ -48,10 +48,10 @@ def written_zeros(shape, dtype=float):
     masked stores, and a masked store onto a read-only page costs a microcode assist even
     where its mask is all zero: a dry face, never written, stays on the zero page and costs
     so at every call.  Measured on this machine (AMD EPYC, Malpasset's 46,691 faces, the
-    extremes' kernel): 2.9-4.5 ms a call against 0.04-0.05 ms on written memory, and a
-    first-order Malpasset solve 5x slower in the processes where malloc handed such pages
-    out (BENCHMARKS.md, "Untouched zero pages").  Arrays that kernels store to
-    conditionally are allocated here.
+    extremes' kernel): 3.5 ms a call against 0.048 ms on written memory, and a first-order
+    Malpasset solve 5.3x slower (the whole flood 2.8x) on such pages (BENCHMARKS.md,
+    "Untouched zero pages"; ``benchmarks/solver_throughput.py --zero-pages``).  Arrays that
+    kernels store to conditionally are allocated here.
     """
     import numpy as np
 
