@@ -18,6 +18,14 @@ reading edge arrays only) into d(h, hu, hv)/dt and the face's time-step bound: a
 most s_e h* dt len_e), at second order ``sum(len_e s_e max(1, h_e / h)) / area`` with h_e
 the face's reconstructed depth at the edge (the outflow is at most s_e h_e dt len_e): the
 first order's bound where the depth is flat, as at every wet/dry front.
+
+Indices known to be >= 0 (a face or edge of the active set, an edge's inside face, a face's
+edges) are cast to ``np.uint64`` before they index: numba wraps a signed index that may be
+negative (a compare, a select and the axis length at every access), and the kernels index
+six arrays per edge.  The same numbers bit for bit; ``face_residuals`` took half the time,
+the edge kernels about 5 % less (BENCHMARKS.md, "Unsigned indices").  Mixing ``uint64`` with
+``int64`` makes a float in numba (an index that then fails to compile): constants in index
+arithmetic are written ``np.uint64(2)``.
 """
 
 from __future__ import annotations
@@ -82,7 +90,7 @@ def edge_fluxes(edges, edge_faces, nx, ny, length, h, hu, hv, z, order, riemann,
                       slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1)
 
 
-@kernel
+@kernel(nrt=False)
 def edge_fluxes_2(edges, edge_faces, nx, ny, length, h, z, est, riemann, g, hdry, slot, bkind,
                   bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1):
     """``edge_fluxes`` at second order: the faces' reconstructed states at the edges, ``est``.
@@ -92,13 +100,13 @@ def edge_fluxes_2(edges, edge_faces, nx, ny, length, h, z, est, riemann, g, hdry
     """
     half_g = 0.5 * g
     for i in nb.prange(edges.shape[0]):
-        e = edges[i]
-        a = edge_faces[e, 0]
+        e = np.uint64(edges[i])
+        a = np.uint64(edge_faces[e, 0])
         b = edge_faces[e, 1]
         n1 = nx[e]
         n2 = ny[e]
         ln = length[e]
-        ka = 2 * e
+        ka = np.uint64(2) * e
         hA = est[ka, 0]
         uA = est[ka, 1]
         vA = est[ka, 2]
@@ -117,7 +125,8 @@ def edge_fluxes_2(edges, edge_faces, nx, ny, length, h, z, est, riemann, g, hdry
             fy1[e] = 0.0
             speed[e] = ln * sp * _share(hA, h[a])
             continue
-        kb = ka + 1
+        kb = ka + np.uint64(1)
+        b = np.uint64(b)  # b >= 0 here
         hB = est[kb, 0]
         uB = est[kb, 1]
         vB = est[kb, 2]
@@ -139,14 +148,14 @@ def edge_fluxes_2(edges, edge_faces, nx, ny, length, h, z, est, riemann, g, hdry
         speed1[e] = ln * sp * _share(hB, h[b])
 
 
-@kernel
+@kernel(nrt=False)
 def edge_fluxes_1(edges, edge_faces, nx, ny, length, h, hu, hv, z, riemann, g, hdry, slot, bkind,
                   bvalue, fmass, fx0, fy0, fx1, fy1, speed):
     """``edge_fluxes`` at first order (no gradients, offsets nor ``speed1``)."""
     half_g = 0.5 * g
     for i in nb.prange(edges.shape[0]):
-        e = edges[i]
-        a = edge_faces[e, 0]
+        e = np.uint64(edges[i])
+        a = np.uint64(edge_faces[e, 0])
         b = edge_faces[e, 1]
         n1 = nx[e]
         n2 = ny[e]
@@ -166,6 +175,7 @@ def edge_fluxes_1(edges, edge_faces, nx, ny, length, h, hu, hv, z, riemann, g, h
             fy1[e] = 0.0
             speed[e] = ln * sp
             continue
+        b = np.uint64(b)  # b >= 0 here
         hB, uB, vB, zB = _cell_state(b, h, hu, hv, z, hdry)
         unB = uB * n1 + vB * n2
         utB = -uB * n2 + vB * n1
@@ -183,7 +193,7 @@ def edge_fluxes_1(edges, edge_faces, nx, ny, length, h, hu, hv, z, riemann, g, h
         speed[e] = ln * sp
 
 
-@kernel
+@kernel(nrt=False)
 def face_residuals(faces, face_edges, face_n, face_side, area, fmass, fx0, fy0, fx1, fy1,
                    speed, speed1, order, dh, dhu, dhv, rate):
     """d/dt of h, hu, hv on the faces ``faces``, and their time-step bound ``rate``.
@@ -193,7 +203,7 @@ def face_residuals(faces, face_edges, face_n, face_side, area, fmass, fx0, fy0, 
     it), 0 when it is side 1 (``face_sides``: a per-face table, not a lookup in the edges').
     """
     for i in nb.prange(faces.shape[0]):
-        f = faces[i]
+        f = np.uint64(faces[i])
         rh = 0.0
         rx = 0.0
         ry = 0.0
@@ -201,7 +211,7 @@ def face_residuals(faces, face_edges, face_n, face_side, area, fmass, fx0, fy0, 
         for k in range(face_n[f]):
             # without branches (a face is side 0 or 1 of its edges at random: a branch on it
             # was mispredicted half the time); a - b is a + (-1 * b) exactly (IEEE 754)
-            e = face_edges[f, k]
+            e = np.uint64(face_edges[f, k])  # every edge of a face exists (k < face_n)
             out = face_side[f, k] != 0
             sign = -1.0 if out else 1.0
             x0 = fx0[e]
