@@ -241,7 +241,7 @@ def mark_blocks(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdr
     for b in range(nbk):
         if prev[b] or prev2[b]:
             for q in range(bstart[b], bstart[b + 1]):
-                cand[badj[q]] = 1
+                cand[np.uint64(badj[q])] = 1
     nf = 0
     nblk = 0
     for b in range(nbk):
@@ -250,21 +250,22 @@ def mark_blocks(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdr
             continue
         cand[b] = 0
         for f in range(b * size, min((b + 1) * size, nf_all)):
-            was = state[f] & 1
-            on = h[f] > 0.0 or always[f]
+            fu = np.uint64(f)  # unsigned indices: no negative-index wraparound (fluxes.py)
+            was = state[fu] & 1
+            on = h[fu] > 0.0 or always[fu]
             if not on:
-                for k in range(face_n[f]):
-                    j = neighbours[f, k]
-                    if j >= 0 and h[j] > 0.0:
+                for k in range(face_n[fu]):
+                    j = neighbours[fu, k]
+                    if j >= 0 and h[np.uint64(j)] > 0.0:
                         on = True
                         break
             if on:
-                state[f] = 1
+                state[fu] = 1
                 faces[nf] = f
                 nf += 1
                 new[b] = 1
             else:
-                state[f] = 0
+                state[fu] = 0
                 if was:
                     _leave(f, h, face_n, dh, dhu, dhv, rate, z, hdry, edge_offset, rows, est)
         nblk += new[b]
@@ -273,16 +274,17 @@ def mark_blocks(h, always, face_n, neighbours, state, dh, dhu, dhv, rate, z, hdr
     for b in range(nbk):
         if new[b]:
             for q in range(bstart[b], bstart[b + 1]):
-                cand[badj[q]] = 1
+                cand[np.uint64(badj[q])] = 1
     ne = 0
     for b in range(nbk):
         if not cand[b]:
             continue
         cand[b] = 0
         for e in range(estart[b], estart[b + 1]):
-            a = edge_faces[e, 0]
-            c = edge_faces[e, 1]
-            if state[a] or (c >= 0 and state[c]):
+            eu = np.uint64(e)
+            a = np.uint64(edge_faces[eu, 0])
+            c = edge_faces[eu, 1]
+            if state[a] or (c >= 0 and state[np.uint64(c)]):
                 edges[ne] = e
                 ne += 1
     return nf, ne, nblk
