@@ -388,13 +388,12 @@ def _walk_packed(px, py, f, loc, pk):
     """``locate._walk`` reading the node coordinates from the packed rows."""
     face_nodes, face_n, face_nbr = loc.face_nodes, loc.face_n, loc.face_nbr
     for _ in range(MAX_WALK):
-        fu = np.uint64(f)  # f >= 0: unsigned indices skip numba's negative-index wraparound
-        n = face_n[fu]
+        n = face_n[f]
         worst = 0.0
         kworst = -1
         for k in range(n):
-            a = np.uint64(face_nodes[fu, k])
-            b = np.uint64(face_nodes[fu, k + 1] if k + 1 < n else face_nodes[fu, 0])
+            a = face_nodes[f, k]
+            b = face_nodes[f, k + 1] if k + 1 < n else face_nodes[f, 0]
             c, s = _edge_side(px, py, pk[a, PK_X], pk[a, PK_Y], pk[b, PK_X], pk[b, PK_Y])
             if c < -1e-12 * s:
                 d = c / np.sqrt(s)
@@ -403,7 +402,7 @@ def _walk_packed(px, py, f, loc, pk):
                     kworst = k
         if kworst < 0:
             return f
-        g = face_nbr[fu, kworst]
+        g = face_nbr[f, kworst]
         if g < 0:
             return -1
         f = g
@@ -437,18 +436,17 @@ def sample_tracer(x, y, hint, a, pk, pr, loc, dry_depth, recovered, depth, rot):
         return f, OUTSIDE, 0.0, 0.0, 0.0, 0.0, 0.0
     b = 1.0 - a
     face_nodes, face_n = loc.face_nodes, loc.face_n
-    fu = np.uint64(f)  # unsigned indices: no negative-index wraparound (f, nodes >= 0)
-    n0 = np.uint64(face_nodes[fu, 0])
+    n0 = face_nodes[f, 0]
     k = 1
-    while k < face_n[fu] - 2:
-        nk1 = np.uint64(face_nodes[fu, k + 1])
+    while k < face_n[f] - 2:
+        nk1 = face_nodes[f, k + 1]
         c = ((pk[nk1, PK_X] - pk[n0, PK_X]) * (y - pk[n0, PK_Y])
              - (pk[nk1, PK_Y] - pk[n0, PK_Y]) * (x - pk[n0, PK_X]))
         if c <= 0.0:
             break
         k += 1
-    n1 = np.uint64(face_nodes[fu, k])
-    n2 = np.uint64(face_nodes[fu, k + 1])
+    n1 = face_nodes[f, k]
+    n2 = face_nodes[f, k + 1]
     la, lb, lc, gax, gay, gbx, gby, gcx, gcy = _triangle_weights(
         x, y, pk[n0, PK_X], pk[n0, PK_Y], pk[n1, PK_X], pk[n1, PK_Y], pk[n2, PK_X],
         pk[n2, PK_Y])

@@ -8,6 +8,9 @@ are in the mesh's numbering.  A mesh whose faces are given in another order give
 flood to round-off (the edges are then oriented otherwise).
 """
 
+import importlib.util
+from pathlib import Path
+
 import netCDF4
 import numpy as np
 import pytest
@@ -230,3 +233,44 @@ def test_renumbered_state_is_read_only_and_a_bad_ordering_is_named():
     assert np.all(s.h == 0.1)
     with pytest.raises(ScenarioError, match="solver.renumber"):
         ShallowWaterSolver(mesh, renumber="morton")
+
+
+@pytest.fixture(scope="module")
+def signed_kernels(tmp_path_factory):
+    """The flux-pass kernels with their np.uint64 index casts removed (numba's wrapped signed
+    indices: the code before the casts), built by benchmarks/kernel_ablation.py."""
+    path = Path(__file__).resolve().parent.parent / "benchmarks" / "kernel_ablation.py"
+    spec = importlib.util.spec_from_file_location("kernel_ablation", path)
+    ab = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ab)
+    folder = tmp_path_factory.mktemp("signed")
+    return {m: ab.variant_module(m, "signed", folder)
+            for m in ("fluxes", "reconstruction", "layout")}
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_unsigned_index_casts_change_no_number(order, signed_kernels, monkeypatch):
+    """The flux pass with its indices unsigned gives the flood of the same kernels with
+    numba's wrapped signed indices, bit for bit: a cast of an index that can be negative (an
+    edge's outside face at a boundary, a wall's -2) would read outside its array.  A long
+    channel whose front wets it (the block pass runs), an inflow, a free outflow and walls."""
+    import driftlog.solver.model as model
+
+    mesh = channel_mesh(40.0, 0.5, 0.08)
+    plain = _dam_break(mesh, order, parallel=False, renumber="hilbert")
+    plain.advance_to(1.5)
+    fl, rc, lay = (signed_kernels[m] for m in ("fluxes", "reconstruction", "layout"))
+    calls = [0]
+
+    def counted(*args):
+        calls[0] += 1
+        return lay.mark_blocks(*args)
+
+    monkeypatch.setattr(model, "mark_blocks", counted)
+    s = _dam_break(mesh, order, parallel=False, renumber="hilbert")
+    s._k_grad = rc.limited_gradients.serial
+    s._k_edges = (fl.edge_fluxes_1 if order == 1 else fl.edge_fluxes_2).serial
+    s._k_faces = fl.face_residuals.serial
+    s.advance_to(1.5)
+    assert calls[0] > 0.9 * s.steps * order  # the signed block pass ran
+    _same(s, plain)

@@ -22,11 +22,10 @@ first order's bound where the depth is flat, as at every wet/dry front.
 Indices known to be >= 0 (a face or edge of the active set, an edge's inside face, a face's
 edges) are cast to ``np.uint64`` before they index: numba wraps a signed index that may be
 negative (a compare, a select and the axis length at every access), and the kernels index
-six arrays per edge.  The same numbers bit for bit; ``face_residuals`` took half the time,
-the edge kernels about 5 % less (BENCHMARKS.md, "Unsigned indices").  Mixing ``uint64`` with
-``int64`` makes a float in numba (an index that then fails to compile): constants in index
-arithmetic are written ``np.uint64(2)``.  The three kernels are compiled without reference
-counting (``kernel(nrt=False)``; no gain beyond the noise here, the same numbers).
+six arrays per edge.  The same numbers bit for bit; ``face_residuals`` takes about 0.55x the
+time it took, the edge kernels 0.85-0.95x (``benchmarks/kernel_ablation.py``; BENCHMARKS.md,
+"Unsigned indices").  Mixing ``uint64`` with ``int64`` makes a float in numba (an index that
+then fails to compile): constants in index arithmetic are written ``np.uint64(2)``.
 """
 
 from __future__ import annotations
@@ -91,7 +90,7 @@ def edge_fluxes(edges, edge_faces, nx, ny, length, h, hu, hv, z, order, riemann,
                       slot, bkind, bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1)
 
 
-@kernel(nrt=False)
+@kernel
 def edge_fluxes_2(edges, edge_faces, nx, ny, length, h, z, est, riemann, g, hdry, slot, bkind,
                   bvalue, fmass, fx0, fy0, fx1, fy1, speed, speed1):
     """``edge_fluxes`` at second order: the faces' reconstructed states at the edges, ``est``.
@@ -149,7 +148,7 @@ def edge_fluxes_2(edges, edge_faces, nx, ny, length, h, z, est, riemann, g, hdry
         speed1[e] = ln * sp * _share(hB, h[b])
 
 
-@kernel(nrt=False)
+@kernel
 def edge_fluxes_1(edges, edge_faces, nx, ny, length, h, hu, hv, z, riemann, g, hdry, slot, bkind,
                   bvalue, fmass, fx0, fy0, fx1, fy1, speed):
     """``edge_fluxes`` at first order (no gradients, offsets nor ``speed1``)."""
@@ -194,7 +193,7 @@ def edge_fluxes_1(edges, edge_faces, nx, ny, length, h, hu, hv, z, riemann, g, h
         speed[e] = ln * sp
 
 
-@kernel(nrt=False)
+@kernel
 def face_residuals(faces, face_edges, face_n, face_side, area, fmass, fx0, fy0, fx1, fy1,
                    speed, speed1, order, dh, dhu, dhv, rate):
     """d/dt of h, hu, hv on the faces ``faces``, and their time-step bound ``rate``.
