@@ -260,9 +260,10 @@ def zero_pages(end, repeat):
                     nz = np.flatnonzero(old)
                     new[nz] = old[nz]
                     setattr(e, name, new)
-            # the kernel alone on the start state (already folded in: nothing is written)
+            # the kernel alone on the start state (already folded in: nothing is written), on
+            # every face
             args = (s._h, s._hu, s._hv, s._z, s.t, s.dry_depth, s.arrival_depth, e.max_level,
-                    e.max_depth, e.max_speed, e.arrival)
+                    e.max_depth, e.max_speed, e.arrival, e._all)
             update_extremes.serial(*args)  # compile / load
             c0 = time.perf_counter()
             for _ in range(200):

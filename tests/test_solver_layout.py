@@ -88,6 +88,65 @@ def test_active_set_changes_nothing_where_fronts_wet_and_dry(order):
 
 
 @pytest.mark.parametrize("order", [1, 2])
+def test_stages_and_extremes_skip_the_blocks_the_water_cannot_reach(order):
+    """The Euler stage (Heun's two at second order) and the extremes run on the blocks of the
+    last passes' active sets only: the same flood bit for bit as over every face, on the bowl
+    whose fronts wet and dry, with a part of the blocks given to them.  At second order the
+    predicted state is zero on every empty face after each step: the predictor does not write
+    faces outside its blocks, so they must already hold what it would write there."""
+    plain = _bowl(order, renumber="none", active_set=False)
+    s = _bowl(order, renumber="hilbert", active_set=True)
+    given, total = [0], [0]
+    runs = s._stage_runs
+
+    def counted(both=False):
+        out = runs(both)
+        given[0] += int((out[:, 1] - out[:, 0]).sum())
+        total[0] += s.mesh.n_faces
+        return out
+
+    s._stage_runs = counted
+    step = s.step
+
+    def checked(dt_max=np.inf):
+        dt = step(dt_max)
+        if order == 2:
+            empty = s._h == 0.0
+            assert empty.any()
+            for a in s._save:
+                assert not a[empty].any()
+        return dt
+
+    s.step = checked
+    for _ in range(4):
+        plain.advance_to(plain.t + 0.5)
+        s.advance_to(s.t + 0.5)
+        _same(s, plain)
+    assert given[0] < 0.8 * total[0]  # dry blocks skipped
+
+
+def test_corrector_zeroes_the_prediction_of_a_face_it_empties():
+    """A face dry at the start of a step that the predictor wets and the corrector empties
+    again (its second stage clipped at zero) keeps no predicted state: the next predictor may
+    not run there (outside the active set's blocks), and the next flux pass must read there
+    what it would have written, zeros."""
+    from driftlog.solver.friction import corrector_stage
+
+    n = 3
+    h = np.array([0.0, 0.5, 0.0])
+    hu, hv = np.array([0.0, 0.3, 0.0]), np.zeros(n)
+    h1, hu1, hv1 = np.array([0.01, 0.5, 0.0]), np.array([0.002, 0.3, 0.0]), np.full(n, 1e-4)
+    dh = np.array([-1.0, 0.0, 0.0])  # face 0: 0.01 - 0.1 < 0, clipped
+    dhu, dhv = np.zeros(n), np.zeros(n)
+    corrector_stage.serial(h1, hu1, hv1, dh, dhu, dhv, 0.1, np.zeros(1), 1e-6, 0.0,
+                           np.zeros(n), h, hu, hv, np.array([[0, n]]))
+    assert h[0] == 0.0 and hu[0] == 0.0
+    assert h1[0] == hu1[0] == hv1[0] == 0.0  # emptied: zeroed
+    assert h1[2] == hu1[2] == hv1[2] == 0.0  # empty all along
+    assert h1[1] == 0.5 and hu1[1] == 0.3 and hv1[1] == 1e-4  # wet: the prediction kept
+
+
+@pytest.mark.parametrize("order", [1, 2])
 @pytest.mark.parametrize("renumber", ["hilbert", "rcm"])
 def test_block_pass_finds_the_active_set_of_the_full_scan(order, renumber, monkeypatch):
     """``mark_blocks`` (blocks next to the last two passes' active blocks) on a long channel

@@ -13,6 +13,7 @@ import numba as nb
 import numpy as np
 
 from driftlog._numba import kernel, written_zeros
+from driftlog.solver.layout import all_runs
 
 __all__ = ["Extremes", "update_extremes", "volume_sum", "ARRIVAL_DEPTH", "EXTREME_FIELDS"]
 
@@ -53,23 +54,29 @@ EXTREME_FIELDS = {
 
 @kernel
 def update_extremes(h, hu, hv, z, t, hdry, arrival_depth, max_level, max_depth, max_speed,
-                    arrival):
-    """Fold the state at time t into the running extremes."""
-    for f in nb.prange(h.shape[0]):
-        hf = h[f]
-        if hf <= 0.0:
-            continue
-        level = hf + z[f]
-        if level > max_level[f]:
-            max_level[f] = level
-        if hf > max_depth[f]:
-            max_depth[f] = hf
-        if hf > hdry:
-            speed = math.sqrt(hu[f] * hu[f] + hv[f] * hv[f]) / hf
-            if speed > max_speed[f]:
-                max_speed[f] = speed
-        if hf > arrival_depth and math.isnan(arrival[f]):
-            arrival[f] = t
+                    arrival, runs):
+    """Fold the state at time t into the running extremes, on the faces of ``runs``.
+
+    Run k: faces ``runs[k, 0]`` to ``runs[k, 1] - 1`` (``layout.face_runs``); faces outside
+    them must be empty (h = 0: nothing to fold in), as the solver's active set guarantees.
+    """
+    for r in nb.prange(runs.shape[0]):
+        for g in range(runs[r, 0], runs[r, 1]):
+            f = np.uint64(g)  # unsigned: no negative-index wraparound, the loop vectorises
+            hf = h[f]
+            if hf <= 0.0:
+                continue
+            level = hf + z[f]
+            if level > max_level[f]:
+                max_level[f] = level
+            if hf > max_depth[f]:
+                max_depth[f] = hf
+            if hf > hdry:
+                speed = math.sqrt(hu[f] * hu[f] + hv[f] * hv[f]) / hf
+                if speed > max_speed[f]:
+                    max_speed[f] = speed
+            if hf > arrival_depth and math.isnan(arrival[f]):
+                arrival[f] = t
 
 
 class Extremes:
@@ -82,6 +89,7 @@ class Extremes:
 
     def __init__(self, n_faces, parallel=False, order=None):
         self._kernel = update_extremes.parallel if parallel else update_extremes.serial
+        self._all = all_runs(n_faces)  # every face
         self._order = order
         if order is not None:
             self._inv = np.empty_like(order)
@@ -91,11 +99,15 @@ class Extremes:
         self.max_speed = written_zeros(n_faces)
         self.arrival = np.full(n_faces, np.nan)
 
-    def update(self, h, hu, hv, z, t, hdry, arrival_depth, serial=False):
-        """Fold the state at time t in (``serial``: the serial kernel, same numbers)."""
+    def update(self, h, hu, hv, z, t, hdry, arrival_depth, serial=False, runs=None):
+        """Fold the state at time t in (``serial``: the serial kernel, same numbers).
+
+        ``runs``: only the faces of these runs may hold water (``update_extremes``; None: any
+        face).
+        """
         (update_extremes.serial if serial else self._kernel)(
             h, hu, hv, z, t, hdry, arrival_depth, self.max_level, self.max_depth, self.max_speed,
-            self.arrival)
+            self.arrival, self._all if runs is None else runs)
 
     def arrays(self):
         """Flow-file variable name -> array (in the mesh's numbering)."""

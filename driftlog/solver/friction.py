@@ -14,6 +14,7 @@ momentum.
 from __future__ import annotations
 
 import numba as nb
+import numpy as np
 
 from driftlog._numba import kernel
 
@@ -31,36 +32,48 @@ def manning_factor(dt, gn2, h, qx, qy):
     return 1.0 / (1.0 + dt * gn2 * q / h ** (7.0 / 3.0))
 
 
-@kernel
-def euler_stage(h0, hu0, hv0, dh, dhu, dhv, dt, gn2, hdry, thin, h, hu, hv):
+@nb.njit(cache=True, inline="always")
+def _euler_face(f, h0, hu0, hv0, dh, dhu, dhv, dt, gn2, scalar_n, hdry, thin, thin4, h, hu, hv):
+    """``euler_stage`` on face f."""
+    hn = h0[f] + dt * dh[f]
+    if hn < 0.0:  # round-off only: the CFL bound keeps h >= 0 in exact arithmetic
+        hn = 0.0
+    if hn <= hdry:
+        h[f] = hn
+        hu[f] = 0.0
+        hv[f] = 0.0
+        return
+    qx0 = hu0[f]
+    qy0 = hv0[f]
+    qx = qx0 + dt * dhu[f]
+    qy = qy0 + dt * dhv[f]
+    k = manning_factor(dt, gn2[0] if scalar_n else gn2[f], hn, qx0, qy0)
+    if hn < thin:
+        h2 = hn * hn
+        k *= 1.4142135623730951 * h2 / (h2 * h2 + thin4) ** 0.5
+    h[f] = hn
+    hu[f] = qx * k
+    hv[f] = qy * k
+
+
+@kernel(nrt=False)
+def euler_stage(h0, hu0, hv0, dh, dhu, dhv, dt, gn2, hdry, thin, h, hu, hv, runs):
     """(h, hu, hv) = (h0, hu0, hv0) + dt d/dt(...), then friction; arrays may alias h0...
 
     ``thin`` > 0: below that depth the velocity is the desingularised quotient of Kurganov &
     Petrova (2007), u = sqrt(2) h (hu) / sqrt(h^4 + max(h^4, thin^4)), and the discharge is
     reset to h u (a factor sqrt(2) h^2 / sqrt(h^4 + thin^4) <= 1, which is 1 at h = thin).
+    Only the faces of ``runs`` (run k: faces ``runs[k, 0]`` to ``runs[k, 1] - 1``;
+    ``layout.face_runs``) are updated: the others must be faces that the stage would leave as
+    they are (outside the active set's blocks).
     """
     scalar_n = gn2.shape[0] == 1
     thin4 = thin * thin * thin * thin
-    for f in nb.prange(h0.shape[0]):
-        hn = h0[f] + dt * dh[f]
-        if hn < 0.0:  # round-off only: the CFL bound keeps h >= 0 in exact arithmetic
-            hn = 0.0
-        if hn <= hdry:
-            h[f] = hn
-            hu[f] = 0.0
-            hv[f] = 0.0
-            continue
-        qx0 = hu0[f]
-        qy0 = hv0[f]
-        qx = qx0 + dt * dhu[f]
-        qy = qy0 + dt * dhv[f]
-        k = manning_factor(dt, gn2[0] if scalar_n else gn2[f], hn, qx0, qy0)
-        if hn < thin:
-            h2 = hn * hn
-            k *= 1.4142135623730951 * h2 / (h2 * h2 + thin4) ** 0.5
-        h[f] = hn
-        hu[f] = qx * k
-        hv[f] = qy * k
+    for r in nb.prange(runs.shape[0]):
+        for f in range(runs[r, 0], runs[r, 1]):
+            # unsigned: no negative-index wraparound (``driftlog.solver.fluxes``)
+            _euler_face(np.uint64(f), h0, hu0, hv0, dh, dhu, dhv, dt, gn2, scalar_n, hdry, thin,
+                        thin4, h, hu, hv)
 
 
 @nb.njit(cache=True, inline="always")
@@ -75,89 +88,117 @@ def _thin_factor(hf, e):
     return 1.4142135623730951 * h2 / (h2 * h2 + e2 * e2) ** 0.5
 
 
-@kernel
-def predictor_stage(h0, hu0, hv0, dh, dhu, dhv, dt, gn2, hdry, thin, eps, h, hu, hv):
+@nb.njit(cache=True, inline="always")
+def _predictor_face(f, h0, hu0, hv0, dh, dhu, dhv, dt, gn2, scalar_n, hdry, thin, thin4, eps,
+                    h, hu, hv):
+    """``predictor_stage`` on face f."""
+    hn = h0[f] + dt * dh[f]
+    if hn < 0.0:  # round-off only: the CFL bound keeps h >= 0 in exact arithmetic
+        hn = 0.0
+    if hn <= hdry:
+        h[f] = hn
+        hu[f] = 0.0
+        hv[f] = 0.0
+        return
+    qx0 = hu0[f]
+    qy0 = hv0[f]
+    qx = qx0 + dt * dhu[f]
+    qy = qy0 + dt * dhv[f]
+    k = manning_factor(dt, gn2[0] if scalar_n else gn2[f], hn, qx0, qy0)
+    if hn < thin:
+        h2 = hn * hn
+        k *= 1.4142135623730951 * h2 / (h2 * h2 + thin4) ** 0.5
+    qx *= k
+    qy *= k
+    e = eps[f]
+    if hn < e:  # (hn > hdry > 0 here)
+        kt = _thin_factor(hn, e)
+        qx *= kt
+        qy *= kt
+    h[f] = hn
+    hu[f] = qx
+    hv[f] = qy
+
+
+@kernel(nrt=False)
+def predictor_stage(h0, hu0, hv0, dh, dhu, dhv, dt, gn2, hdry, thin, eps, h, hu, hv, runs):
     """Heun's first stage: ``euler_stage``, then the thin layer below ``eps`` (per face).
 
     Discharges are desingularised where 0 < h < eps (``_thin_factor``, eq. (69)), in the same
-    pass.  (h, hu, hv) must not alias (h0, hu0, hv0).
+    pass.  (h, hu, hv) must not alias (h0, hu0, hv0).  Only the faces of ``runs`` are
+    written (``euler_stage``): elsewhere (h, hu, hv) must already hold what the stage would
+    write there, zeros (``corrector_stage`` keeps them so).
     """
     scalar_n = gn2.shape[0] == 1
     thin4 = thin * thin * thin * thin
-    for f in nb.prange(h0.shape[0]):
-        hn = h0[f] + dt * dh[f]
-        if hn < 0.0:  # round-off only: the CFL bound keeps h >= 0 in exact arithmetic
-            hn = 0.0
-        if hn <= hdry:
-            h[f] = hn
-            hu[f] = 0.0
-            hv[f] = 0.0
-            continue
-        qx0 = hu0[f]
-        qy0 = hv0[f]
+    for r in nb.prange(runs.shape[0]):
+        for f in range(runs[r, 0], runs[r, 1]):
+            _predictor_face(np.uint64(f), h0, hu0, hv0, dh, dhu, dhv, dt, gn2, scalar_n, hdry,
+                            thin, thin4, eps, h, hu, hv)
+
+
+@nb.njit(cache=True, inline="always")
+def _corrector_face(f, h1, hu1, hv1, dh, dhu, dhv, dt, gn2, scalar_n, hdry, thin, thin4, eps,
+                    h, hu, hv):
+    """``corrector_stage`` on face f."""
+    # U'' = E(U'), as euler_stage
+    hn = h1[f] + dt * dh[f]
+    if hn < 0.0:
+        hn = 0.0
+    if hn <= hdry:
+        qx = 0.0
+        qy = 0.0
+    else:
+        qx0 = hu1[f]
+        qy0 = hv1[f]
         qx = qx0 + dt * dhu[f]
         qy = qy0 + dt * dhv[f]
         k = manning_factor(dt, gn2[0] if scalar_n else gn2[f], hn, qx0, qy0)
         if hn < thin:
             h2 = hn * hn
             k *= 1.4142135623730951 * h2 / (h2 * h2 + thin4) ** 0.5
+        qx = qx * k
+        qy = qy * k
+    # (U'' + U^n) / 2, Heun's average
+    ha = 0.5 * (hn + h[f])
+    qx = 0.5 * (qx + hu[f])
+    qy = 0.5 * (qy + hv[f])
+    if ha < thin:
+        h2 = ha * ha
+        k = 1.4142135623730951 * h2 / (h2 * h2 + thin4) ** 0.5
         qx *= k
         qy *= k
-        e = eps[f]
-        if hn < e:  # (hn > hdry > 0 here)
-            kt = _thin_factor(hn, e)
-            qx *= kt
-            qy *= kt
-        h[f] = hn
-        hu[f] = qx
-        hv[f] = qy
+    # the thin layer (69)
+    e = eps[f]
+    if ha < e and ha > 0.0:
+        kt = _thin_factor(ha, e)
+        qx *= kt
+        qy *= kt
+    h[f] = ha
+    hu[f] = qx
+    hv[f] = qy
+    if ha == 0.0:
+        # an empty face: the predicted state the next predictor would write if it ran here
+        # (a face outside the next active set is not written by it)
+        h1[f] = 0.0
+        hu1[f] = 0.0
+        hv1[f] = 0.0
 
 
-@kernel
-def corrector_stage(h1, hu1, hv1, dh, dhu, dhv, dt, gn2, hdry, thin, eps, h, hu, hv):
+@kernel(nrt=False)
+def corrector_stage(h1, hu1, hv1, dh, dhu, dhv, dt, gn2, hdry, thin, eps, h, hu, hv, runs):
     """Heun's second stage and average in one pass: (h, hu, hv) = (E(h1, ...) + (h, hu, hv)) / 2.
 
     E is ``euler_stage`` from the predicted state (h1, hu1, hv1) with its residuals (dh, dhu,
     dhv); below the depth ``thin`` the averaged discharges are desingularised as in
     ``euler_stage``, then below ``eps`` (per face, ``_thin_factor``, eq. (69)).  U'' is never
-    stored: the state (h, hu, hv) holds U^n on entry and U^(n+1) on return.
+    stored: the state (h, hu, hv) holds U^n on entry and U^(n+1) on return.  Only the faces
+    of ``runs`` are written (those of both stages' active sets); where the average is empty
+    the predicted state (h1, hu1, hv1) is zeroed, what the next predictor writes there.
     """
     scalar_n = gn2.shape[0] == 1
     thin4 = thin * thin * thin * thin
-    for f in nb.prange(h1.shape[0]):
-        # U'' = E(U'), as euler_stage
-        hn = h1[f] + dt * dh[f]
-        if hn < 0.0:
-            hn = 0.0
-        if hn <= hdry:
-            qx = 0.0
-            qy = 0.0
-        else:
-            qx0 = hu1[f]
-            qy0 = hv1[f]
-            qx = qx0 + dt * dhu[f]
-            qy = qy0 + dt * dhv[f]
-            k = manning_factor(dt, gn2[0] if scalar_n else gn2[f], hn, qx0, qy0)
-            if hn < thin:
-                h2 = hn * hn
-                k *= 1.4142135623730951 * h2 / (h2 * h2 + thin4) ** 0.5
-            qx = qx * k
-            qy = qy * k
-        # (U'' + U^n) / 2, Heun's average
-        ha = 0.5 * (hn + h[f])
-        qx = 0.5 * (qx + hu[f])
-        qy = 0.5 * (qy + hv[f])
-        if ha < thin:
-            h2 = ha * ha
-            k = 1.4142135623730951 * h2 / (h2 * h2 + thin4) ** 0.5
-            qx *= k
-            qy *= k
-        # the thin layer (69)
-        e = eps[f]
-        if ha < e and ha > 0.0:
-            kt = _thin_factor(ha, e)
-            qx *= kt
-            qy *= kt
-        h[f] = ha
-        hu[f] = qx
-        hv[f] = qy
+    for r in nb.prange(runs.shape[0]):
+        for f in range(runs[r, 0], runs[r, 1]):
+            _corrector_face(np.uint64(f), h1, hu1, hv1, dh, dhu, dhv, dt, gn2, scalar_n, hdry,
+                            thin, thin4, eps, h, hu, hv)

@@ -26,9 +26,13 @@ Active set
     lists the marked faces and the edges touching them; the gradient, flux and residual
     kernels loop over those lists only.  Faces that leave the set get their residuals and time
     step bounds zeroed and, at second order, the edge states of a dry face (what the full pass
-    would compute there: an active face's edge reads them), so that the
-    kernels over all faces (Euler stage, Heun average, extremes) see exact zeros.  Results are
-    bit for bit those of the full pass; a dam-break valley that is mostly dry costs little.
+    would compute there: an active face's edge reads them).  The Euler stage, Heun's two
+    stages and the extremes run on the faces of the blocks (below) that held an active face at
+    the stage's passes (``face_runs``: runs of consecutive faces): outside them every face is
+    empty with zero residuals and discharges, which a stage leaves as they are.  Heun's
+    predicted state must hold there what the predictor would write, zeros: the corrector
+    zeroes it where it empties a face.  Results are bit for bit those of the full pass; a
+    dam-break valley that is mostly dry costs little.
 
     Finding the set scans only blocks of ``BLOCK`` consecutive faces next to the blocks that
     held active faces at the last two passes (``mark_blocks``): a stage moves water no
@@ -50,7 +54,7 @@ from driftlog._numba import kernel
 from driftlog.solver.reconstruction import first_order_states
 
 __all__ = ["ORDERINGS", "face_order", "rcm_order", "hilbert_order", "edge_order", "BLOCK",
-           "block_tables", "mark_blocks", "active_blocks",
+           "block_tables", "mark_blocks", "active_blocks", "face_runs", "all_runs", "RUN",
            "active_set", "mark_active"]
 
 ORDERINGS = ("rcm", "hilbert", "none")
@@ -303,3 +307,41 @@ def active_blocks(state, size, new):
         new[b] = v
         n += v
     return n
+
+
+RUN = 64 * BLOCK  # the longest run of ``face_runs`` (faces): a share of a prange's work
+
+
+def all_runs(n_faces, longest=RUN):
+    """``face_runs`` of every face: (k, 2) runs of at most ``longest`` faces."""
+    lo = np.arange(0, n_faces, longest, dtype=np.int64)
+    return np.ascontiguousarray(np.column_stack([lo, np.minimum(lo + longest, n_faces)]))
+
+
+@nb.njit(cache=True)
+def face_runs(last, before, size, n_faces, longest, out):
+    """The faces of the blocks flagged in ``last`` or ``before``, as runs of consecutive faces.
+
+    Writes run k as faces ``out[k, 0]`` to ``out[k, 1] - 1`` (in increasing order, none longer
+    than ``longest``, a multiple of ``size``, so that a prange shares them out) and returns
+    their number: the stage kernels' runs (``ShallowWaterSolver._stage_runs``).  ``out`` has a
+    row per block.
+    """
+    k = 0
+    nbk = last.shape[0]
+    b = 0
+    while b < nbk:
+        if not (last[b] or before[b]):
+            b += 1
+            continue
+        lo = b * size
+        while b < nbk and (last[b] or before[b]):
+            b += 1
+        hi = min(b * size, n_faces)
+        while lo < hi:
+            end = min(lo + longest, hi)
+            out[k, 0] = lo
+            out[k, 1] = end
+            k += 1
+            lo = end
+    return k

@@ -25,11 +25,14 @@ from driftlog.solver.friction import corrector_stage, euler_stage, predictor_sta
 from driftlog.solver.layout import (
     BLOCK,
     ORDERINGS,
+    RUN,
     active_blocks,
     active_set,
+    all_runs,
     block_tables,
     edge_order,
     face_order,
+    face_runs,
     mark_active,
     mark_blocks,
 )
@@ -329,6 +332,13 @@ class ShallowWaterSolver:
             self._blk_cand = written_zeros(nbk, np.uint8)
             self._blk_active = nbk  # active blocks at the last pass
         self.active_faces = nf  # faces of the last flux pass
+        # the faces the stage kernels and the extremes update, as runs of consecutive faces:
+        # the blocks of the last passes' active sets (``_stage_runs``), every face after the
+        # state was set from outside (``_stage_full``: the first stage then makes every dry
+        # face's discharges zero, as it always did)
+        self._stage_all = all_runs(nf)
+        self._stage_buf = written_zeros((-(-nf // BLOCK), 2), dtype=np.int64)
+        self._stage_full = True
         self.face_updates = 0   # faces of all flux passes so far (statistics)
         # state, in the internal numbering (h, hu, hv give the mesh's)
         self._h = written_zeros(nf)
@@ -444,6 +454,7 @@ class ShallowWaterSolver:
     # ----------------------------------------------------------------- time step
     def _forget_blocks(self):
         """The state was set from outside: the next active-set pass scans the whole mesh."""
+        self._stage_full = True
         if getattr(self, "_blocks", None) is not None:
             self._blk[0][:] = 1
             self._blk[1][:] = 1
@@ -454,6 +465,21 @@ class ShallowWaterSolver:
         last, before = self._blk
         self._blk = [self._blk_new, last]
         self._blk_new = before
+
+    def _stage_runs(self, both=False):
+        """The faces a stage updates: the last pass's active set's blocks (``face_runs``).
+
+        ``both``: and those of the pass before it (Heun's corrector writes the faces of both
+        its stages).  Outside them every face is empty with zero residuals and discharges (a
+        face that leaves the set has its residuals zeroed, ``layout.mark_active``), so the
+        stage would leave it as it is (the same numbers as a stage over every face).
+        """
+        if self._stage_full or self._blocks is None:
+            return self._stage_all
+        last, before = self._blk
+        n = face_runs(last, before if both else last, BLOCK, self._h.shape[0], RUN,
+                      self._stage_buf)
+        return self._stage_buf[:n]
 
     def _rates(self, h, hu, hv, t):
         """Fluxes and residuals of state (h, hu, hv) at time t; returns the max rate.
@@ -527,8 +553,9 @@ class ShallowWaterSolver:
         if self.order == 1:
             self._bflux_sum[:] = fm[bedges]
             k_euler = self._k_serial[3] if self._small else self._k_euler
+            runs = self._stage_runs()
             k_euler(self._h, self._hu, self._hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
-                    self._thin, self._h, self._hu, self._hv)
+                    self._thin, self._h, self._hu, self._hv, runs)
         else:
             # the predictor and corrector stages go to work arrays; the state (h, hu, hv)
             # stays U^n until the Heun average, (U'' + U^n) / 2 written onto it (a + b is
@@ -541,7 +568,7 @@ class ShallowWaterSolver:
                 # Euler stage and thin layer (68)-(69) in one pass
                 k_pred = self._k_serial[4] if self._small else self._k_pred
                 k_pred(h, hu, hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth, self._thin, eps,
-                       h1, hu1, hv1)
+                       h1, hu1, hv1, self._stage_runs())
                 rmax1 = self._rates(h1, hu1, hv1, self.t + dt)
                 if dt * rmax1 <= 1.0:
                     break
@@ -553,8 +580,9 @@ class ShallowWaterSolver:
             self._bflux_sum += 0.5 * fm[bedges]
             # Euler stage from U', Heun average with U^n and thin layer in one pass
             k_corr = self._k_serial[5] if self._small else self._k_corr
+            runs = self._stage_runs(both=True)
             k_corr(h1, hu1, hv1, dh, dhu, dhv, dt, self._gn2, self.dry_depth, self._thin, eps,
-                   h, hu, hv)
+                   h, hu, hv, runs)
         vol = self._bflux_sum * dt  # m3 out (>0) or in (<0) per boundary edge
         bs = self.boundaries
         n = len(self.mesh.tag_names)
@@ -563,7 +591,8 @@ class ShallowWaterSolver:
         self.t += dt
         self.steps += 1
         self.extremes.update(self._h, self._hu, self._hv, self._z, self.t, self.dry_depth,
-                             self.arrival_depth, serial=self._small)
+                             self.arrival_depth, serial=self._small, runs=runs)
+        self._stage_full = False
         return dt
 
     def run(self, t_end, output=None, output_interval=None, progress=False, resume=False,
