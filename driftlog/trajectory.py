@@ -27,7 +27,8 @@ from driftlog.flowfile import TIME_UNITS, _attrs_for_netcdf
 from driftlog.logs import STATUS_MEANINGS
 from driftlog.schema import Key, Section
 
-__all__ = ["TrajectoryWriter", "open_trajectories", "write_vtk", "write_flow_vtk", "last_states"]
+__all__ = ["TrajectoryWriter", "RenumberedWriter", "open_trajectories", "write_vtk",
+           "write_flow_vtk", "last_states"]
 
 OBS_VARS = {
     "x": ("f8", dict(standard_name="projection_x_coordinate", long_name="x of the log centre",
@@ -76,6 +77,42 @@ MAX_BUFFERED_OBS = 1 << 20
 
 HIT_KEYS = (("time", "hit_time"), ("log_id", "hit_log"), ("other", "hit_other"),
             ("impulse", "hit_impulse"), ("x", "hit_x"), ("y", "hit_y"))
+
+
+class RenumberedWriter:
+    """A writer seen by a tracker whose logs are listed in another order.
+
+    The tracker's log ``i`` is log ``order[i]`` of the writer (a ``TrajectoryWriter`` or an
+    ensemble's recorder).
+    Each record reaches the writer as the tracker would have sent it with the logs in the
+    writer's order (its logs ascending, their columns taken along), so the file is the same
+    byte for byte.  Everything else (``hits``: contact events carry log ids, which a
+    renumbering keeps; ``flush``, ``set_attrs``, ``close``...) goes to the writer unchanged.
+    """
+
+    def __init__(self, writer, order):
+        self._writer = writer
+        self._order = np.asarray(order, dtype=np.int64)
+        self._inverse = np.empty_like(self._order)  # the writer's log -> the tracker's
+        self._inverse[self._order] = np.arange(self._order.size)
+
+    def record(self, t, index, columns: dict):
+        """``TrajectoryWriter.record`` of the tracker's logs ``index``, in the writer's order."""
+        index = np.asarray(index, dtype=np.int64)
+        if index.size == self._order.size:  # every log (the index ascending: all of them)
+            take = self._inverse
+        else:
+            # each row's place in the record, read along the writer's logs: no sort (linear
+            # time; a sort of a million logs took most of a record's time)
+            pos = np.full(self._order.size, -1, np.int64)
+            pos[index] = np.arange(index.size)
+            take = pos[self._inverse]
+            take = take[take >= 0]
+        self._writer.record(t, self._order[index[take]],
+                            {k: np.asarray(v)[take] for k, v in columns.items()})
+
+    def __getattr__(self, name):
+        return getattr(self._writer, name)
 
 
 class TrajectoryWriter:

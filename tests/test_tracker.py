@@ -275,6 +275,91 @@ flush_interval = 1
     np.testing.assert_array_equal(again["theta"].values, full["theta"].values)
 
 
+SCATTERED = """
+[flow]
+source = "analytic"
+kind = "free_vortex"
+circulation = 4.0
+core_radius = 0.5
+[time]
+end = 12.0
+output_interval = 1.0
+[[logs]]
+seeding = "random"
+polygon = [[-3.0, -3.0], [3.0, -3.0], [3.0, 3.0], [-3.0, 3.0]]
+count = 40
+seed = 5
+length = 0.4
+radius = 0.05
+density = 800.0
+[[logs]]
+seeding = "random"
+polygon = [[1.0, 1.0], [4.0, 1.0], [4.0, 4.0], [1.0, 4.0]]
+count = 25
+seed = 6
+length = 0.3
+radius = 0.04
+density = 700.0
+release_time = 2.5
+[output]
+flush_interval = 1
+"""
+
+
+def _file_arrays(path):
+    import netCDF4
+
+    with netCDF4.Dataset(path) as ds:
+        ds.set_auto_maskandscale(False)
+        return {k: v[:] for k, v in ds.variables.items()}
+
+
+def test_logs_tracked_along_a_space_filling_curve_write_the_scenarios_file(tmp_path,
+                                                                          monkeypatch):
+    """Logs seeded at random are tracked listed along a Hilbert curve (``api.track``): the
+    trajectory file, the logs returned and a resumed run are those of the scenario's order,
+    bit for bit."""
+    import driftlog.api as api
+    from driftlog.logs import spatial_order
+
+    start = api.logs_from_scenario(load_scenario(SCATTERED))
+    order = spatial_order(start.x, start.y)
+    assert not np.array_equal(order, np.arange(len(start)))  # the test renumbers
+    records = {}
+
+    def keeping(name):  # a writer that also keeps what each record received, in its order
+        class Keeping(TrajectoryWriter):
+            def record(self, t, index, columns):
+                records.setdefault(name, []).append((t, np.array(index), columns["x"].copy()))
+                super().record(t, index, columns)
+        return Keeping
+
+    curve = track(SCATTERED, output=tmp_path / "curve.nc", writer=keeping("curve"))
+    with monkeypatch.context() as m:  # the scenario's own order
+        m.setattr(api, "spatial_order", lambda x, y: np.arange(len(x)))
+        listed = track(SCATTERED, output=tmp_path / "listed.nc", writer=keeping("listed"))
+    assert len(records["curve"]) == len(records["listed"]) == 13
+    for (t, i, x), (t2, i2, x2) in zip(records["curve"], records["listed"], strict=True):
+        assert t == t2
+        np.testing.assert_array_equal(i, i2)
+        np.testing.assert_array_equal(x, x2)
+    a, b = _file_arrays(curve.path), _file_arrays(listed.path)
+    assert a.keys() == b.keys() and a["x"].size > 600
+    for k in a:
+        np.testing.assert_array_equal(a[k], b[k], err_msg=k)
+    for k in ("state", "status", "face", "id", "group", "release_time"):
+        np.testing.assert_array_equal(getattr(curve.logs, k), getattr(listed.logs, k))
+    # stopped and resumed on the curve's order: the same file again
+    flow = api.flow_from_scenario(load_scenario(SCATTERED))
+    with pytest.raises(KeyboardInterrupt):
+        track(SCATTERED, flow=breaking_after(flow, 7.3), output=tmp_path / "r.nc")
+    again = track(SCATTERED, output=tmp_path / "r.nc", resume=True)
+    c = _file_arrays(again.path)
+    assert c.keys() == b.keys()
+    for k in b:
+        np.testing.assert_array_equal(c[k], b[k], err_msg=k)
+
+
 def test_auto_physics_judges_logs_by_the_water_that_lifts_them():
     """Logs on a dry floor before a flood: auto judges the flood, not the dry ground."""
     from driftlog.flow import MeshFlowField
