@@ -141,14 +141,22 @@ def write_grid(path, dx=DX):
 
 
 # --------------------------------------------------------------------- the three tools
-def run_driftlog(path_or_flow, x, y, dt, duration, threads=1):
-    """Tracer-mode RK4 at a fixed step; returns (x, y, set-up s, run s)."""
+def run_driftlog(path_or_flow, x, y, dt, duration, threads=1, curve=False):
+    """Tracer-mode RK4 at a fixed step; returns (x, y, set-up s, run s).
+
+    ``curve``: the particles listed along a Hilbert curve through their positions, as
+    ``driftlog.api.track`` lists a scenario's logs (no contacts); the positions are returned
+    in the order given.
+    """
     from driftlog.adapters.cfgrid import open_cf_grid
+
+    from driftlog.logs import spatial_order
 
     nb.set_num_threads(threads)
     t0 = time.perf_counter()
     flow = path_or_flow if isinstance(path_or_flow, FlowField) else open_cf_grid(path_or_flow)
-    logs = Logs(x, y, 0.0, 0.5, 0.05, 500.0)
+    order = spatial_order(x, y) if curve else np.arange(np.size(x))
+    logs = Logs(np.asarray(x)[order], np.asarray(y)[order], 0.0, 0.5, 0.05, 500.0)
     tr = Tracker(flow, logs, PhysicsOptions(level="tracer", rotation=False), "rk4",
                  StepOptions(max_step=dt, length_fraction=1e9, angle_step=1e9, drag_fraction=0.0),
                  t_start=0.0, t_end=duration, output_interval=duration, hydro_step=duration)
@@ -159,7 +167,9 @@ def run_driftlog(path_or_flow, x, y, dt, duration, threads=1):
     nb.set_num_threads(nb.config.NUMBA_NUM_THREADS)
     if not np.all(logs.status == 1):
         raise RuntimeError(f"driftlog: {np.sum(logs.status != 1)} particles stopped floating")
-    return logs.state[:, X].copy(), logs.state[:, Y].copy(), setup, (wall, cpu)
+    back = np.empty_like(order)
+    back[order] = np.arange(order.size)
+    return logs.state[back, X], logs.state[back, Y], setup, (wall, cpu)
 
 
 def _projection():

@@ -20,7 +20,9 @@ step, passive (no diffusion, no windage):
   time": the same barycentric sampling at the two snapshots, blended by the time weight).
 - driftlog: the same node values written as a TELEMAC Selafin file (double precision) and
   read by ``driftlog.adapters.selafin`` (node-located data, sampled P1 on their nodes),
-  tracer physics, ``rk4``.
+  tracer physics, ``rk4``; the particles listed along a Hilbert curve through their release
+  points, as ``driftlog.api.track`` lists a scenario's logs (``--order-ab``: as seeded and
+  by face, without the curve); the positions compared in the order released.
 
 Measured: particle-steps per CPU second of the run alone.  driftlog and Parcels: the CPU
 time of ``Tracker.run`` / ``ParticleSet.execute`` after the flow is open.  OceanTracker has
@@ -331,11 +333,12 @@ class Tools:
         if "Parcels" in available:
             self.fs = {True: parcels_fieldset(schism, True), False: parcels_fieldset(schism, False)}
 
-    def run(self, tool, x, y, dt, duration, timed=True):
+    def run(self, tool, x, y, dt, duration, timed=True, curve=True):
         """(x, y, (wall, CPU)) of ``tool`` at ``duration``; ``timed=False``: positions only
-        (OceanTracker then runs once, not three times)."""
+        (OceanTracker then runs once, not three times).  ``curve``: driftlog's particles
+        listed along a Hilbert curve, as its scenario route lists them (False: as given)."""
         if tool == "driftlog":
-            xe, ye, _, wc = run_driftlog(self.flow, x, y, dt, duration, threads=1)
+            xe, ye, _, wc = run_driftlog(self.flow, x, y, dt, duration, threads=1, curve=curve)
         elif tool == "OceanTracker" and not timed:
             xe, ye, *wc = _oceantracker(self.schism, x, y, dt, duration, self.tmp, "positions")
         elif tool == "OceanTracker":
@@ -443,7 +446,8 @@ def main(quick=False, only=None):
             f"{DRIFT:g} m/s, at the {x.size} nodes of a triangle mesh ({tri.shape[0]} triangles, "
             f"Delaunay of a jittered {SPACING:g} m lattice over {LX:g} m x {LY:g} m), snapshots "
             f"every {SNAPSHOT:g} s; particles released over a disk of radius 300 m about the "
-            f"centre {CENTER}.  Every tool: P1 (barycentric) on the node values, linear in "
+            f"centre {CENTER} (driftlog's listed along a Hilbert curve, as its scenario "
+            "route lists them).  Every tool: P1 (barycentric) on the node values, linear in "
             "time, classical RK4 at a fixed step.  Re-create: `python benchmarks/"
             f"tracer_peers.py{' --quick' if quick else ''}`.")
         tools = Tools(schism, tmp, available)
@@ -534,7 +538,8 @@ def gradients_ab(sizes=(10_000, 100_000), repeat=6):
 
 
 def order_ab(sizes=(100_000, 1_000_000), repeat=2):
-    """driftlog with the particles listed as seeded (at random) and sorted by their face.
+    """driftlog with the particles listed as seeded (at random), sorted by their face, and
+    along a Hilbert curve (the order driftlog's scenario route gives them).
 
     The same particles, the same trajectories (tracer mode: each particle on its own); only
     the order of the rows changes, and with it how often consecutive particles read the same
@@ -551,22 +556,27 @@ def order_ab(sizes=(100_000, 1_000_000), repeat=2):
             o = np.argsort(tools.flow.sample(px, py, 0.0).face, kind="stable")
             best, ends = {}, {}
             for _ in range(repeat):
-                for arm, (ax, ay) in (("as seeded", (px, py)), ("by face", (px[o], py[o]))):
-                    xe, ye, (_, cpu) = tools.run("driftlog", ax, ay, SNAPSHOT, 300.0)
+                for arm, (ax, ay), curve in (("as seeded", (px, py), False),
+                                             ("by face", (px[o], py[o]), False),
+                                             ("along a Hilbert curve", (px, py), True)):
+                    xe, ye, (_, cpu) = tools.run("driftlog", ax, ay, SNAPSHOT, 300.0,
+                                                 curve=curve)
                     best[arm] = min(best.get(arm, np.inf), cpu)
                     ends[arm] = (xe, ye)
             back = np.empty(n, np.int64)
             back[o] = np.arange(n)  # the sorted run's rows in the seeded order
-            same = all(np.array_equal(a, b[back]) for a, b in
-                       zip(ends["as seeded"], ends["by face"], strict=True))
-            for arm in ("as seeded", "by face"):
+            same = all(np.array_equal(a, b[back]) and np.array_equal(a, c) for a, b, c in
+                       zip(ends["as seeded"], ends["by face"], ends["along a Hilbert curve"],
+                           strict=True))
+            for arm in ("as seeded", "by face", "along a Hilbert curve"):
                 rows.append(dict(particles=n, steps=30, order=arm, cpu_s=best[arm],
                                  per_cpu_s=n * 30 / best[arm],
                                  gain=best["as seeded"] / best[arm], same_positions=same))
                 print(rows[-1], flush=True)
     write_table("tracer_peers_order_ab", rows,
                 ["particles", "steps", "order", "cpu_s", "per_cpu_s", "gain", "same_positions"],
-                "driftlog tracer RK4 with the particles as seeded and sorted by face (1 thread, "
+                "driftlog tracer RK4 with the particles as seeded, by face and along a Hilbert "
+                "curve (1 thread, "
                 f"best of {repeat}, alternately in one process)",
                 "The scene of the peers' table (Selafin file, 30 steps of 10 s).  per_cpu_s: "
                 "particle-steps per CPU second of Tracker.run.  Re-create: `python "
@@ -579,7 +589,7 @@ if __name__ == "__main__":
     p.add_argument("--gradients-ab", action="store_true",
                    help="only driftlog with and without the recovered node gradients")
     p.add_argument("--order-ab", action="store_true",
-                   help="only driftlog with the particles as seeded and sorted by face")
+                   help="only driftlog with the particles as seeded, by face, along a curve")
     p.add_argument("--quick", action="store_true", help="fewer particles and steps")
     p.add_argument("--tools", nargs="+", choices=["driftlog", "OceanTracker", "Parcels"],
                    help="run only these tools (driftlog always)")

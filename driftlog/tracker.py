@@ -96,7 +96,7 @@ def outside_error(flow, logs, out):
         extent = (f"; the mesh spans x {x0:.6g} to {x1:.6g} m, y {y0:.6g} to {y1:.6g} m "
                   "(holes such as piers excluded)")
     return ScenarioError(f"logs[{logs.group[i]}]", f"x = {x:.6g}, y = {y:.6g}",
-                         f"log {i} starts outside the flow domain ({out.size} of "
+                         f"log {int(logs.id[i])} starts outside the flow domain ({out.size} of "
                          f"{len(logs)} logs are outside){extent}; logs must start inside the "
                          "mesh")
 
