@@ -264,6 +264,7 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         if np.array_equal(order, np.arange(len(logs))):
             order = None
     tracked = logs if order is None else logs.take(order)
+    back = None if order is None else np.argsort(order)  # the scenario's log -> the tracker's
     opts = dict(method=scen["integrator"]["method"],
                 step=StepOptions.from_scenario(scen["integrator"]), contact=contact,
                 t_start=t_start, t_end=t_end, output_interval=tm["output_interval"],
@@ -289,7 +290,7 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         if state is not None:
             t_last, index, columns = state
             if order is not None:  # the file's logs -> the tracker's
-                index = np.argsort(order)[index]
+                index = back[index]
             tracker.resume_from(t_last, index, columns)
     try:
         tracker.run()
@@ -315,7 +316,7 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
                                                    contact.stats.items()}))
     path = writer.close()
     if order is not None:  # the logs' final states, in the scenario's order
-        logs = tracked.take(np.argsort(order))
+        logs = tracked.take(back)
     extra = []
     if scen["output"]["vtk"]:
         extra.append(write_vtk(path))
