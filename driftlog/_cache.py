@@ -15,6 +15,7 @@ import hashlib
 import os
 import re
 import shutil
+import sys
 from pathlib import Path
 
 __all__ = ["set_numba_cache_dir", "KEEP", "STALE_DAYS"]
@@ -80,7 +81,11 @@ def set_numba_cache_dir(package: Path) -> str | None:
     """Set ``NUMBA_CACHE_DIR`` to ``~/.cache/driftlog/numba/<source hash>``; the folder or None.
 
     Does nothing when the variable is set already, or when no cache folder can be written
-    (numba then caches beside the sources, as it does by default).
+    (numba then caches beside the sources, as it does by default).  numba reads the variable
+    once, when it is imported: where it was imported first (``import numba`` before ``import
+    driftlog``, as in a notebook or a script that times kernels), its configuration is set
+    too, or the kernels would go to numba's default cache beside the sources, keyed on each
+    file alone, and a kernel that inlines another module's code could load stale machine code.
     """
     if os.environ.get("NUMBA_CACHE_DIR"):
         return None
@@ -101,4 +106,7 @@ def set_numba_cache_dir(package: Path) -> str | None:
     except OSError:
         return None
     os.environ["NUMBA_CACHE_DIR"] = str(folder)
+    config = sys.modules.get("numba.core.config")
+    if config is not None:
+        config.CACHE_DIR = str(folder)
     return str(folder)

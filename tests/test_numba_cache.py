@@ -75,3 +75,22 @@ def test_first_run_announces_the_multi_threaded_kernels(tmp_path, monkeypatch):
     out = io.StringIO()
     assert _numba.announce_compile(["tracking", "contacts"], out, many=True) == 0
     assert out.getvalue() == ""
+
+
+def test_numba_imported_first_still_caches_in_the_source_keyed_folder(tmp_path):
+    # numba reads NUMBA_CACHE_DIR when it is imported: a script or notebook that imports numba
+    # before driftlog would otherwise cache driftlog's kernels beside their sources, keyed on
+    # each file alone (a kernel inlining another module's changed code then loads stale)
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["XDG_CACHE_HOME"] = str(tmp_path)
+    code = ("import os, numba, driftlog; from driftlog.flow import sample_mesh_kernel as k; "
+            "print(numba.config.CACHE_DIR); print(os.environ['NUMBA_CACHE_DIR']); "
+            "print(k.serial._cache._cache_path)")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True, cwd=PACKAGE.parent).stdout.split()
+    folder = tmp_path / "driftlog" / "numba" / _cache._source_hash(PACKAGE)
+    assert out[0] == out[1] == str(folder)
+    assert Path(out[2]).is_relative_to(folder)
