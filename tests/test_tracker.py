@@ -472,3 +472,52 @@ def test_steps_across_snapshots_need_the_global_clock():
     with pytest.raises(ScenarioError, match="land_on_snapshots"):
         Tracker(flow, logs, PhysicsOptions(level="tracer"), "rk4",
                 StepOptions(max_step=5.0, clock="per_log", land_on_snapshots=False), t_end=30.0)
+
+
+def test_trajectory_file_chunks_bounded_running_file_fast_compressed(tmp_path, monkeypatch):
+    """Observations are stored in chunks of at most OBS_CHUNK, compressed, and read back exact.
+
+    netCDF-C's defaults were 512 observations per chunk in the running file and the whole
+    dimension in one chunk in the final file (every block written recompressed all of it).
+    """
+    import netCDF4
+
+    from driftlog import trajectory
+
+    monkeypatch.setattr(trajectory, "OBS_CHUNK", 64)
+    n, nrec = 50, 7  # 350 observations: several chunks, the last one partly filled
+    logs = Logs(np.linspace(0.0, 1.0, n), np.zeros(n))
+    rng = np.random.default_rng(3)
+    records = []
+    w = trajectory.TrajectoryWriter(tmp_path / "t.nc", logs, flush_interval=3)
+    for k in range(nrec):
+        idx = np.sort(rng.choice(n, size=n - k, replace=False))
+        cols = {name: rng.normal(size=idx.size).astype(dt) if dt != "i1"
+                else np.full(idx.size, 1, np.int8)
+                for name, (dt, _) in trajectory.OBS_VARS.items()}
+        records.append((float(k), idx, cols))
+        w.record(float(k), idx, cols)
+    w.flush()
+    with netCDF4.Dataset(w.partial) as ds:  # the running file, as a resumed run reads it
+        for name in ("trajectory_index", "time", *trajectory.OBS_VARS):
+            assert ds[name].chunking() == [64]
+            f = ds[name].filters()
+            assert f["zstd"] if ds.has_zstd_filter() else f["zlib"], (name, f)
+    path = w.close()
+    with netCDF4.Dataset(path) as ds:
+        ds.set_auto_maskandscale(False)
+        rows = ds["rowSize"][:]
+        start = np.concatenate([[0], np.cumsum(rows)])
+        for name in trajectory.OBS_VARS:  # zlib in the final file: every reader decodes it
+            f = ds[name].filters()
+            assert ds[name].chunking() == [64] and f["zlib"] and f["shuffle"], (name, f)
+            assert not f["zstd"], (name, f)
+        seen = np.zeros(n, np.int64)
+        for t, idx, cols in records:  # each log's observations in time order, bit for bit
+            for i, j in enumerate(idx):
+                at = start[j] + seen[j]
+                assert ds["time"][at] == t
+                for name in ("x", "theta", "water_depth"):
+                    assert ds[name][at] == cols[name][i]
+                seen[j] += 1
+        np.testing.assert_array_equal(seen, rows)
