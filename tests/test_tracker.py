@@ -498,6 +498,9 @@ def test_trajectory_file_chunks_bounded_running_file_fast_compressed(tmp_path, m
         records.append((float(k), idx, cols))
         w.record(float(k), idx, cols)
     w.flush()
+    for name in ("time", "x", "status"):  # a cache of 4 chunks, not netCDF-C's 64 MiB
+        v = w.ds[name]
+        assert v.get_var_chunk_cache()[0] == 4 * 64 * v.dtype.itemsize
     with netCDF4.Dataset(w.partial) as ds:  # the running file, as a resumed run reads it
         for name in ("trajectory_index", "time", *trajectory.OBS_VARS):
             assert ds[name].chunking() == [64]
