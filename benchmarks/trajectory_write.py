@@ -80,7 +80,7 @@ def load_records(path):
             ti = d["trajectory_index"][:]
         t = d["time"][:]
         order = np.lexsort((ti, t))
-        names = [k for k in T.OBS_VARS]
+        names = list(T.OBS_VARS)
         cols = {k: d[k][:][order] for k in names}
         t, ti = t[order], ti[order]
 
