@@ -238,6 +238,9 @@ class CoupledTracker(Tracker):
     free sub-step integrated (``held_drag``, docs/model.md (73a)), added to ``received``.
     """
 
+    # every stopped log's row goes at once: the hand-over's sums run over the compact rows
+    lazy_drop = False
+
     def __init__(self, coupling, logs, *args, **kwargs):
         self.coupling = coupling
         n = len(logs)

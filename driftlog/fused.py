@@ -82,8 +82,8 @@ from driftlog.physics import O_LEVEL, O_MOTION, O_ROT, TRACER, log_rhs, stage_co
 __all__ = ["euler_mesh_step", "rk4_mesh_step", "rk4_tracer_step", "euler_tracer_step",
            "sample_tracer",
            "pack_tracer_nodes", "aligned_rows", "settle_summary", "FUSED_METHODS", "NCTL",
-           "take_rows", "drop_rows", "drop_items", "subset_positions",
-           "PK_N", "PR_N"]
+           "take_rows", "drop_rows", "drop_items", "subset_positions", "skip_hole",
+           "HOLE", "PK_N", "PR_N"]
 
 FUSED_METHODS = ("euler", "rk4")
 
@@ -91,6 +91,23 @@ FUSED_METHODS = ("euler", "rk4")
 # fraction, and 1.0 where the drag relaxation bound applies (explicit integrator, not tracer)
 C_LF, C_ANG, C_DRAG, C_EXPLICIT = range(4)
 NCTL = 4
+
+# A settling step's ``status`` is read as well as written: a row whose status is HOLE plus a
+# log status is a *hole*, a log that stopped (stranded, rested, left) and whose row the
+# tracker has left in its compact arrays rather than move every row after it
+# (``Tracker._make_holes``).  The step copies a hole's state unchanged and nothing else; the
+# holes are dropped together once they are a sixteenth of the rows.
+HOLE = 64
+
+
+@nb.njit(cache=True, inline="always")
+def skip_hole(i, S0, out, settle, status):
+    """True (and the state copied to ``out``) where row i of a settling step is a hole."""
+    if not (settle and status[i] >= HOLE):
+        return False
+    for k in range(NSTATE):
+        out[i, k] = S0[i, k]
+    return True
 
 
 @nb.njit(cache=True, inline="always")
@@ -162,10 +179,15 @@ def _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a, inv_
 
 @nb.njit(cache=True)
 def settle_summary(status, bound):
-    """(smallest bound, logs no longer floating, logs whose state is not finite)."""
+    """(smallest bound, logs no longer floating, logs whose state is not finite).
+
+    Holes (``HOLE``) are left out.
+    """
     dt = np.inf
     moved = bad = 0
     for i in range(bound.shape[0]):
+        if status[i] >= HOLE:
+            continue
         b = bound[i]
         if b != b:
             bad += 1
@@ -232,6 +254,8 @@ def euler_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
     (``ctl``: the step control, C_LF ... C_EXPLICIT; ``length``: the logs' lengths).
     """
     for i in nb.prange(S0.shape[0]):
+        if skip_hole(i, S0, out, settle, status):
+            continue
         s = euler_row(row(S0, i), dt, row(D0, i))
         _finish(i, s, face[i], out, face, F, flag, D0, lin0, P, opt, want_next, a_e, inv_e,
                 vals_e, dry_depth, recovered, loc, settle, ctl, length, status, bound)
@@ -248,6 +272,8 @@ def rk4_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
     general path.  Outputs as ``euler_mesh_step``.
     """
     for i in nb.prange(S0.shape[0]):
+        if skip_hole(i, S0, out, settle, status):
+            continue
         hint = face[i]
         # stages 1 and 2 at t0 + dt/2, stage 3 at t0 + dt (RK4_C)
         s = rk4_row(row(S0, i), row(D0, i), dt, hint, a_m, inv_m, vals_m, a_e, inv_e, vals_e,
@@ -540,6 +566,8 @@ def rk4_tracer_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, a_m, pk_m, pr_
     """
     rot = opt[O_ROT] > 0.0
     for i in nb.prange(S0.shape[0]):
+        if skip_hole(i, S0, out, settle, status):
+            continue
         hint = face[i]
         x0, y0, th0 = S0[i, X], S0[i, Y], S0[i, THETA]
         dx0, dy0, dth0 = D0[i, X], D0[i, Y], D0[i, THETA]
@@ -573,6 +601,8 @@ def euler_tracer_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, a_e, pk_e, p
     """``euler_mesh_step`` in tracer mode, same numbers (see ``rk4_tracer_step``)."""
     rot = opt[O_ROT] > 0.0
     for i in nb.prange(S0.shape[0]):
+        if skip_hole(i, S0, out, settle, status):
+            continue
         # integrators.euler_row: s0 + dt d0
         _tracer_finish(i, S0[i, X] + dt * D0[i, X], S0[i, Y] + dt * D0[i, Y],
                        S0[i, THETA] + dt * D0[i, THETA], dt * 0.0, face[i], S0, D0, lin0, out,

@@ -47,6 +47,7 @@ from driftlog.fused import (
     C_EXPLICIT,
     C_LF,
     FUSED_METHODS,
+    HOLE,
     NCTL,
     PK_N,
     PR_N,
@@ -199,6 +200,7 @@ class Tracker:
         # tracer mode's own kernels, and the fused step settling the logs (False: the fused
         # step alone and the tracker's passes, as before; for before/after measurements)
         self._tracer_kernels = self._settling = True
+        self._nholes = 0  # stopped logs' rows left in the compact arrays (``_make_holes``)
         self._packs = []  # tracer mode's packed node rows of the latest snapshot pairs
         self._next_release = -np.inf
         self._resumed = False
@@ -207,6 +209,12 @@ class Tracker:
         self._stops = self._landing_times()
 
     # ----------------------------------------------------------------- compact arrays
+    # Logs that stop may leave their rows in the compact arrays as holes (``_make_holes``),
+    # up to a sixteenth of the rows (HOLE_FRACTION); False: every stop drops its rows at once
+    # (a coupled run's sums over the rows, or a caller holding rows across a stop)
+    lazy_drop = True
+    HOLE_FRACTION = 1.0 / 16.0
+
     def _set_active(self, idx):
         """Gather the floating logs ``idx`` into the compact arrays the kernels use."""
         idx = np.asarray(idx, dtype=np.int64)
@@ -236,7 +244,8 @@ class Tracker:
         self.D0, self.lin0 = self.integrator.prepare(n)
         self._nolin = np.empty((n, NLIN))
         self._d0_valid = False
-        self._st = np.empty(n, np.int8)
+        self._st = np.full(n, FLOATING, np.int8)  # read by a settling step: holes
+        self._nholes = 0
         self._bound = np.empty(n)
         self._settled = None
         if kept is not None:
@@ -272,8 +281,18 @@ class Tracker:
                 and idx.size < old.size):
             return False
         pos = np.empty(idx.size, np.int64)
-        if not subset_positions(old, idx, pos):
+        if not subset_positions(old, idx, pos) or self._hole_rows(pos):
             return False
+        self._compact(pos)
+        return True
+
+    def _hole_rows(self, pos):
+        """Whether any of the compact rows ``pos`` is a hole (a stopped log lifted again)."""
+        return bool(self._nholes) and bool(np.any(self._st[pos] >= HOLE))
+
+    def _compact(self, pos):
+        """Keep only the compact rows ``pos`` (ascending), in place (``_drop_stopped``)."""
+        idx = self.act[pos]
         n = idx.size
         # the settling step's bounds of the logs kept are the step bound (44) at their state
         settled = self._settled_now() is not None
@@ -297,12 +316,40 @@ class Tracker:
         self._sx, self._sy = self._sx[:n], self._sy[:n]
         self._next, self._nolin = self._next[:n], self._nolin[:n]
         self._st, self._bound = self._st[:n], self._bound[:n]
+        self._st[:] = FLOATING  # every row kept floats; no holes
+        self._nholes = 0
         self._settled = None
         if settled:  # the smallest bound of the logs kept, as ``max_step`` would find it
             self._settled = (self.state, self.t, *settle_summary(self._st, self._bound))
         if self.contact is not None and getattr(self.contact, "grounded", False):
             self._ground()
+
+    def _make_holes(self, stopped):
+        """Leave the compact rows ``stopped`` (logs that just stopped) in place as holes.
+
+        Dropping a few rows moves every row after them (``drop_rows``: some 50 columns per
+        log); at 1e5 tracers that was a sixth of a sub-step whenever a log left or stranded.
+        A hole's row stays as it stopped (velocity zeroed, written back by ``_scatter``): the
+        settling step skips it and copies its state (``fused.skip_hole``), ``settle_summary``
+        leaves it out, and the holes go together once they are HOLE_FRACTION of the rows, or
+        before any pass that reads every row (``_fill_holes``).  Only behind a settling step
+        of the global clock (``_settled_now``: no contact model, no waterlogging), and not
+        for the last floating logs.  False (nothing done) otherwise.
+        """
+        n, k = self.act.size, self._nholes + stopped.size
+        if not (self.lazy_drop and self.clock == "global" and stopped.size and k < n
+                and k <= self.HOLE_FRACTION * n and self._settled_now() is not None):
+            return False
+        self._st[stopped] += HOLE
+        self._nholes = k
+        # the smallest bound of the floating logs, as dropping the rows would leave it
+        self._settled = (self.state, self.t, *settle_summary(self._st, self._bound))
         return True
+
+    def _fill_holes(self):
+        """Drop the holes' rows (``_make_holes``), the other rows kept as they are."""
+        if self._nholes:
+            self._compact(np.flatnonzero(self._st < HOLE))
 
     def _ground(self):
         """Resting and stranded logs: fixed capsules of the contact model (docs/model.md 13)."""
@@ -328,7 +375,12 @@ class Tracker:
                 and old.size and idx.size):
             return None
         pos = np.empty(idx.size, np.int64)
-        if not subset_positions(old, idx, pos):
+        found = subset_positions(old, idx, pos)
+        if self._hole_rows(pos[pos >= 0]):
+            # a hole's row is a stopped log's: a log lifted again starts anew
+            pos[(pos >= 0) & (self._st[np.maximum(pos, 0)] >= HOLE)] = -1
+            found = False
+        if not found:
             # the pass would sample at the next step bound: here, unless the flow changes
             # first (a coupled run's solver steps at the end of the current stop)
             if self._F_t != self.t or not self.t < self._stop:
@@ -434,6 +486,8 @@ class Tracker:
         self._settled = None
         settle = self._settle_next and fused and self._can_settle()
         self._settle_next = False
+        if not settle:
+            self._fill_holes()
         # landing on the snapshots, every stage reads the pair of snapshots of this step, the
         # last one too (docs/model.md section 11: the flow's dU/dt jumps at a snapshot)
         t_mid = self.t + 0.5 * dt
@@ -468,6 +522,7 @@ class Tracker:
             b, moved, bad = settle_summary(self._st, self._bound)
             self._settled = (self.state, self.t, b, moved, bad)
         elif self.state.shape[0]:
+            self._fill_holes()
             self._sample_current()
             if self.physics.level == "tracer":
                 self._sync_tracer()
@@ -586,6 +641,8 @@ class Tracker:
         dt = so.max_step if so.max_step else np.inf
         if self.state.shape[0]:
             settled = self._settled_now() if self.contact is None else None
+            if settled is None:
+                self._fill_holes()
             if self._d0_valid and self.contact is None:
                 self.stats["rhs_evaluations"] += 1  # computed by the fused step, same state
             else:
@@ -653,8 +710,11 @@ class Tracker:
         """
         check = idle
         L = self.logs
-        changed = scattered = False
+        changed = scattered = lifted = False
         settled = self._settled_now()
+        if settled is None:
+            self._fill_holes()
+        stopped = None
         if self.act.size:
             if settled is not None:
                 st, moved = self._st, settled[3]  # classified by the fused step
@@ -668,22 +728,29 @@ class Tracker:
                     # the logs that stopped go back to the full arrays now, the others when
                     # they are gathered again (``_set_active``) or stay in place
                     # (``_drop_stopped``); resting logs do not move (docs/model.md section 6)
-                    stopped = np.flatnonzero(st != FLOATING)
+                    stopped = np.flatnonzero((st != FLOATING) & (st < HOLE))
                     self.state[stopped, VELOCITY] = 0.0
                     self._scatter(stopped)
+                    if self._nholes:  # the other rows are floating logs, or holes
+                        L.status[self.act[stopped]] = st[stopped]
+                    else:
+                        L.status[self.act] = st
                 else:
                     self._scatter()
                     scattered = True
                     L.state[self.act[st != FLOATING], VELOCITY] = 0.0
-                L.status[self.act] = st
+                    L.status[self.act] = st
         # on a steady flow an idle log can only change when it has just stopped
         # (waterlogging changes the logs themselves)
         if pool is None and check:
             idle = np.flatnonzero((L.status == RESTING) | (L.status == STRANDED))
             if idle.size and (not self._steady or changed or self._first_check
                               or self.physics.waterlogging != "off"):
-                changed |= self._check_idle(idle)
+                lifted = self._check_idle(idle)
+                changed |= lifted
         self._first_check = False
+        if changed and not lifted and stopped is not None and self._make_holes(stopped):
+            return
         if changed:
             idx = (np.flatnonzero(L.status == FLOATING) if pool is None
                    else pool[L.status[pool] == FLOATING])
@@ -894,6 +961,7 @@ class Tracker:
         finally:
             if self.act.size:
                 self._scatter()
+                self._fill_holes()
             if bar is not None:
                 bar.close()
             self.stats["wall_seconds"] = _time.perf_counter() - wall

@@ -214,3 +214,96 @@ def test_tracer_without_rotation_reads_no_gradients(monkeypatch, where):
     assert False in asked  # the tracer asked to leave them out
     assert_same_runs(full, b, lean, a)
     assert np.sum(b.status == LEFT) > 10
+
+
+def _tidal_bank(mesh):
+    """The draining channel with a bank (12 < x < 20, y > 6) rising 0.25 m per metre to the
+    north under a level that falls from 1.2 m to 0.3 m by t = 6 s and is back at 1.2 m at
+    t = 12 s (snapshots every 2 s, linear in time): logs strand on the bank as the water
+    leaves it, and the flow lifts them again."""
+    from driftlog.flow import MeshFlowField
+
+    xc, yc = mesh.face_x, mesh.face_y
+    bank = (xc > 12) & (xc < 20) & (yc > 6)
+    bed = np.where(bank, 0.25 * (yc - 6.0), 0.0)
+    times = np.array([0.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 24.0])
+    h, hu, hv = [], [], []
+    for t, level in zip(times, [1.2, 0.9, 0.6, 0.3, 0.6, 0.9, 1.2, 1.2], strict=True):
+        depth = np.where(bank, np.maximum(level - bed, 0.0), 0.6)
+        u = 0.5 + 0.3 * np.sin(yc / 2.0) + 0.01 * t
+        v = 0.25 * np.cos(xc / 3.0)
+        h.append(depth)
+        hu.append(depth * u)
+        hv.append(depth * v)
+    return MeshFlowField.from_arrays(mesh, bed, times, np.array(h), np.array(hu),
+                                     np.array(hv))
+
+
+@pytest.mark.parametrize("level,method", [("tracer", "rk4"), ("tracer", "euler"),
+                                          ("full", "rk4"), ("full", "euler")])
+@pytest.mark.parametrize("fraction", [1.0 / 16.0, 0.5])
+def test_holes_left_by_stopped_logs_change_no_number(monkeypatch, level, method, fraction):
+    """Logs that stop leave their rows in the compact arrays as holes (``Tracker._make_holes``,
+    skipped by the settling kernels, dropped together later): the same records, final logs
+    and steps, bit for bit, as dropping every stopped log's rows at once; also where logs
+    stranded in a hole are lifted again by the flow and where logs are released later."""
+    from driftlog.trajectory import TrajectoryWriter
+
+    flow = _tidal_bank(MESH)
+    made, relifted = [], []
+    real_make, real_rows = Tracker._make_holes, Tracker._hole_rows
+
+    def make(self, stopped):
+        done = real_make(self, stopped)
+        made.append(done)
+        return done
+
+    def rows(self, pos):
+        hit = real_rows(self, pos)
+        relifted.append(hit)
+        return hit
+
+    monkeypatch.setattr(Tracker, "_make_holes", make)
+    monkeypatch.setattr(Tracker, "_hole_rows", rows)
+    monkeypatch.setattr(Tracker, "HOLE_FRACTION", fraction)
+
+    class Keep(TrajectoryWriter):
+        def __init__(self):
+            self.rows = []
+
+        def record(self, t, index, columns):
+            self.rows.append((t, index.copy(), {k: np.array(v) for k, v in columns.items()}))
+
+    def go(lazy):
+        rng = np.random.default_rng(3)
+        n = 400
+        logs = Logs(rng.uniform(0.5, 29.5, n), rng.uniform(0.5, 9.5, n),
+                    rng.uniform(0, np.pi, n), rng.uniform(0.5, 1.5, n), 0.1,
+                    rng.uniform(500.0, 900.0, n), release_time=rng.choice([0.0, 2.2, 15.0], n))
+        w = Keep()
+        # no landing on the snapshots: nothing but the releases and the records at 0, 10 and
+        # 20 s samples every row again (and drops the holes) between a log's stranding and
+        # its lift
+        tr = Tracker(flow, logs, PhysicsOptions(level=level), method,
+                     StepOptions(max_step=0.4, land_on_snapshots=False), t_end=20.0,
+                     output_interval=10.0, writer=w)
+        tr.lazy_drop = lazy
+        tr.run()
+        return tr, logs, w.rows
+
+    ta, a, ra = go(False)
+    assert not any(made) and not any(relifted)
+    tb, b, rb = go(True)
+    assert tb.act.size == np.sum(b.status == FLOATING)  # the holes are gone at the end
+    assert sum(made) >= 3  # holes were made
+    if fraction == 0.5:  # and logs lifted from their holes (holes kept longer)
+        assert any(relifted)
+    assert_same_runs(tb, b, ta, a)
+    assert len(ra) == len(rb)
+    for (t0, i0, c0), (t1, i1, c1) in zip(ra, rb, strict=True):
+        assert t0 == t1
+        np.testing.assert_array_equal(i0, i1)
+        for k in c0:
+            np.testing.assert_array_equal(c0[k], c1[k], err_msg=k)
+    # the scene: logs left through the outlet, stranded on the bank, lifted and floating
+    assert np.sum(b.status == LEFT) > 10 and np.sum(b.status == FLOATING) > 10
