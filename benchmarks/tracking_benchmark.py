@@ -11,7 +11,8 @@ CPU second of the process (``time.process_time``: the machine is shared, wall ti
 other people's jobs), i.e. per core.
 
     python benchmarks/tracking_benchmark.py [--quick | --breakdown | --targets | --forces |
-                                             --before-after | --threads | --drop-ab]
+                                             --before-after | --threads | --drop-ab |
+                                             --holes-ab]
                                             [--label NAME]
 
 writes benchmarks/results/tracking.csv and .md, and tracking_breakdown.csv and .md (where
@@ -301,6 +302,71 @@ def drop_ab(n=100_000, steps=20, repeat=4):
     return rows
 
 
+def holes_ab(n=100_000, steps=20, repeat=5):
+    """Stopped logs left as holes (``Tracker.lazy_drop``) against dropped at once, in one
+    process.
+
+    The two arms alternate, tracer RK4 and Euler and full RK4, on 1 thread and on 2; best
+    wall time and best CPU time of ``repeat`` runs each.  The flow and logs of ``--targets``:
+    a few logs leave the mesh at nearly every sub-step, which moved every compact row after
+    them each time.
+    """
+    import os
+
+    from driftlog.tracker import Tracker
+
+    mesh = malpasset_mesh()
+    flow = vortex_flow(mesh)
+    x, y = points(mesh, n, np.random.default_rng(3))
+    real = Tracker.lazy_drop
+    rows = []
+    try:
+        for level, method in (("tracer", "rk4"), ("tracer", "euler"), ("full", "rk4")):
+            for threads in (1, 2):
+                numba.set_num_threads(threads)
+                one(flow, x[:4096], y[:4096], level, method, 2)  # compile / load the cache
+            best = {}
+            load0 = os.getloadavg()[0]
+            for _ in range(repeat):
+                for threads in (1, 2):
+                    numba.set_num_threads(threads)
+                    for lazy in (False, True):
+                        Tracker.lazy_drop = lazy
+                        sub, wall, cpu, _used = one(flow, x, y, level, method, steps)
+                        b = best.get((lazy, threads))
+                        best[(lazy, threads)] = (sub, min(wall, b[1]) if b else wall,
+                                                 min(cpu, b[2]) if b else cpu)
+            load1 = os.getloadavg()[0]
+            for threads in (1, 2):
+                for lazy in (False, True):
+                    sub, wall, cpu = best[(lazy, threads)]
+                    rows.append(dict(
+                        logs=n, level=level, integrator=method, threads=threads,
+                        stopped_rows="holes" if lazy else "dropped at once", substeps=sub,
+                        seconds=wall, cpu_seconds=cpu, per_cpu_s=n * sub / cpu,
+                        gain=best[(False, threads)][1] / wall,
+                        two_threads_vs_one=(best[(lazy, 1)][1] / wall if threads == 2
+                                            else ""),
+                        load=f"{load0:.1f}-{load1:.1f}"))
+                    print(rows[-1], flush=True)
+    finally:
+        Tracker.lazy_drop = real
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    write_table("tracking_holes_ab", rows,
+                ["logs", "level", "integrator", "threads", "stopped_rows", "substeps",
+                 "seconds", "cpu_seconds", "per_cpu_s", "gain", "two_threads_vs_one", "load"],
+                f"Stopped logs left as holes against dropped at once ({n:.0e} logs, fused "
+                f"steps, best of {repeat} alternating runs)",
+                "stopped_rows: holes (Tracker.lazy_drop, the default: the rows stay until "
+                "they are a sixteenth of the compact arrays) or dropped at once (every row "
+                "after them moved at each sub-step in which a log stopped); per_cpu_s: "
+                "log-steps per CPU second (best CPU time); gain: wall time dropped at once / "
+                "this one, same threads; two_threads_vs_one: this arm's wall time on 1 thread "
+                "/ on 2.  Flow: free vortex on the Malpasset mesh.  Re-create: "
+                "`python benchmarks/tracking_benchmark.py --holes-ab`.")
+    return rows
+
+
 def before_after(combos=(("tracer", "rk4"), ("full", "rk4"), ("tracer", "euler")),
                  n=100_000, steps=20, repeat=3):
     """The fused step with and without settling and tracer kernels, in one process.
@@ -540,9 +606,13 @@ if __name__ == "__main__":
                    help="only 2 threads against 1 on 1e5 logs (full and tracer RK4)")
     p.add_argument("--drop-ab", action="store_true",
                    help="stopped logs dropped in place against gathered again (1 process)")
+    p.add_argument("--holes-ab", action="store_true",
+                   help="stopped logs left as holes against dropped at once (1 process)")
     p.add_argument("--label", default="", help="name of the code measured (--targets, --forces)")
     a = p.parse_args()
-    if a.drop_ab:
+    if a.holes_ab:
+        holes_ab()
+    elif a.drop_ab:
         drop_ab()
     elif a.refcount:
         refcount()

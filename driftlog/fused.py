@@ -179,9 +179,11 @@ def _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a, inv_
 
 @nb.njit(cache=True)
 def settle_summary(status, bound):
-    """(smallest bound, logs no longer floating, logs whose state is not finite).
+    """(smallest bound of the floating logs, logs no longer floating, logs whose state is
+    not finite).
 
-    Holes (``HOLE``) are left out.
+    Holes (``HOLE``) are left out; so is the bound of a log that stopped in the step, whose
+    row the tracker then drops or leaves as a hole.
     """
     dt = np.inf
     moved = bad = 0
@@ -191,7 +193,7 @@ def settle_summary(status, bound):
         b = bound[i]
         if b != b:
             bad += 1
-        elif b < dt:
+        elif b < dt and status[i] == FLOATING:
             dt = b
         if status[i] != FLOATING:
             moved += 1

@@ -342,8 +342,9 @@ class Tracker:
             return False
         self._st[stopped] += HOLE
         self._nholes = k
-        # the smallest bound of the floating logs, as dropping the rows would leave it
-        self._settled = (self.state, self.t, *settle_summary(self._st, self._bound))
+        # the smallest bound was the floating logs' already (``settle_summary``)
+        s = self._settled
+        self._settled = (s[0], s[1], s[2], 0, s[4])
         return True
 
     def _fill_holes(self):
