@@ -179,11 +179,10 @@ def _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a, inv_
 
 @nb.njit(cache=True)
 def settle_summary(status, bound):
-    """(smallest bound of the floating logs, logs no longer floating, logs whose state is
-    not finite).
+    """(smallest floating bound, logs no longer floating, logs whose state is not finite).
 
-    Holes (``HOLE``) are left out; so is the bound of a log that stopped in the step, whose
-    row the tracker then drops or leaves as a hole.
+    Holes (``HOLE``) are left out, and so is the bound of a log that stopped in the step,
+    whose row the tracker then drops or leaves as a hole.
     """
     dt = np.inf
     moved = bad = 0
