@@ -82,13 +82,14 @@ def valley_polygon(mesh):
 
 
 def overrides(flow, n, end, output_interval, method, flush_interval, clock="per_log",
-              density=None, grounded=True):
+              density=None, grounded=False):
     """The malpasset case with N logs on a grid over the valley, contacts on.
 
     ``density``: seed them as densely as that many logs over the whole valley floor (the
     polygon shrunk about its centroid by sqrt(n / density)), e.g. 2000 logs at the spacing of
     1e5 (3.4 m) in a twentieth of the area.  ``grounded``: resting and stranded logs are
-    fixed obstacles to the floating ones (docs/model.md 13; False: as before 2026-12-02).
+    fixed obstacles to the floating ones (docs/model.md 13; False, the default of
+    ``[contact] grounded`` and of ``--grounded``: passed over, as before 2026-12-02).
     """
     from driftlog.flowfile import open_flow
 
