@@ -65,10 +65,21 @@ def flotation_depth(r, rho_b, rho):
 
 @nb.njit(cache=True)
 def flotation_depths(radius, density, rho):
-    """``flotation_depth`` of every log (a Python loop over a million logs took seconds)."""
+    """``flotation_depth`` of every log (a Python loop over a million logs took seconds).
+
+    A log with the radius and density of the log before it takes that log's depth, the same
+    number without the bisection (about 0.5 us a log): a group of logs of one size is solved
+    once.
+    """
     out = np.empty(radius.shape[0])
+    r0 = d0 = np.nan
+    h0 = 0.0
     for i in range(radius.shape[0]):
-        out[i] = flotation_depth(radius[i], density[i], rho)
+        r, d = radius[i], density[i]
+        if not (r == r0 and d == d0):
+            h0 = flotation_depth(r, d, rho)
+            r0, d0 = r, d
+        out[i] = h0
     return out
 
 

@@ -4,7 +4,7 @@ import pytest
 
 from driftlog.analytic import SolidBodyRotation, UniformFlow
 from driftlog.columns import L_PAR, L_PERP, NLIN
-from driftlog.logs import Logs, flotation_depth, submerged_volume
+from driftlog.logs import Logs, flotation_depth, flotation_depths, submerged_volume
 from driftlog.physics import (
     PhysicsOptions,
     drag_speed_product,
@@ -19,6 +19,22 @@ from driftlog.physics import (
 def test_flotation_thresholds(rho_b, ratio):
     assert flotation_depth(0.04, rho_b, 1000.0) / 0.04 == pytest.approx(ratio, abs=6e-4)
     assert flotation_depth(0.04, 1000.0001, 1000.0) == np.inf
+
+
+def test_flotation_depths_of_many_logs_are_each_logs_own():
+    """``flotation_depths`` reuses the log before's depth where radius and density repeat:
+    every log still gets exactly its own ``flotation_depth``, in runs of equal logs, where only
+    the radius or only the density repeats, for sinking and neutral logs."""
+    rng = np.random.default_rng(4)
+    radius = np.repeat(rng.choice([0.05, 0.1, 0.2], 60), rng.integers(1, 5, 60))
+    density = np.repeat(rng.choice([500.0, 700.0, 1000.0, 1100.0], 60),
+                        rng.integers(1, 5, 60))[:radius.size]
+    radius = radius[:density.size]
+    assert np.any((radius[1:] == radius[:-1]) & (density[1:] != density[:-1]))
+    assert np.any((radius[1:] != radius[:-1]) & (density[1:] == density[:-1]))
+    want = np.array([flotation_depth(r, d, 1000.0) for r, d in zip(radius, density,
+                                                                    strict=True)])
+    np.testing.assert_array_equal(flotation_depths(radius, density, 1000.0), want)
 
 
 def test_beach_log_floats_from_8_cm():
