@@ -377,10 +377,12 @@ class Tracker:
             return None
         pos = np.empty(idx.size, np.int64)
         found = subset_positions(old, idx, pos)
-        if self._hole_rows(pos[pos >= 0]):
+        if self._nholes:
             # a hole's row is a stopped log's: a log lifted again starts anew
-            pos[(pos >= 0) & (self._st[np.maximum(pos, 0)] >= HOLE)] = -1
-            found = False
+            hole = (pos >= 0) & (self._st[np.maximum(pos, 0)] >= HOLE)
+            if hole.any():
+                pos[hole] = -1
+                found = False
         if not found:
             # the pass would sample at the next step bound: here, unless the flow changes
             # first (a coupled run's solver steps at the end of the current stop)
