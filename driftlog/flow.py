@@ -380,6 +380,36 @@ def sample_mesh_kernel(px, py, face, out, flag, a, inv_dt, nodevals, dry_depth, 
             out[i, k] = vals[k]
 
 
+class _NodeEntry:
+    """A node-located snapshot in ``MeshFlowField``'s cache: ``(h, hu, hv, nodes)``.
+
+    As a face-located snapshot's tuple (face arrays, node columns), but the face means of the
+    node data are computed when first read: the fused kernels read the node columns only.
+    """
+
+    __slots__ = ("_mean", "_data", "_faces", "nodes")
+
+    def __init__(self, mean, data, nodes):
+        self._mean, self._data, self._faces, self.nodes = mean, data, None, nodes
+
+    def faces(self):
+        """The face means (h, hu, hv) of the node data."""
+        if self._faces is None:
+            A = self._mean
+            self._faces = tuple(A @ a for a in self._data)
+            self._data = None
+        return self._faces
+
+    def __getitem__(self, k):
+        return self.nodes if k == 3 else self.faces()[k]
+
+    def __iter__(self):
+        return iter((*self.faces(), self.nodes))
+
+    def __len__(self):
+        return 4
+
+
 # --------------------------------------------------------------------- snapshot sources
 class InMemorySnapshots:
     """Snapshots held as arrays (n_times, n_faces) of h, hu, hv (n_nodes with location='node')."""
@@ -586,7 +616,8 @@ class MeshFlowField(FlowField):
         Recovered (left out until asked for when ``_keep`` had ``gradients=False``), or
         zeros for ``gradient = "p1"``.
         """
-        h, hu, hv, nodes = self._snap[i]
+        entry = self._snap[i]
+        nodes = entry[3]
         self._nograd.discard(i)
         if self.gradient != "recovered":
             nodes[:, Q_UX:] = 0.0
@@ -598,6 +629,7 @@ class MeshFlowField(FlowField):
             _set_gradients(nodes, *self._node_grad, nodes[:, Q_U:Q_ETA + 1])
         else:
             _, Px, Py = self.mesh.node_operators()
+            h, hu, hv = entry[0], entry[1], entry[2]
             u, v = self._velocity(h, hu, hv)
             _set_gradients(nodes, Px, Py, np.column_stack([u, v, h + self.bed]))
 
@@ -623,8 +655,7 @@ class MeshFlowField(FlowField):
         nodes = np.empty((self.mesh.n_nodes, NQ))
         nodes[:, Q_H], nodes[:, Q_U], nodes[:, Q_V] = h, u, v
         nodes[:, Q_ETA] = h + self.node_bed
-        A = self._face_mean
-        return self._keep(i, (A @ h, A @ hu, A @ hv, nodes), gradients)
+        return self._keep(i, _NodeEntry(self._face_mean, (h, hu, hv), nodes), gradients)
 
     def _interval(self, t):
         """Snapshot pair (i, i+1) around t, and the weight of i+1."""
@@ -644,6 +675,17 @@ class MeshFlowField(FlowField):
     def step_interval(self, t_mid):
         """The pair of snapshots of the sub-step around ``t_mid`` (``FlowField``'s)."""
         self._step_middle = t_mid
+
+    def node_snapshot_pair(self, t, gradients=True):
+        """The node columns (n_nodes, NQ) of the snapshots around t, the time weight, 1 / dt.
+
+        ``node_values(t)`` is the two side by side; a reader that takes them apart (tracer
+        mode's packed rows) is spared building that copy at every new pair.  ``gradients``
+        as for ``node_values``.
+        """
+        i, j, a, inv_dt = self._interval(t)
+        ni = self._load(i, gradients)[3]
+        return ni, self._load(j, gradients)[3], a, inv_dt
 
     def node_values(self, t, gradients=True):
         """(n_nodes, 2 NQ) node columns at the snapshots around t; the time weight, 1 / dt.

@@ -44,7 +44,6 @@ from driftlog.columns import (
     L_PERP,
     L_ROT,
     NLIN,
-    NQ,
     NSTATE,
     NVAR,
     OMEGA,
@@ -392,22 +391,26 @@ def aligned_rows(n, m):
 
 
 @nb.njit(cache=True)
-def pack_tracer_nodes(vals, node_x, node_y, pk, pr, rot):
-    """Fill the packed node rows ``pk`` (and ``pr`` with ``rot``) from a snapshot pair."""
+def pack_tracer_nodes(vi, vj, cj, node_x, node_y, pk, pr, rot):
+    """Fill the packed node rows ``pk`` (and ``pr`` with ``rot``) from a snapshot pair.
+
+    The pair's node columns: snapshot i's in ``vi[:, :NQ]``, snapshot j's in ``vj[:, cj:]``
+    (one array of both side by side: ``vi`` = ``vj``, ``cj`` = NQ).
+    """
     for j in range(pk.shape[0]):
         pk[j, PK_X] = node_x[j]
         pk[j, PK_Y] = node_y[j]
-        pk[j, PK_H0] = vals[j, Q_H]
-        pk[j, PK_H1] = vals[j, Q_H + NQ]
-        pk[j, PK_U0] = vals[j, Q_U]
-        pk[j, PK_U1] = vals[j, Q_U + NQ]
-        pk[j, PK_V0] = vals[j, Q_V]
-        pk[j, PK_V1] = vals[j, Q_V + NQ]
+        pk[j, PK_H0] = vi[j, Q_H]
+        pk[j, PK_H1] = vj[j, Q_H + cj]
+        pk[j, PK_U0] = vi[j, Q_U]
+        pk[j, PK_U1] = vj[j, Q_U + cj]
+        pk[j, PK_V0] = vi[j, Q_V]
+        pk[j, PK_V1] = vj[j, Q_V + cj]
         if rot:
-            pr[j, PR_UY0] = vals[j, Q_UY]
-            pr[j, PR_UY1] = vals[j, Q_UY + NQ]
-            pr[j, PR_VX0] = vals[j, Q_VX]
-            pr[j, PR_VX1] = vals[j, Q_VX + NQ]
+            pr[j, PR_UY0] = vi[j, Q_UY]
+            pr[j, PR_UY1] = vj[j, Q_UY + cj]
+            pr[j, PR_VX0] = vi[j, Q_VX]
+            pr[j, PR_VX1] = vj[j, Q_VX + cj]
 
 
 @nb.njit(cache=True, inline="always")

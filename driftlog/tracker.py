@@ -25,6 +25,7 @@ from driftlog.columns import (
     DUDY,
     DVDX,
     NLIN,
+    NQ,
     NSTATE,
     NVAR,
     OMEGA,
@@ -579,14 +580,12 @@ class Tracker:
                   and self.physics.motion == "floating")
         if tracer and self.integrator.name == "rk4":
             # tracer mode's own kernels: the flow on packed node rows, no force evaluation
-            vals_m, a_m, _ = self._tracer_values(t0 + RK4_C[1] * dt)  # stages 1 and 2
-            vals_e, a_e, _ = self._tracer_values(t0 + RK4_C[3] * dt)
-            rk4_tracer_step(*head[:-1], a_m, *self._packed(vals_m), a_e,
-                            *self._packed(vals_e), *tail)
+            a_m, pk_m, pr_m = self._packed(t0 + RK4_C[1] * dt)  # stages 1 and 2
+            a_e, pk_e, pr_e = self._packed(t0 + RK4_C[3] * dt)
+            rk4_tracer_step(*head[:-1], a_m, pk_m, pr_m, a_e, pk_e, pr_e, *tail)
             self.stats["rhs_evaluations"] += 3
         elif tracer:
-            vals_e, a_e, _ = self._tracer_values(t0 + dt)
-            euler_tracer_step(*head[:-1], a_e, *self._packed(vals_e), *tail)
+            euler_tracer_step(*head[:-1], *self._packed(t0 + dt), *tail)
         elif self.integrator.name == "rk4":
             vals_m, a_m, inv_m = kern.node_values(t0 + RK4_C[1] * dt)  # stages 1 and 2
             vals_e, a_e, inv_e = kern.node_values(t0 + RK4_C[3] * dt)
@@ -596,41 +595,51 @@ class Tracker:
             vals_e, a_e, inv_e = kern.node_values(t0 + dt)
             euler_mesh_step(*head, a_e, inv_e, vals_e, *tail)
 
-    def _tracer_values(self, t):
-        """The flow's node values at t for tracer mode's kernels.
-
-        Without rotation (or with the P1 gradient) those kernels read no gradient column: a
-        plain ``MeshFlowField`` then leaves its recovered gradients out (two sparse products
-        per snapshot, 1.2 ms on 24,000 nodes), to be computed if another reader asks.
-        """
+    def _plain_flow(self):
+        """Whether the flow is a plain ``MeshFlowField`` (its node values from its snapshots)."""
         from driftlog.flow import MeshFlowField
 
-        kern = self._kernel
-        lean = (getattr(kern.node_values, "__func__", None) is MeshFlowField.node_values
-                and not (self.physics.rotation and kern.recovered))
-        return kern.node_values(t, gradients=False) if lean else kern.node_values(t)
+        return getattr(self._kernel.node_values, "__func__", None) is MeshFlowField.node_values
 
-    def _packed(self, vals):
-        """The packed node rows (``fused.pack_tracer_nodes``) of the snapshot pair ``vals``.
+    def _tracer_values(self, t):
+        """The flow's node columns around t for tracer mode's kernels: (vi, vj, cj, a).
+
+        Snapshot i's columns are ``vi[:, :NQ]``, snapshot j's ``vj[:, cj:cj + NQ]``, a the
+        weight of j.  A plain ``MeshFlowField`` gives its two cached snapshots as they are
+        (``node_snapshot_pair``: no side-by-side copy of the pair), and without rotation (or
+        with the P1 gradient), which those kernels then do not read, without its recovered
+        gradients (two sparse products per snapshot, 1.2 ms on 24,000 nodes), to be computed
+        if another reader asks.  Another flow (a coupled run's) gives ``node_values``.
+        """
+        kern = self._kernel
+        if self._plain_flow():
+            rot = self.physics.rotation and kern.recovered
+            vi, vj, a, _ = kern.node_values.__self__.node_snapshot_pair(t, gradients=rot)
+            return vi, vj, 0, a
+        vals, a, _ = kern.node_values(t)
+        return vals, vals, NQ, a
+
+    def _packed(self, t):
+        """(a, pk, pr): the packed node rows (``fused.pack_tracer_nodes``) of the pair at t.
 
         Those of the two latest pairs are kept (a step's stages may use two) where the flow
-        is a plain ``MeshFlowField``, whose ``node_values`` gives a new array whenever the pair
-        changes; another flow's (a coupled run's, updated in place) are packed at every call.
+        is a plain ``MeshFlowField``, whose snapshots' node columns are new arrays whenever
+        it loads one; another flow's (a coupled run's, updated in place) are packed at every
+        call.
         """
-        from driftlog.flow import MeshFlowField
-
-        fresh = getattr(self._kernel.node_values, "__func__", None) is MeshFlowField.node_values
-        for v, pk, pr in self._packs if fresh else ():
-            if v is vals:
-                return pk, pr
+        vi, vj, cj, a = self._tracer_values(t)
+        fresh = self._plain_flow()
+        for (pi, pj), pk, pr in self._packs if fresh else ():
+            if pi is vi and pj is vj:
+                return a, pk, pr
         loc = self._kernel.locator
         rot = self.physics.rotation and self._kernel.recovered
-        n = vals.shape[0]
+        n = vi.shape[0]
         pk = aligned_rows(n, PK_N)
         pr = aligned_rows(n if rot else 1, PR_N)
-        pack_tracer_nodes(vals, loc.node_x, loc.node_y, pk, pr, rot)
-        self._packs = [(vals, pk, pr)] + self._packs[:1]
-        return pk, pr
+        pack_tracer_nodes(vi, vj, cj, loc.node_x, loc.node_y, pk, pr, rot)
+        self._packs = [((vi, vj), pk, pr)] + self._packs[:1]
+        return a, pk, pr
 
     def _sync_tracer(self):
         self.state[:, UB] = self.F[:, U]

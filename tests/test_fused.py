@@ -198,20 +198,34 @@ def test_gradients_left_out_until_asked_for(where):
 @pytest.mark.parametrize("where", ["face", "node"])
 def test_tracer_without_rotation_reads_no_gradients(monkeypatch, where):
     """Tracer mode without rotation takes the flow's node values without the gradients
-    (``Tracker._tracer_values``): the same trajectories as with them, bit for bit."""
+    (``Tracker._tracer_values``), and the two snapshots apart (``node_snapshot_pair``): the
+    same trajectories as the pair's full node values side by side, bit for bit."""
     from driftlog.flow import MeshFlowField
+    from driftlog.tracker import Tracker
 
+    pair = MeshFlowField.node_snapshot_pair
+    grads = []
+
+    def spy(self, t, gradients=True):
+        grads.append(gradients)
+        return pair(self, t, gradients)
+
+    monkeypatch.setattr(MeshFlowField, "node_snapshot_pair", spy)
     lean, a = run("tracer", False, "rk4", fused=True, flow=draining_channel(MESH, TIMES, where))
-    real = MeshFlowField.node_values
+    assert grads and not any(grads)  # asked without the gradients
+    real = Tracker._tracer_values
     asked = []
 
-    def always(self, t, gradients=True):
-        asked.append(gradients)
-        return real(self, t)
+    def always(self, t):
+        vi, vj, cj, w = real(self, t)
+        asked.append(cj)
+        vals, w2, _ = self._kernel.node_values(t)  # with the gradients, side by side
+        assert w2 == w
+        return vals, vals, vals.shape[1] // 2, w
 
-    monkeypatch.setattr(MeshFlowField, "node_values", always)
+    monkeypatch.setattr(Tracker, "_tracer_values", always)
     full, b = run("tracer", False, "rk4", fused=True, flow=draining_channel(MESH, TIMES, where))
-    assert False in asked  # the tracer asked to leave them out
+    assert 0 in asked  # the tracer took the two snapshots apart
     assert_same_runs(full, b, lean, a)
     assert np.sum(b.status == LEFT) > 10
 
