@@ -67,6 +67,8 @@ HIT_FULL = 4  # the hit buffer is full: the caller grows it and runs the window 
  ST_LOG_STEPS) = range(7)
 NSTAT = 7
 OBST_BIT = 1 << 31
+# islands of at most this many bodies (logs and capsules) test all their pairs in _contacts
+ALL_PAIRS = 24
 
 
 @nb.njit(cache=True, inline="always")
@@ -75,9 +77,32 @@ def _pair_key(id1, id2):
     return np.int64(id1) * np.int64(1 << 32) + np.int64(id2)
 
 
+@nb.njit(cache=True, inline="always")
+def _log_pair(S, radius, mem, wk, a, b, out):
+    """(whether the boxes of members a and b overlap, their gap: rows in ``out``)."""
+    i, j = mem[a], mem[b]
+    if abs(S[i, X] - S[j, X]) > wk[a, 0] + wk[b, 0] or \
+            abs(S[i, Y] - S[j, Y]) > wk[a, 1] + wk[b, 1]:
+        return False, 0.0
+    return True, capsule_gap(wk[a, 2], wk[a, 3], wk[a, 4], wk[a, 5], radius[i], wk[b, 2],
+                             wk[b, 3], wk[b, 4], wk[b, 5], radius[j], out)
+
+
+@nb.njit(cache=True, inline="always")
+def _cap_pair(S, radius, mem, wk, a, caps, cap, out):
+    """(whether the boxes of member a and capsule ``cap`` meet, their gap: rows in ``out``)."""
+    i = mem[a]
+    qa, qb, qc, qd, qr = capsule_row(caps, cap)
+    if (S[i, X] - wk[a, 0] > max(qa, qc) + qr or S[i, X] + wk[a, 0] < min(qa, qc) - qr
+            or S[i, Y] - wk[a, 1] > max(qb, qd) + qr or S[i, Y] + wk[a, 1] < min(qb, qd) - qr):
+        return False, 0.0
+    return True, capsule_gap(wk[a, 2], wk[a, 3], wk[a, 4], wk[a, 5], radius[i], qa, qb, qc, qd,
+                             qr, out)
+
+
 @nb.njit(cache=True)
 def _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, use_margin, gmax,
-              c1, c2, cres):
+              c1, c2, cres, wk, keys, okeys):
     """Pairs of active members (and member - obstacle capsule) whose boxes overlap.
 
     The members mem[:na] move; mem[na:nt] are fixed (logs stopped in the window,
@@ -87,45 +112,108 @@ def _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, use_m
     ``gmax``; kept when the gap is <= gmax (``use_margin`` False: the tolerance check) or the
     boxes overlap (True: the conservative-advancement candidates).  c1, c2: local member
     positions (c2 = -(k + 1) for obstacle capsule ocaps[k]); cres: (NRES) rows.  Returns the
-    count.
+    count.  The pairs come by first member, then its other members by position, then its
+    capsules.  Islands of up to ``ALL_PAIRS`` bodies test all their pairs; larger ones
+    (a jam of hundreds of logs) take the pairs whose x-extents overlap from a sort and sweep
+    (padded by round-off), in the same order, tested by the same arithmetic: the same
+    contacts.  wk (>= nt, 6): each member's box half-extents and axis ends; keys, okeys:
+    work buffers.
     """
     nc = 0
     out = np.empty(NRES)
-    for a in range(na):
+    no = o1 - o0
+    for a in range(nt):
         i = mem[a]
         mi = margin[a] if use_margin else gmax
         hi = 0.5 * length[i]
-        exi = hi * abs(np.cos(S[i, THETA])) + radius[i] + mi
-        eyi = hi * abs(np.sin(S[i, THETA])) + radius[i] + mi
-        ax, ay, bx, by = log_endpoints(S[i, X], S[i, Y], S[i, THETA], length[i])
-        for b in range(a + 1, nt):
-            j = mem[b]
-            mj = margin[b] if use_margin else gmax
-            hj = 0.5 * length[j]
-            exj = hj * abs(np.cos(S[j, THETA])) + radius[j] + mj
-            eyj = hj * abs(np.sin(S[j, THETA])) + radius[j] + mj
-            if abs(S[i, X] - S[j, X]) > exi + exj or abs(S[i, Y] - S[j, Y]) > eyi + eyj:
-                continue
-            cx, cy, dx, dy = log_endpoints(S[j, X], S[j, Y], S[j, THETA], length[j])
-            g = capsule_gap(ax, ay, bx, by, radius[i], cx, cy, dx, dy, radius[j], out)
-            if use_margin or g <= gmax:
+        wk[a, 0] = hi * abs(np.cos(S[i, THETA])) + radius[i] + mi
+        wk[a, 1] = hi * abs(np.sin(S[i, THETA])) + radius[i] + mi
+        wk[a, 2], wk[a, 3], wk[a, 4], wk[a, 5] = log_endpoints(S[i, X], S[i, Y], S[i, THETA],
+                                                               length[i])
+    small = nt + no <= ALL_PAIRS
+    nl = nk = 0
+    if not small:
+        nl, nk = _sweep(S, mem, na, nt, caps, ocaps, o0, o1, wk, keys, okeys)
+    pl = po = 0
+    for a in range(na):
+        for k in range(nt - a - 1 if small else _run(keys, pl, nl, a, nt)):
+            if small:
+                b = a + 1 + k
+            else:
+                b = keys[pl] % nt
+                pl += 1
+            near, g = _log_pair(S, radius, mem, wk, a, b, out)
+            if near and (use_margin or g <= gmax):
                 c1[nc], c2[nc] = a, b
                 for q in range(NRES):
                     cres[nc, q] = out[q]
                 nc += 1
-        for k in range(o0, o1):
-            cap = ocaps[k]
-            qa, qb, qc, qd, qr = capsule_row(caps, cap)
-            if (S[i, X] - exi > max(qa, qc) + qr or S[i, X] + exi < min(qa, qc) - qr
-                    or S[i, Y] - eyi > max(qb, qd) + qr or S[i, Y] + eyi < min(qb, qd) - qr):
-                continue
-            g = capsule_gap(ax, ay, bx, by, radius[i], qa, qb, qc, qd, qr, out)
-            if use_margin or g <= gmax:
+        for m in range(no if small else _run(okeys, po, nk, a, no)):
+            if small:
+                k = o0 + m
+            else:
+                k = o0 + okeys[po] % no
+                po += 1
+            near, g = _cap_pair(S, radius, mem, wk, a, caps, ocaps[k], out)
+            if near and (use_margin or g <= gmax):
                 c1[nc], c2[nc] = a, -(k - o0 + 1)
                 for q in range(NRES):
                     cres[nc, q] = out[q]
                 nc += 1
     return nc
+
+
+@nb.njit(cache=True, inline="always")
+def _run(keys, p, n, a, m):
+    """How many of the sorted keys[p:n] belong to first member a (keys a m + b, b < m)."""
+    k = p
+    while k < n and keys[k] // m == a:
+        k += 1
+    return k - p
+
+
+@nb.njit(cache=True)
+def _sweep(S, mem, na, nt, caps, ocaps, o0, o1, wk, keys, okeys):
+    """``_contacts``' candidates of a large island: sort and sweep along x.
+
+    The members' and capsules' x-extents (``_contacts``' boxes, padded by 1e-9 of their
+    magnitude so that no pair the exact test keeps is missed) sorted by their low end; the
+    pairs whose extents overlap, with a moving first member, as sorted keys: a nt + b for
+    members a < b (``keys``), a no + c for member a and capsule c (``okeys``).  Returns
+    their counts.
+    """
+    no = o1 - o0
+    ni = nt + no
+    lo = np.empty(ni)
+    hi = np.empty(ni)
+    for a in range(nt):
+        x, ex = S[mem[a], X], wk[a, 0]
+        pad = 1e-9 * (abs(x) + ex)
+        lo[a], hi[a] = x - ex - pad, x + ex + pad
+    for c in range(no):
+        qa, qb, qc, qd, qr = capsule_row(caps, ocaps[o0 + c])
+        pad = 1e-9 * (abs(qa) + abs(qc) + qr)
+        lo[nt + c], hi[nt + c] = min(qa, qc) - qr - pad, max(qa, qc) + qr + pad
+    order = np.argsort(lo)
+    nl = nk = 0
+    for s in range(ni):
+        p = order[s]
+        for s2 in range(s + 1, ni):
+            q = order[s2]
+            if lo[q] > hi[p]:
+                break
+            a, b = (p, q) if p < q else (q, p)
+            if a >= na:
+                continue  # no moving member (two fixed logs, a fixed log and a capsule)
+            if b < nt:
+                keys[nl] = a * nt + b
+                nl += 1
+            else:
+                okeys[nk] = a * no + (b - nt)
+                nk += 1
+    keys[:nl] = np.sort(keys[:nl])
+    okeys[:nk] = np.sort(okeys[:nk])
+    return nl, nk
 
 
 @nb.njit(cache=True, inline="always")
@@ -338,6 +426,9 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
     li = np.empty(nmax)
     b1 = np.empty(cap_c, np.int64)
     b2 = np.empty(cap_c, np.int64)
+    wk = np.empty((nmax, 6))  # _contacts' work rows and keys
+    keys = np.empty(cap_c, np.int64)
+    okeys = np.empty(cap_c, np.int64)
     for q in range(start.size - 1):
         code[q] = OK
         t_code[q] = t0
@@ -374,7 +465,7 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
             tol = tolerance * rmin
             # contacts within tol: impulses (ContactModel._event)
             nc = _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, False,
-                           tol, c1, c2, cres)
+                           tol, c1, c2, cres, wk, keys, okeys)
             events = 0
             for c in range(nc):
                 i = mem[c1[c]]
@@ -477,7 +568,7 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                       + abs(S[i, OMEGA]) * (0.5 * length[i] + radius[i]))
                 margin[a] = sp * dt + tol
             ncand = _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, True,
-                              tol, e1, e2, eres)
+                              tol, e1, e2, eres, wk, keys, okeys)
             if ncand:
                 h = _conservative(S, length, radius, mem, caps, ocaps, o0, e1, e2, eres, ncand,
                                   tol, dt, near_share * rmin)
@@ -501,7 +592,7 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                               t_split, dry_depth, recovered, loc)
                 stats[ST_ADVANCES] += 1
                 ne = _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, False,
-                               tol, e1, e2, eres)
+                               tol, e1, e2, eres, wk, keys, okeys)
                 gmin = np.inf
                 kdeep = -1
                 for c in range(ne):

@@ -213,3 +213,82 @@ def test_kept_broad_phase_gives_the_same_run(rng, method):
     assert len(runs[1][1]["time"]) > 30
     cache = runs[1][2]
     assert cache.reuses > 2 * cache.builds  # kept for several calls at a time
+
+
+def _contacts_reference(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin,
+                        use_margin, gmax):
+    """``island_kernel._contacts`` as it was before its sort and sweep: every pair tested,
+    by first member, then the other members by position, then the first's capsules."""
+    from driftlog.columns import NRES, THETA
+    from driftlog.contact.geometry import capsule_gap, log_endpoints
+
+    def box(a):
+        i = mem[a]
+        m = margin[a] if use_margin else gmax
+        h = 0.5 * length[i]
+        return (h * abs(np.cos(S[i, THETA])) + radius[i] + m,
+                h * abs(np.sin(S[i, THETA])) + radius[i] + m)
+
+    found = []
+    out = np.empty(NRES)
+    for a in range(na):
+        i = mem[a]
+        exi, eyi = box(a)
+        ends = log_endpoints(S[i, X], S[i, Y], S[i, THETA], length[i])
+        for b in range(a + 1, nt):
+            j = mem[b]
+            exj, eyj = box(b)
+            if abs(S[i, X] - S[j, X]) > exi + exj or abs(S[i, Y] - S[j, Y]) > eyi + eyj:
+                continue
+            g = capsule_gap(*ends, radius[i], *log_endpoints(S[j, X], S[j, Y], S[j, THETA],
+                                                             length[j]), radius[j], out)
+            if use_margin or g <= gmax:
+                found.append((a, b, *out))
+        for k in range(o0, o1):
+            qa, qb, qc, qd, qr = caps[ocaps[k]]
+            if (S[i, X] - exi > max(qa, qc) + qr or S[i, X] + exi < min(qa, qc) - qr
+                    or S[i, Y] - eyi > max(qb, qd) + qr or S[i, Y] + eyi < min(qb, qd) - qr):
+                continue
+            g = capsule_gap(*ends, radius[i], qa, qb, qc, qd, qr, out)
+            if use_margin or g <= gmax:
+                found.append((a, -(k - o0 + 1), *out))
+    return found
+
+
+@pytest.mark.parametrize("n,stopped,ncap", [(12, 0, 3), (20, 4, 8), (300, 0, 0), (300, 40, 25),
+                                            (900, 60, 12)])
+@pytest.mark.parametrize("use_margin", [False, True])
+def test_island_contacts_sweep_finds_every_pair_in_order(rng, n, stopped, ncap, use_margin):
+    """The event islands' contact search (sort and sweep above ``ALL_PAIRS`` bodies) finds
+    the contacts of testing every pair, in the same order, with the same numbers: a jam of
+    logs packed closer than their length, some stopped (fixed), and pier capsules."""
+    from driftlog.columns import NRES
+    from driftlog.island_kernel import ALL_PAIRS, _contacts
+
+    side = 2.2 * np.sqrt(n)  # 2-m logs about 2.2 m apart: many touch
+    nrows = n + 7
+    S = np.zeros((nrows, 6))
+    S[:, X] = rng.uniform(0, side, nrows) + 1e4  # far from the origin: round-off in the pad
+    S[:, Y] = rng.uniform(0, side, nrows) - 3e3
+    S[:, 2] = rng.uniform(-np.pi, np.pi, nrows)
+    length = rng.uniform(1.5, 2.5, nrows)
+    radius = rng.uniform(0.1, 0.2, nrows)
+    mem = rng.permutation(nrows)[:n].astype(np.int64)
+    na, nt = n - stopped, n
+    cx, cy = rng.uniform(0, side, 40) + 1e4, rng.uniform(0, side, 40) - 3e3
+    caps = np.column_stack([cx, cy, cx + rng.uniform(-3, 3, 40), cy + rng.uniform(-3, 3, 40),
+                            rng.uniform(0.2, 0.5, 40)])
+    ocaps = np.concatenate([[39, 38], rng.permutation(38)[:ncap]]).astype(np.int64)
+    o0, o1 = 2, 2 + ncap
+    margin = rng.uniform(0.0, 0.4, n)
+    cap = n * n + n * ncap + 1
+    c1, c2, cres = np.empty(cap, np.int64), np.empty(cap, np.int64), np.empty((cap, NRES))
+    wk, keys, okeys = np.empty((n, 6)), np.empty(cap, np.int64), np.empty(cap, np.int64)
+    nc = _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, use_margin, 0.05,
+                   c1, c2, cres, wk, keys, okeys)
+    ref = _contacts_reference(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin,
+                              use_margin, 0.05)
+    got = [(c1[k], c2[k], *cres[k]) for k in range(nc)]
+    assert got == ref  # the same pairs, in the same order, bit for bit
+    assert len(ref) > (n // 10 if n + ncap > ALL_PAIRS else 0)
+    assert any(r[1] < 0 for r in ref) or ncap == 0 or not use_margin
