@@ -91,13 +91,21 @@ def _log_pair(S, radius, mem, wk, a, b, out):
 @nb.njit(cache=True, inline="always")
 def _cap_pair(S, radius, mem, wk, a, caps, cap, out):
     """(whether the boxes of member a and capsule ``cap`` meet, their gap: rows in ``out``)."""
+    if not _cap_box(S, mem, wk, a, caps, cap):
+        return False, 0.0
+    qa, qb, qc, qd, qr = capsule_row(caps, cap)
+    return True, capsule_gap(wk[a, 2], wk[a, 3], wk[a, 4], wk[a, 5], radius[mem[a]], qa, qb, qc,
+                             qd, qr, out)
+
+
+@nb.njit(cache=True, inline="always")
+def _cap_box(S, mem, wk, a, caps, cap):
+    """Whether the boxes of member a and capsule ``cap`` meet."""
     i = mem[a]
     qa, qb, qc, qd, qr = capsule_row(caps, cap)
-    if (S[i, X] - wk[a, 0] > max(qa, qc) + qr or S[i, X] + wk[a, 0] < min(qa, qc) - qr
-            or S[i, Y] - wk[a, 1] > max(qb, qd) + qr or S[i, Y] + wk[a, 1] < min(qb, qd) - qr):
-        return False, 0.0
-    return True, capsule_gap(wk[a, 2], wk[a, 3], wk[a, 4], wk[a, 5], radius[i], qa, qb, qc, qd,
-                             qr, out)
+    return not (S[i, X] - wk[a, 0] > max(qa, qc) + qr or S[i, X] + wk[a, 0] < min(qa, qc) - qr
+                or S[i, Y] - wk[a, 1] > max(qb, qd) + qr
+                or S[i, Y] + wk[a, 1] < min(qb, qd) - qr)
 
 
 @nb.njit(cache=True)
@@ -174,24 +182,34 @@ def _run(keys, p, n, a, m):
 
 @nb.njit(cache=True)
 def _sweep(S, mem, na, nt, caps, ocaps, o0, o1, wk, keys, okeys):
-    """``_contacts``' candidates of a large island: sort and sweep along x.
+    """``_contacts``' candidates of a large island: sort and sweep.
 
-    The members' and capsules' x-extents (``_contacts``' boxes, padded by 1e-9 of their
-    magnitude so that no pair the exact test keeps is missed) sorted by their low end; the
-    pairs whose extents overlap, with a moving first member, as sorted keys: a nt + b for
-    members a < b (``keys``), a no + c for member a and capsule c (``okeys``).  Returns
-    their counts.
+    Along x or y, whichever the members' centres spread over more: the members' and
+    capsules' extents (``_contacts``' boxes, padded by 1e-9 of their magnitude so that no
+    pair the exact test keeps is missed) sorted by their low end; the pairs whose extents
+    overlap, with a moving first member, and whose boxes overlap on the other axis too
+    (``_contacts``' own tests), as sorted keys: a nt + b for members a < b (``keys``), a no +
+    c for member a and capsule c (``okeys``).  Returns their counts.
     """
     no = o1 - o0
     ni = nt + no
+    x0 = y0 = np.inf
+    x1 = y1 = -np.inf
+    for a in range(nt):
+        x, y = S[mem[a], X], S[mem[a], Y]
+        x0, x1, y0, y1 = min(x0, x), max(x1, x), min(y0, y), max(y1, y)
+    ax = X if x1 - x0 >= y1 - y0 else Y
+    e = 0 if ax == X else 1
     lo = np.empty(ni)
     hi = np.empty(ni)
     for a in range(nt):
-        x, ex = S[mem[a], X], wk[a, 0]
+        x, ex = S[mem[a], ax], wk[a, e]
         pad = 1e-9 * (abs(x) + ex)
         lo[a], hi[a] = x - ex - pad, x + ex + pad
     for c in range(no):
         qa, qb, qc, qd, qr = capsule_row(caps, ocaps[o0 + c])
+        if ax == Y:
+            qa, qc = qb, qd
         pad = 1e-9 * (abs(qa) + abs(qc) + qr)
         lo[nt + c], hi[nt + c] = min(qa, qc) - qr - pad, max(qa, qc) + qr + pad
     order = np.argsort(lo)
@@ -206,9 +224,15 @@ def _sweep(S, mem, na, nt, caps, ocaps, o0, o1, wk, keys, okeys):
             if a >= na:
                 continue  # no moving member (two fixed logs, a fixed log and a capsule)
             if b < nt:
+                i, j = mem[a], mem[b]
+                if abs(S[i, X] - S[j, X]) > wk[a, 0] + wk[b, 0] or \
+                        abs(S[i, Y] - S[j, Y]) > wk[a, 1] + wk[b, 1]:
+                    continue  # _log_pair's box test
                 keys[nl] = a * nt + b
                 nl += 1
             else:
+                if not _cap_box(S, mem, wk, a, caps, ocaps[o0 + b - nt]):
+                    continue
                 okeys[nk] = a * no + (b - nt)
                 nk += 1
     keys[:nl] = np.sort(keys[:nl])

@@ -255,27 +255,32 @@ def _contacts_reference(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, mar
     return found
 
 
-@pytest.mark.parametrize("n,stopped,ncap", [(12, 0, 3), (20, 4, 8), (300, 0, 0), (300, 40, 25),
-                                            (900, 60, 12)])
+@pytest.mark.parametrize("n,stopped,ncap,aspect", [(12, 0, 3, 1.0), (20, 4, 8, 1.0),
+                                                   (300, 0, 0, 1.0), (300, 40, 25, 0.1),
+                                                   (900, 60, 12, 8.0)])
 @pytest.mark.parametrize("use_margin", [False, True])
-def test_island_contacts_sweep_finds_every_pair_in_order(rng, n, stopped, ncap, use_margin):
+def test_island_contacts_sweep_finds_every_pair_in_order(rng, n, stopped, ncap, aspect,
+                                                         use_margin):
     """The event islands' contact search (sort and sweep above ``ALL_PAIRS`` bodies) finds
     the contacts of testing every pair, in the same order, with the same numbers: a jam of
-    logs packed closer than their length, some stopped (fixed), and pier capsules."""
+    logs packed closer than their length (wider than long, or longer than wide: the sweep
+    runs along either axis), some stopped (fixed), and pier capsules."""
     from driftlog.columns import NRES
     from driftlog.island_kernel import ALL_PAIRS, _contacts
 
     side = 2.2 * np.sqrt(n)  # 2-m logs about 2.2 m apart: many touch
     nrows = n + 7
     S = np.zeros((nrows, 6))
-    S[:, X] = rng.uniform(0, side, nrows) + 1e4  # far from the origin: round-off in the pad
-    S[:, Y] = rng.uniform(0, side, nrows) - 3e3
+    # far from the origin: round-off in the pad
+    S[:, X] = rng.uniform(0, side * np.sqrt(aspect), nrows) + 1e4
+    S[:, Y] = rng.uniform(0, side / np.sqrt(aspect), nrows) - 3e3
     S[:, 2] = rng.uniform(-np.pi, np.pi, nrows)
     length = rng.uniform(1.5, 2.5, nrows)
     radius = rng.uniform(0.1, 0.2, nrows)
     mem = rng.permutation(nrows)[:n].astype(np.int64)
     na, nt = n - stopped, n
-    cx, cy = rng.uniform(0, side, 40) + 1e4, rng.uniform(0, side, 40) - 3e3
+    cx = rng.uniform(0, side * np.sqrt(aspect), 40) + 1e4
+    cy = rng.uniform(0, side / np.sqrt(aspect), 40) - 3e3
     caps = np.column_stack([cx, cy, cx + rng.uniform(-3, 3, 40), cy + rng.uniform(-3, 3, 40),
                             rng.uniform(0.2, 0.5, 40)])
     ocaps = np.concatenate([[39, 38], rng.permutation(38)[:ncap]]).astype(np.int64)
