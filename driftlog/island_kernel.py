@@ -596,8 +596,11 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
             if ncand:
                 h = _conservative(S, length, radius, mem, caps, ocaps, o0, e1, e2, eres, ncand,
                                   tol, dt, near_share * rmin)
-            # the step; rejected and shortened while a contact was missed
-            _first_stage(S, F, D0, lin0, P, opt, mem, na)
+            # the step; rejected and shortened while a contact was missed (the first stage
+            # again where impulses may have changed the logs: with no contact it is the one
+            # computed for the bound, on the same states and flow)
+            if nc:
+                _first_stage(S, F, D0, lin0, P, opt, mem, na)
             for a in range(na):
                 i = mem[a]
                 for k in range(6):

@@ -141,15 +141,26 @@ def island_pairs(Sl, ln, rd, na, margin, caps, ocaps):
                     out = _push(out, m, a, -(c + 1))
                     m += 1
         return out[:m].copy(), nll
-    # sort and sweep along x (boxes padded by round-off; the exact tests decide)
+    # sort and sweep along x or y, whichever the logs spread over more (boxes padded by
+    # round-off; the exact tests decide)
     ni = na + no
+    x0 = y0 = np.inf
+    x1 = y1 = -np.inf
+    for a in range(na):
+        x0, x1 = min(x0, Sl[a, X]), max(x1, Sl[a, X])
+        y0, y1 = min(y0, Sl[a, Y]), max(y1, Sl[a, Y])
+    along_x = x1 - x0 >= y1 - y0
+    ax = X if along_x else Y
+    ext = ex if along_x else ey
     lo = np.empty(ni)
     hi = np.empty(ni)
     for a in range(na):
-        pad = 1e-9 * (abs(Sl[a, X]) + ex[a])
-        lo[a], hi[a] = Sl[a, X] - ex[a] - pad, Sl[a, X] + ex[a] + pad
+        pad = 1e-9 * (abs(Sl[a, ax]) + ext[a])
+        lo[a], hi[a] = Sl[a, ax] - ext[a] - pad, Sl[a, ax] + ext[a] + pad
     for c in range(no):
         qa, qb, qc, qd, qr = capsule_row(caps, ocaps[c])
+        if not along_x:
+            qa, qc = qb, qd
         pad = 1e-9 * (abs(qa) + abs(qc) + qr)
         lo[na + c], hi[na + c] = min(qa, qc) - qr - pad, max(qa, qc) + qr + pad
     order = np.argsort(lo)

@@ -376,7 +376,7 @@ def test_island_pairs_are_the_broad_phase_pairs():
     from driftlog.moreau_kernel import ALL_PAIRS, island_pairs
 
     rng = np.random.default_rng(11)
-    for n in (5, 300):
+    for n, across in ((5, False), (300, False), (300, True)):
         S = np.zeros((n, 6))
         S[:, 0], S[:, 1] = rng.uniform(0, 0.4 * n, n), rng.uniform(0, 6, n)
         S[:, 2] = rng.uniform(0, np.pi, n)
@@ -384,6 +384,10 @@ def test_island_pairs_are_the_broad_phase_pairs():
         margin = rng.uniform(0.0, 0.3, n)
         caps = np.array([[0.0, 3.0, 0.4 * n, 3.0, 0.0], [5.0, 1.0, 5.0, 1.0, 0.5],
                          [1.0, 0.0, 1.5, 6.0, 0.05]])
+        if across:  # the same scene turned a quarter: the sweep runs along y
+            S[:, [0, 1]] = S[:, [1, 0]]
+            S[:, 2] = 0.5 * np.pi - S[:, 2]
+            caps = caps[:, [1, 0, 3, 2, 4]].copy()
         ocaps = np.array([0, 2], np.int64)
         pairs, nll = island_pairs(S, length, radius, n, margin, caps, ocaps)
         ex, ey = np.empty(n), np.empty(n)
