@@ -267,7 +267,7 @@ def add_hit(first, nhit, hit_t, hit_log, hit_other, hit_j, hit_x, hit_y, t, lid,
     return True
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def _diverged(S, mem, na):
     """True when a state of the island's logs ``mem[:na]`` is not finite."""
     for a in range(na):
@@ -333,7 +333,7 @@ def _sample_at(x, y, hint, ts, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, 
     return sample_point(x, y, hint, a, inv, vals, dry_depth, recovered, loc)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def _step_one(S, D0, F, flag, face, lin0, i, p, opt, t, dt, method, tracer, rotation,
               vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc):
     """One integrator step of log i from t (first stage D0[i]); flow and D0 at its end."""
@@ -354,7 +354,7 @@ def _step_one(S, D0, F, flag, face, lin0, i, p, opt, t, dt, method, tracer, rota
     put_row(S, i, s)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def _first_stage(S, F, D0, lin0, P, opt, mem, na):
     """D0, lin0 of the active members at their state and sampled flow (``Tracker._rhs``)."""
     for a in range(na):
