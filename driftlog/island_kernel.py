@@ -123,8 +123,8 @@ def _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, use_m
     count.  The pairs come by first member, then its other members by position, then its
     capsules.  Islands of up to ``ALL_PAIRS`` bodies test all their pairs; larger ones
     (a jam of hundreds of logs) take the pairs whose boxes overlap from a sort and sweep
-    (``_sweep``), in the same order, tested by the same arithmetic: the same contacts.  wk (>= nt, 6): each member's box half-extents and axis ends; keys, okeys:
-    work buffers.
+    (``_sweep``), in the same order, tested by the same arithmetic: the same contacts.  wk
+    (>= nt, 6): each member's box half-extents and axis ends; keys, okeys: work buffers.
     """
     nc = 0
     out = np.empty(NRES)
