@@ -67,14 +67,144 @@ HIT_FULL = 4  # the hit buffer is full: the caller grows it and runs the window 
  ST_LOG_STEPS) = range(7)
 NSTAT = 7
 OBST_BIT = 1 << 31
-# islands of at most this many bodies (logs and capsules) test all their pairs in _contacts
-ALL_PAIRS = 24
 
 
 @nb.njit(cache=True, inline="always")
 def _pair_key(id1, id2):
     """``contact.model._body_pairs``: one integer per (log id, other body)."""
     return np.int64(id1) * np.int64(1 << 32) + np.int64(id2)
+
+
+# islands of at most this many bodies (logs and capsules) test all their pairs
+ALL_PAIRS = 24
+
+
+@nb.njit(cache=True)
+def _push(out, m, a, b):
+    """Append the pair (a, b) at row m of out, grown when full; returns out."""
+    if m == out.shape[0]:
+        grown = np.empty((2 * m + 16, 2), np.int64)
+        grown[:m] = out[:m]
+        out = grown
+    out[m, 0] = a
+    out[m, 1] = b
+    return out
+
+
+@nb.njit(cache=True, inline="always")
+def _log_log_apart(Sl, a, b, ex, ey):
+    """``broadphase.grid_pairs``' test: the boxes of logs a and b do not overlap."""
+    return abs(Sl[a, X] - Sl[b, X]) > ex[a] + ex[b] or abs(Sl[a, Y] - Sl[b, Y]) > ey[a] + ey[b]
+
+
+@nb.njit(cache=True, inline="always")
+def _log_cap_apart(Sl, a, ex, ey, caps, cap):
+    """``broadphase.StaticGrid.query``'s test: log a's box misses capsule cap's box."""
+    qa, qb, qc, qd, qr = capsule_row(caps, cap)
+    return (Sl[a, X] - ex[a] > max(qa, qc) + qr or Sl[a, X] + ex[a] < min(qa, qc) - qr
+            or Sl[a, Y] - ey[a] > max(qb, qd) + qr or Sl[a, Y] + ey[a] < min(qb, qd) - qr)
+
+
+@nb.njit(cache=True)
+def island_pairs(Sl, ln, rd, na, margin, caps, ocaps):
+    """Candidate pairs of an island: its logs' boxes (capsule plus ``margin``) that overlap.
+
+    Parameters
+    ----------
+    Sl : (>= na, 6) the island's states (local rows 0 .. na - 1).
+    ln, rd, margin : (>= na) lengths, radii and box margins (``broadphase.log_boxes``).
+    caps : (m, 5) all obstacle capsules; ocaps : the island's capsule indices.
+
+    Returns
+    -------
+    pairs : (k, 2) int64
+        Log pairs (a, b), a < b, by a then b; then log-capsule pairs (a, -(c + 1)) for capsule
+        ``ocaps[c]``, by a then c.  The box tests of ``broadphase`` (the same pairs as
+        ``grid_pairs`` and ``StaticGrid.query``).
+    nll : int
+        How many are log pairs.
+    """
+    no = ocaps.size
+    ex = np.empty(na)
+    ey = np.empty(na)
+    for a in range(na):
+        h = 0.5 * ln[a]
+        ex[a] = h * abs(np.cos(Sl[a, THETA])) + rd[a] + margin[a]
+        ey[a] = h * abs(np.sin(Sl[a, THETA])) + rd[a] + margin[a]
+    out = np.empty((max(16, 2 * na), 2), np.int64)
+    m = 0
+    if na + no <= ALL_PAIRS:
+        for a in range(na):
+            for b in range(a + 1, na):
+                if not _log_log_apart(Sl, a, b, ex, ey):
+                    out = _push(out, m, a, b)
+                    m += 1
+        nll = m
+        for a in range(na):
+            for c in range(no):
+                if not _log_cap_apart(Sl, a, ex, ey, caps, ocaps[c]):
+                    out = _push(out, m, a, -(c + 1))
+                    m += 1
+        return out[:m].copy(), nll
+    # sort and sweep along x or y, whichever the logs spread over more (boxes padded by
+    # round-off; the exact tests decide)
+    ni = na + no
+    x0 = y0 = np.inf
+    x1 = y1 = -np.inf
+    for a in range(na):
+        x0, x1 = min(x0, Sl[a, X]), max(x1, Sl[a, X])
+        y0, y1 = min(y0, Sl[a, Y]), max(y1, Sl[a, Y])
+    along_x = x1 - x0 >= y1 - y0
+    ax = X if along_x else Y
+    ext = ex if along_x else ey
+    lo = np.empty(ni)
+    hi = np.empty(ni)
+    for a in range(na):
+        pad = 1e-9 * (abs(Sl[a, ax]) + ext[a])
+        lo[a], hi[a] = Sl[a, ax] - ext[a] - pad, Sl[a, ax] + ext[a] + pad
+    for c in range(no):
+        qa, qb, qc, qd, qr = capsule_row(caps, ocaps[c])
+        if not along_x:
+            qa, qc = qb, qd
+        pad = 1e-9 * (abs(qa) + abs(qc) + qr)
+        lo[na + c], hi[na + c] = min(qa, qc) - qr - pad, max(qa, qc) + qr + pad
+    order = np.argsort(lo)
+    keys_ll = np.empty(16, np.int64)
+    keys_lo = np.empty(16, np.int64)
+    nl = 0
+    nk = 0
+    for s in range(ni):
+        p = order[s]
+        for s2 in range(s + 1, ni):
+            q = order[s2]
+            if lo[q] > hi[p]:
+                break
+            a, b = (p, q) if p < q else (q, p)
+            if a >= na:
+                continue  # two capsules
+            if b < na:
+                if _log_log_apart(Sl, a, b, ex, ey):
+                    continue
+                if nl == keys_ll.size:
+                    keys_ll = np.concatenate((keys_ll, np.empty(nl + 16, np.int64)))
+                keys_ll[nl] = a * na + b
+                nl += 1
+            else:
+                c = b - na
+                if _log_cap_apart(Sl, a, ex, ey, caps, ocaps[c]):
+                    continue
+                if nk == keys_lo.size:
+                    keys_lo = np.concatenate((keys_lo, np.empty(nk + 16, np.int64)))
+                keys_lo[nk] = a * no + c
+                nk += 1
+    kl = np.sort(keys_ll[:nl])
+    ko = np.sort(keys_lo[:nk])
+    out = np.empty((nl + nk, 2), np.int64)
+    for k in range(nl):
+        out[k, 0], out[k, 1] = kl[k] // na, kl[k] % na
+    for k in range(nk):
+        out[nl + k, 0], out[nl + k, 1] = ko[k] // no, -(ko[k] % no + 1)
+    return out, nl
 
 
 @nb.njit(cache=True, inline="always")
@@ -110,7 +240,7 @@ def _cap_box(S, mem, wk, a, caps, cap):
 
 @nb.njit(cache=True)
 def _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, use_margin, gmax,
-              c1, c2, cres, wk, keys, okeys):
+              c1, c2, cres, wk):
     """Pairs of active members (and member - obstacle capsule) whose boxes overlap.
 
     The members mem[:na] move; mem[na:nt] are fixed (logs stopped in the window,
@@ -122,9 +252,10 @@ def _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, use_m
     positions (c2 = -(k + 1) for obstacle capsule ocaps[k]); cres: (NRES) rows.  Returns the
     count.  The pairs come by first member, then its other members by position, then its
     capsules.  Islands of up to ``ALL_PAIRS`` bodies test all their pairs; larger ones
-    (a jam of hundreds of logs) take the pairs whose boxes overlap from a sort and sweep
-    (``_sweep``), in the same order, tested by the same arithmetic: the same contacts.  wk
-    (>= nt, 6): each member's box half-extents and axis ends; keys, okeys: work buffers.
+    (a jam of hundreds of logs) take the pairs whose boxes overlap from ``island_pairs``'
+    sort and sweep (the same boxes and tests), in the same order, tested by the same
+    arithmetic: the same contacts.  wk (>= nt, 6): each member's box half-extents and axis
+    ends.
     """
     nc = 0
     out = np.empty(NRES)
@@ -138,16 +269,23 @@ def _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, use_m
         wk[a, 2], wk[a, 3], wk[a, 4], wk[a, 5] = log_endpoints(S[i, X], S[i, Y], S[i, THETA],
                                                                length[i])
     small = nt + no <= ALL_PAIRS
-    nl = nk = 0
-    if not small:
-        nl, nk = _sweep(S, mem, na, nt, caps, ocaps, o0, o1, wk, keys, okeys)
-    pl = po = 0
+    pairs = np.empty((0, 2), np.int64)
+    nll = 0
+    if not small:  # the members' rows in island_pairs' local layout
+        sl, ln, rd, mg = np.empty((nt, 3)), np.empty(nt), np.empty(nt), np.empty(nt)
+        for a in range(nt):
+            i = mem[a]
+            sl[a, X], sl[a, Y], sl[a, THETA] = S[i, X], S[i, Y], S[i, THETA]
+            ln[a], rd[a] = length[i], radius[i]
+            mg[a] = margin[a] if use_margin else gmax
+        pairs, nll = island_pairs(sl, ln, rd, nt, mg, caps, ocaps[o0:o1])
+    pl, po = 0, nll
     for a in range(na):
-        for k in range(nt - a - 1 if small else _run(keys, pl, nl, a, nt)):
+        for k in range(nt - a - 1 if small else _count(pairs, pl, nll, a)):
             if small:
                 b = a + 1 + k
             else:
-                b = keys[pl] % nt
+                b = pairs[pl, 1]
                 pl += 1
             near, g = _log_pair(S, radius, mem, wk, a, b, out)
             if near and (use_margin or g <= gmax):
@@ -155,11 +293,11 @@ def _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, use_m
                 for q in range(NRES):
                     cres[nc, q] = out[q]
                 nc += 1
-        for m in range(no if small else _run(okeys, po, nk, a, no)):
+        for m in range(no if small else _count(pairs, po, pairs.shape[0], a)):
             if small:
                 k = o0 + m
             else:
-                k = o0 + okeys[po] % no
+                k = o0 - pairs[po, 1] - 1
                 po += 1
             near, g = _cap_pair(S, radius, mem, wk, a, caps, ocaps[k], out)
             if near and (use_margin or g <= gmax):
@@ -171,72 +309,12 @@ def _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, use_m
 
 
 @nb.njit(cache=True, inline="always")
-def _run(keys, p, n, a, m):
-    """How many of the sorted keys[p:n] belong to first member a (keys a m + b, b < m)."""
+def _count(pairs, p, n, a):
+    """How many of the rows p .. n - 1 of ``pairs`` (sorted by first body) have first body a."""
     k = p
-    while k < n and keys[k] // m == a:
+    while k < n and pairs[k, 0] == a:
         k += 1
     return k - p
-
-
-@nb.njit(cache=True)
-def _sweep(S, mem, na, nt, caps, ocaps, o0, o1, wk, keys, okeys):
-    """``_contacts``' candidates of a large island: sort and sweep.
-
-    Along x or y, whichever the members' centres spread over more: the members' and
-    capsules' extents (``_contacts``' boxes, padded by 1e-9 of their magnitude so that no
-    pair the exact test keeps is missed) sorted by their low end; the pairs whose extents
-    overlap, with a moving first member, and whose boxes overlap on the other axis too
-    (``_contacts``' own tests), as sorted keys: a nt + b for members a < b (``keys``), a no +
-    c for member a and capsule c (``okeys``).  Returns their counts.
-    """
-    no = o1 - o0
-    ni = nt + no
-    x0 = y0 = np.inf
-    x1 = y1 = -np.inf
-    for a in range(nt):
-        x, y = S[mem[a], X], S[mem[a], Y]
-        x0, x1, y0, y1 = min(x0, x), max(x1, x), min(y0, y), max(y1, y)
-    ax = X if x1 - x0 >= y1 - y0 else Y
-    e = 0 if ax == X else 1
-    lo = np.empty(ni)
-    hi = np.empty(ni)
-    for a in range(nt):
-        x, ex = S[mem[a], ax], wk[a, e]
-        pad = 1e-9 * (abs(x) + ex)
-        lo[a], hi[a] = x - ex - pad, x + ex + pad
-    for c in range(no):
-        qa, qb, qc, qd, qr = capsule_row(caps, ocaps[o0 + c])
-        if ax == Y:
-            qa, qc = qb, qd
-        pad = 1e-9 * (abs(qa) + abs(qc) + qr)
-        lo[nt + c], hi[nt + c] = min(qa, qc) - qr - pad, max(qa, qc) + qr + pad
-    order = np.argsort(lo)
-    nl = nk = 0
-    for s in range(ni):
-        p = order[s]
-        for s2 in range(s + 1, ni):
-            q = order[s2]
-            if lo[q] > hi[p]:
-                break
-            a, b = (p, q) if p < q else (q, p)
-            if a >= na:
-                continue  # no moving member (two fixed logs, a fixed log and a capsule)
-            if b < nt:
-                i, j = mem[a], mem[b]
-                if abs(S[i, X] - S[j, X]) > wk[a, 0] + wk[b, 0] or \
-                        abs(S[i, Y] - S[j, Y]) > wk[a, 1] + wk[b, 1]:
-                    continue  # _log_pair's box test
-                keys[nl] = a * nt + b
-                nl += 1
-            else:
-                if not _cap_box(S, mem, wk, a, caps, ocaps[o0 + b - nt]):
-                    continue
-                okeys[nk] = a * no + (b - nt)
-                nk += 1
-    keys[:nl] = np.sort(keys[:nl])
-    okeys[:nk] = np.sort(okeys[:nk])
-    return nl, nk
 
 
 @nb.njit(cache=True, inline="always")
@@ -449,9 +527,7 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
     li = np.empty(nmax)
     b1 = np.empty(cap_c, np.int64)
     b2 = np.empty(cap_c, np.int64)
-    wk = np.empty((nmax, 6))  # _contacts' work rows and keys
-    keys = np.empty(cap_c, np.int64)
-    okeys = np.empty(cap_c, np.int64)
+    wk = np.empty((nmax, 6))  # _contacts' work rows
     for q in range(start.size - 1):
         code[q] = OK
         t_code[q] = t0
@@ -488,7 +564,7 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
             tol = tolerance * rmin
             # contacts within tol: impulses (ContactModel._event)
             nc = _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, False,
-                           tol, c1, c2, cres, wk, keys, okeys)
+                           tol, c1, c2, cres, wk)
             events = 0
             for c in range(nc):
                 i = mem[c1[c]]
@@ -591,7 +667,7 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                       + abs(S[i, OMEGA]) * (0.5 * length[i] + radius[i]))
                 margin[a] = sp * dt + tol
             ncand = _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, True,
-                              tol, e1, e2, eres, wk, keys, okeys)
+                              tol, e1, e2, eres, wk)
             if ncand:
                 h = _conservative(S, length, radius, mem, caps, ocaps, o0, e1, e2, eres, ncand,
                                   tol, dt, near_share * rmin)
@@ -618,7 +694,7 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                               t_split, dry_depth, recovered, loc)
                 stats[ST_ADVANCES] += 1
                 ne = _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, False,
-                               tol, e1, e2, eres, wk, keys, okeys)
+                               tol, e1, e2, eres, wk)
                 gmin = np.inf
                 kdeep = -1
                 for c in range(ne):

@@ -60,6 +60,7 @@ from driftlog.island_kernel import (
     _step_one,
     _still_floating,
     add_hit,
+    island_pairs,
     split_stopped,
 )
 
@@ -70,138 +71,6 @@ __all__ = ["moreau_islands", "moreau_islands_parallel", "island_pairs", "NSTAT",
 # again, alone, because they filled their range of its buffers
 ST_STEPS, ST_ADVANCES, ST_PGS, ST_PGS_MAX, ST_MAX_CONTACTS, ST_LOG_STEPS, ST_RERUNS = range(7)
 NSTAT = 7
-# islands of at most this many bodies (logs and capsules) test all their pairs
-ALL_PAIRS = 24
-
-
-@nb.njit(cache=True)
-def _push(out, m, a, b):
-    """Append the pair (a, b) at row m of out, grown when full; returns out."""
-    if m == out.shape[0]:
-        grown = np.empty((2 * m + 16, 2), np.int64)
-        grown[:m] = out[:m]
-        out = grown
-    out[m, 0] = a
-    out[m, 1] = b
-    return out
-
-
-@nb.njit(cache=True, inline="always")
-def _log_log_apart(Sl, a, b, ex, ey):
-    """``broadphase.grid_pairs``' test: the boxes of logs a and b do not overlap."""
-    return abs(Sl[a, X] - Sl[b, X]) > ex[a] + ex[b] or abs(Sl[a, Y] - Sl[b, Y]) > ey[a] + ey[b]
-
-
-@nb.njit(cache=True, inline="always")
-def _log_cap_apart(Sl, a, ex, ey, caps, cap):
-    """``broadphase.StaticGrid.query``'s test: log a's box misses capsule cap's box."""
-    qa, qb, qc, qd, qr = capsule_row(caps, cap)
-    return (Sl[a, X] - ex[a] > max(qa, qc) + qr or Sl[a, X] + ex[a] < min(qa, qc) - qr
-            or Sl[a, Y] - ey[a] > max(qb, qd) + qr or Sl[a, Y] + ey[a] < min(qb, qd) - qr)
-
-
-@nb.njit(cache=True)
-def island_pairs(Sl, ln, rd, na, margin, caps, ocaps):
-    """Candidate pairs of an island: its logs' boxes (capsule plus ``margin``) that overlap.
-
-    Parameters
-    ----------
-    Sl : (>= na, 6) the island's states (local rows 0 .. na - 1).
-    ln, rd, margin : (>= na) lengths, radii and box margins (``broadphase.log_boxes``).
-    caps : (m, 5) all obstacle capsules; ocaps : the island's capsule indices.
-
-    Returns
-    -------
-    pairs : (k, 2) int64
-        Log pairs (a, b), a < b, by a then b; then log-capsule pairs (a, -(c + 1)) for capsule
-        ``ocaps[c]``, by a then c.  The box tests of ``broadphase`` (the same pairs as
-        ``grid_pairs`` and ``StaticGrid.query``).
-    nll : int
-        How many are log pairs.
-    """
-    no = ocaps.size
-    ex = np.empty(na)
-    ey = np.empty(na)
-    for a in range(na):
-        h = 0.5 * ln[a]
-        ex[a] = h * abs(np.cos(Sl[a, THETA])) + rd[a] + margin[a]
-        ey[a] = h * abs(np.sin(Sl[a, THETA])) + rd[a] + margin[a]
-    out = np.empty((max(16, 2 * na), 2), np.int64)
-    m = 0
-    if na + no <= ALL_PAIRS:
-        for a in range(na):
-            for b in range(a + 1, na):
-                if not _log_log_apart(Sl, a, b, ex, ey):
-                    out = _push(out, m, a, b)
-                    m += 1
-        nll = m
-        for a in range(na):
-            for c in range(no):
-                if not _log_cap_apart(Sl, a, ex, ey, caps, ocaps[c]):
-                    out = _push(out, m, a, -(c + 1))
-                    m += 1
-        return out[:m].copy(), nll
-    # sort and sweep along x or y, whichever the logs spread over more (boxes padded by
-    # round-off; the exact tests decide)
-    ni = na + no
-    x0 = y0 = np.inf
-    x1 = y1 = -np.inf
-    for a in range(na):
-        x0, x1 = min(x0, Sl[a, X]), max(x1, Sl[a, X])
-        y0, y1 = min(y0, Sl[a, Y]), max(y1, Sl[a, Y])
-    along_x = x1 - x0 >= y1 - y0
-    ax = X if along_x else Y
-    ext = ex if along_x else ey
-    lo = np.empty(ni)
-    hi = np.empty(ni)
-    for a in range(na):
-        pad = 1e-9 * (abs(Sl[a, ax]) + ext[a])
-        lo[a], hi[a] = Sl[a, ax] - ext[a] - pad, Sl[a, ax] + ext[a] + pad
-    for c in range(no):
-        qa, qb, qc, qd, qr = capsule_row(caps, ocaps[c])
-        if not along_x:
-            qa, qc = qb, qd
-        pad = 1e-9 * (abs(qa) + abs(qc) + qr)
-        lo[na + c], hi[na + c] = min(qa, qc) - qr - pad, max(qa, qc) + qr + pad
-    order = np.argsort(lo)
-    keys_ll = np.empty(16, np.int64)
-    keys_lo = np.empty(16, np.int64)
-    nl = 0
-    nk = 0
-    for s in range(ni):
-        p = order[s]
-        for s2 in range(s + 1, ni):
-            q = order[s2]
-            if lo[q] > hi[p]:
-                break
-            a, b = (p, q) if p < q else (q, p)
-            if a >= na:
-                continue  # two capsules
-            if b < na:
-                if _log_log_apart(Sl, a, b, ex, ey):
-                    continue
-                if nl == keys_ll.size:
-                    keys_ll = np.concatenate((keys_ll, np.empty(nl + 16, np.int64)))
-                keys_ll[nl] = a * na + b
-                nl += 1
-            else:
-                c = b - na
-                if _log_cap_apart(Sl, a, ex, ey, caps, ocaps[c]):
-                    continue
-                if nk == keys_lo.size:
-                    keys_lo = np.concatenate((keys_lo, np.empty(nk + 16, np.int64)))
-                keys_lo[nk] = a * no + c
-                nk += 1
-    kl = np.sort(keys_ll[:nl])
-    ko = np.sort(keys_lo[:nk])
-    out = np.empty((nl + nk, 2), np.int64)
-    for k in range(nl):
-        out[k, 0], out[k, 1] = kl[k] // na, kl[k] % na
-    for k in range(nk):
-        out[nl + k, 0], out[nl + k, 1] = ko[k] // no, -(ko[k] % no + 1)
-    return out, nl
-
-
 @nb.njit(cache=True, inline="always")
 def _pair_speed(Sl, ln, rd, a, e):
     """How fast the geometry of pair (a, e) changes: relative speed plus both turning rates.

@@ -373,7 +373,7 @@ def test_island_pairs_are_the_broad_phase_pairs():
     # finds the pairs of broadphase.grid_pairs and StaticGrid.query, ordered by log then
     # other body
     from driftlog.contact.broadphase import StaticGrid, grid_pairs, log_boxes
-    from driftlog.moreau_kernel import ALL_PAIRS, island_pairs
+    from driftlog.island_kernel import ALL_PAIRS, island_pairs
 
     rng = np.random.default_rng(11)
     for n, across in ((5, False), (300, False), (300, True)):

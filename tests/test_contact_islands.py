@@ -288,9 +288,8 @@ def test_island_contacts_sweep_finds_every_pair_in_order(rng, n, stopped, ncap, 
     margin = rng.uniform(0.0, 0.4, n)
     cap = n * n + n * ncap + 1
     c1, c2, cres = np.empty(cap, np.int64), np.empty(cap, np.int64), np.empty((cap, NRES))
-    wk, keys, okeys = np.empty((n, 6)), np.empty(cap, np.int64), np.empty(cap, np.int64)
     nc = _contacts(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin, use_margin, 0.05,
-                   c1, c2, cres, wk, keys, okeys)
+                   c1, c2, cres, np.empty((n, 6)))
     ref = _contacts_reference(S, length, radius, mem, na, nt, caps, ocaps, o0, o1, margin,
                               use_margin, 0.05)
     got = [(c1[k], c2[k], *cres[k]) for k in range(nc)]
