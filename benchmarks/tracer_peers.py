@@ -33,11 +33,13 @@ before, one after), divided by the difference in particle-steps.  Accuracy:
 each tool's largest and mean position error against the exact trajectories after 900 s, for
 several steps.
 
-    python benchmarks/tracer_peers.py [--quick] [--tools driftlog ...]
+    python benchmarks/tracer_peers.py [--quick] [--tools driftlog ...] [--repeat 3]
 
 writes benchmarks/results/tracer_peers{,_quick}.{json,md}; with ``--tools`` only those tools
 run (driftlog always), into tracer_peers{,_quick}_<tools>.{json,md} (e.g. a rerun of driftlog
-alone after a change, beside the peers' figures of the full table).
+alone after a change, beside the peers' figures of the full table).  Each tool's speed is its
+fastest of ``--repeat`` runs per size, the tools alternated.  driftlog alone, two versions
+in one process: ``--gradients-ab``, ``--snapshots-ab``, ``--order-ab``.
 """
 
 from __future__ import annotations

@@ -92,17 +92,29 @@ def _push(out, m, a, b):
 
 
 @nb.njit(cache=True, inline="always")
+def _boxes_apart(x1, y1, ex1, ey1, x2, y2, ex2, ey2):
+    """``broadphase.grid_pairs``' test: boxes (centre, half-extents) 1 and 2 do not overlap."""
+    return abs(x1 - x2) > ex1 + ex2 or abs(y1 - y2) > ey1 + ey2
+
+
+@nb.njit(cache=True, inline="always")
+def _box_misses_capsule(x, y, ex, ey, caps, cap):
+    """``StaticGrid.query``'s test: a box (centre, half-extents) misses capsule cap's box."""
+    qa, qb, qc, qd, qr = capsule_row(caps, cap)
+    return (x - ex > max(qa, qc) + qr or x + ex < min(qa, qc) - qr
+            or y - ey > max(qb, qd) + qr or y + ey < min(qb, qd) - qr)
+
+
+@nb.njit(cache=True, inline="always")
 def _log_log_apart(Sl, a, b, ex, ey):
-    """``broadphase.grid_pairs``' test: the boxes of logs a and b do not overlap."""
-    return abs(Sl[a, X] - Sl[b, X]) > ex[a] + ex[b] or abs(Sl[a, Y] - Sl[b, Y]) > ey[a] + ey[b]
+    """The boxes of the island's logs a and b (local rows) do not overlap."""
+    return _boxes_apart(Sl[a, X], Sl[a, Y], ex[a], ey[a], Sl[b, X], Sl[b, Y], ex[b], ey[b])
 
 
 @nb.njit(cache=True, inline="always")
 def _log_cap_apart(Sl, a, ex, ey, caps, cap):
-    """``broadphase.StaticGrid.query``'s test: log a's box misses capsule cap's box."""
-    qa, qb, qc, qd, qr = capsule_row(caps, cap)
-    return (Sl[a, X] - ex[a] > max(qa, qc) + qr or Sl[a, X] + ex[a] < min(qa, qc) - qr
-            or Sl[a, Y] - ey[a] > max(qb, qd) + qr or Sl[a, Y] + ey[a] < min(qb, qd) - qr)
+    """The box of the island's log a (local row) misses capsule cap's box."""
+    return _box_misses_capsule(Sl[a, X], Sl[a, Y], ex[a], ey[a], caps, cap)
 
 
 @nb.njit(cache=True)
@@ -211,8 +223,7 @@ def island_pairs(Sl, ln, rd, na, margin, caps, ocaps):
 def _log_pair(S, radius, mem, wk, a, b, out):
     """(whether the boxes of members a and b overlap, their gap: rows in ``out``)."""
     i, j = mem[a], mem[b]
-    if abs(S[i, X] - S[j, X]) > wk[a, 0] + wk[b, 0] or \
-            abs(S[i, Y] - S[j, Y]) > wk[a, 1] + wk[b, 1]:
+    if _boxes_apart(S[i, X], S[i, Y], wk[a, 0], wk[a, 1], S[j, X], S[j, Y], wk[b, 0], wk[b, 1]):
         return False, 0.0
     return True, capsule_gap(wk[a, 2], wk[a, 3], wk[a, 4], wk[a, 5], radius[i], wk[b, 2],
                              wk[b, 3], wk[b, 4], wk[b, 5], radius[j], out)
@@ -221,21 +232,12 @@ def _log_pair(S, radius, mem, wk, a, b, out):
 @nb.njit(cache=True, inline="always")
 def _cap_pair(S, radius, mem, wk, a, caps, cap, out):
     """(whether the boxes of member a and capsule ``cap`` meet, their gap: rows in ``out``)."""
-    if not _cap_box(S, mem, wk, a, caps, cap):
+    i = mem[a]
+    if _box_misses_capsule(S[i, X], S[i, Y], wk[a, 0], wk[a, 1], caps, cap):
         return False, 0.0
     qa, qb, qc, qd, qr = capsule_row(caps, cap)
-    return True, capsule_gap(wk[a, 2], wk[a, 3], wk[a, 4], wk[a, 5], radius[mem[a]], qa, qb, qc,
-                             qd, qr, out)
-
-
-@nb.njit(cache=True, inline="always")
-def _cap_box(S, mem, wk, a, caps, cap):
-    """Whether the boxes of member a and capsule ``cap`` meet."""
-    i = mem[a]
-    qa, qb, qc, qd, qr = capsule_row(caps, cap)
-    return not (S[i, X] - wk[a, 0] > max(qa, qc) + qr or S[i, X] + wk[a, 0] < min(qa, qc) - qr
-                or S[i, Y] - wk[a, 1] > max(qb, qd) + qr
-                or S[i, Y] + wk[a, 1] < min(qb, qd) - qr)
+    return True, capsule_gap(wk[a, 2], wk[a, 3], wk[a, 4], wk[a, 5], radius[i], qa, qb, qc, qd,
+                             qr, out)
 
 
 @nb.njit(cache=True)
