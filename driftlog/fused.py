@@ -29,7 +29,8 @@ bound per log (``settle_summary`` reduces them).  Tracer mode has kernels of its
 (``rk4_tracer_step``, ``euler_tracer_step``): no force evaluation, and the flow read from
 packed node rows (``pack_tracer_nodes``: coordinates and the pair's u, v, h in one 64-byte
 row per node) instead of the mesh's coordinate arrays and the 20-column node values; the
-samples are the general path's numbers bit for bit.
+samples are the general path's numbers bit for bit (each stage's point location walks on
+from the previous stage's face: ``rk4_tracer_step``).
 """
 
 import numba as nb
@@ -567,6 +568,10 @@ def rk4_tracer_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, a_m, pk_m, pr_
     weight ``a_m``) and t0 + dt (``pk_e``, ``pr_e``, ``a_e``): ``pack_tracer_nodes``.  A
     tracer's derivative is the flow's velocity (and rotation rate): the stages need no force
     evaluation; the columns of ``F`` written are those tracer mode computes (the others 0).
+    Each stage's point location (and the new position's) starts from the face the previous
+    stage found: the same face as a walk from t0's face wherever a point is inside one face,
+    so the same numbers (a point on an edge two faces share, within the walk's tolerance,
+    may be placed in the other face, whose P1 values agree there to round-off).
     """
     rot = opt[O_ROT] > 0.0
     for i in nb.prange(S0.shape[0]):
@@ -577,18 +582,24 @@ def rk4_tracer_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, a_m, pk_m, pr_
         dx0, dy0, dth0 = D0[i, X], D0[i, Y], D0[i, THETA]
         # stages 1 and 2 at t0 + dt/2, stage 3 at t0 + dt (the state arithmetic of
         # integrators.rk4_stage_row: s0 + c dt d)
+        # each stage's point location walks from the face the stage before it found (the
+        # log's face at t0 for the first): the stage points follow one another, a step of a
+        # tracer may cross many faces, and a walk from t0's face would cross them again
         c = RK4_C[1] * dt
-        _, _, _, u1, v1, uy, vx = sample_tracer(x0 + c * dx0, y0 + c * dy0, hint, a_m, pk_m,
+        f, _, _, u1, v1, uy, vx = sample_tracer(x0 + c * dx0, y0 + c * dy0, hint, a_m, pk_m,
                                                 pr_m, loc, dry_depth, recovered, False, rot)
         w1 = 0.5 * (vx - uy) if rot else 0.0
+        hint = f if f >= 0 else hint
         c = RK4_C[2] * dt
-        _, _, _, u2, v2, uy, vx = sample_tracer(x0 + c * u1, y0 + c * v1, hint, a_m, pk_m,
+        f, _, _, u2, v2, uy, vx = sample_tracer(x0 + c * u1, y0 + c * v1, hint, a_m, pk_m,
                                                 pr_m, loc, dry_depth, recovered, False, rot)
         w2 = 0.5 * (vx - uy) if rot else 0.0
+        hint = f if f >= 0 else hint
         c = RK4_C[3] * dt
-        _, _, _, u3, v3, uy, vx = sample_tracer(x0 + c * u2, y0 + c * v2, hint, a_e, pk_e,
+        f, _, _, u3, v3, uy, vx = sample_tracer(x0 + c * u2, y0 + c * v2, hint, a_e, pk_e,
                                                 pr_e, loc, dry_depth, recovered, False, rot)
         w3 = 0.5 * (vx - uy) if rot else 0.0
+        hint = f if f >= 0 else hint
         # integrators.rk4_final_row
         c6 = dt / 6.0
         x = x0 + c6 * (dx0 + 2.0 * (u1 + u2) + u3)

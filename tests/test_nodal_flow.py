@@ -109,6 +109,38 @@ def test_dry_nodes_have_no_velocity(mixed_mesh):
     assert s.u[0] == 0.0 and s.u[1] == pytest.approx(0.7, rel=1e-14)
 
 
+def test_node_columns_of_a_snapshot(mixed_mesh, rng):
+    """A node snapshot's columns, read in one pass (``flow.node_columns``): h, hu / h (0 at
+    and below the dry depth), hv / h, h + bed, bit for bit the numpy formulas; the gradient
+    columns NaN until a reader asks for them, then the recovered gradients."""
+    from driftlog.columns import NQ, Q_ETA, Q_H, Q_U, Q_UX, Q_V
+
+    n = mixed_mesh.n_nodes
+    h = rng.uniform(0.0, 2.0, n)
+    h[::7] = 0.0
+    h[1::7] = 1e-7  # below the default dry depth
+    hu, hv = rng.normal(0, 1, n) * h, rng.normal(0, 1, n) * h
+    bed = rng.uniform(-1, 1, n)
+    f = MeshFlowField.from_arrays(mixed_mesh, bed, [0.0, 5.0], [h, h], [hu, hu], [hv, hv],
+                                  location="node")
+    wet = h > f.dry_depth
+    assert not wet.all() and wet.any()
+    entry = f._load(0, gradients=False)
+    nodes = entry[3]
+    assert nodes.shape == (n, NQ)
+    safe = np.where(wet, h, 1.0)
+    np.testing.assert_array_equal(nodes[:, Q_H], h)
+    np.testing.assert_array_equal(nodes[:, Q_U], np.where(wet, hu / safe, 0.0))
+    np.testing.assert_array_equal(nodes[:, Q_V], np.where(wet, hv / safe, 0.0))
+    np.testing.assert_array_equal(nodes[:, Q_ETA], h + bed)
+    assert np.isnan(nodes[:, Q_UX:]).all()
+    f._load(0, gradients=True)
+    g = MeshFlowField.from_arrays(mixed_mesh, bed, [0.0, 5.0], [h, h], [hu, hu], [hv, hv],
+                                  location="node")
+    np.testing.assert_array_equal(nodes, g._load(0)[3])
+    assert np.isfinite(nodes).all()
+
+
 def test_bad_node_data(mixed_mesh):
     with pytest.raises(FlowFileError, match="the mesh has .* nodes"):
         MeshFlowField.from_arrays(mixed_mesh, np.zeros(mixed_mesh.n_faces), [0.0],
