@@ -413,6 +413,22 @@ def _sample_at(x, y, hint, ts, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, 
 
 
 @nb.njit(cache=True, _nrt=False)
+def _step_members(S, D0, F, flag, face, lin0, mem, na, P, opt, t, dt, method, tracer,
+                  rotation, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
+                  recovered, loc):
+    """``_step_one`` for the logs mem[:na], in one call.
+
+    The step is inlined here rather than called once per member: a call passes some 30
+    arguments (arrays, the locator's tuple) and the island kernels took a fifth of their time
+    in those calls on a Moreau-Jean crowd (the same numbers; BENCHMARKS.md, per-log clocks).
+    """
+    for a in range(na):
+        i = mem[a]
+        _step_one(S, D0, F, flag, face, lin0, i, P[i], opt, t, dt, method, tracer, rotation,
+                  vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc)
+
+
+@nb.njit(cache=True, inline="always")
 def _step_one(S, D0, F, flag, face, lin0, i, p, opt, t, dt, method, tracer, rotation,
               vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc):
     """One integrator step of log i from t (first stage D0[i]); flow and D0 at its end."""
@@ -690,8 +706,7 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                 if h < min_step:
                     code[q], t_code[q] = JAM, t
                     break
-                for a in range(na):
-                    _step_one(S, D0, F, flag, face, lin0, mem[a], P[mem[a]], opt, t, h, method,
+                _step_members(S, D0, F, flag, face, lin0, mem, na, P, opt, t, h, method,
                               tracer, rotation, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
                               t_split, dry_depth, recovered, loc)
                 stats[ST_ADVANCES] += 1

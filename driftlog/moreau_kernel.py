@@ -57,7 +57,7 @@ from driftlog.island_kernel import (
     _first_stage,
     _pair_key,
     _sample_at,
-    _step_one,
+    _step_members,
     _still_floating,
     add_hit,
     island_pairs,
@@ -273,10 +273,9 @@ def _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radiu
             if speed > 0.0:
                 dt = min(dt, motion_share * rmin / speed)
         # the free step
-        for a in range(na):
-            _step_one(S, D0, F, flag, face, lin0, mem[a], P[mem[a]], opt, t, dt, method,
-                      tracer, rotation, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split,
-                      dry_depth, recovered, loc)
+        _step_members(S, D0, F, flag, face, lin0, mem, na, P, opt, t, dt, method, tracer,
+                      rotation, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
+                      recovered, loc)
         stats[ST_ADVANCES] += 1
         vmax = 0.0
         for a in range(na):
