@@ -94,7 +94,9 @@ def _free_step(s, d0, hint, t, dt, method, p, opt, vals_c, T0c, gap_c, vals_n, T
                t_split, dry_depth, recovered, loc):
     """One RK4 / Euler step of one log from t (first stage d0), each stage reading its pair.
 
-    Returns the new state and the pair its end is sampled on (weight, 1 / gap, node values).
+    Returns the new state, the face to start its end's point location from (the last RK4
+    stage's, ``fused.rk4_row``) and the pair its end is sampled on (weight, 1 / gap, node
+    values).
     """
     te = t + dt
     a_s, inv_s, vals_s = _pair_at(te, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, True)
@@ -102,9 +104,10 @@ def _free_step(s, d0, hint, t, dt, method, p, opt, vals_c, T0c, gap_c, vals_n, T
     if method == RK4:
         a_m, inv_m, vals_m = _pair_at(t + 0.5 * dt, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
                                       t_split, False)
-        return (rk4_row(s, d0, dt, hint, a_m, inv_m, vals_m, a_s, inv_s, vals_s, dry_depth,
-                        recovered, loc, p, opt), a_e, inv_e, vals_e)
-    return euler_row(s, dt, d0), a_e, inv_e, vals_e
+        s, hint = rk4_row(s, d0, dt, hint, a_m, inv_m, vals_m, a_s, inv_s, vals_s, dry_depth,
+                          recovered, loc, p, opt)
+        return s, hint, a_e, inv_e, vals_e
+    return euler_row(s, dt, d0), hint, a_e, inv_e, vals_e
 
 
 @nb.njit(cache=True, inline="always")
@@ -215,9 +218,9 @@ def per_log_mesh_advance(S, D0, lin0, face, F, flag, P, opt, t_from, t0, t_stop,
                     c = TOO_SMALL
                     break
                 d0 = row(D0, i)
-                s, a_e, inv_e, vals_e = _free_step(s, d0, hint, t, dt, method, p, opt, vals_c,
-                                                   T0c, gap_c, vals_n, T0n, gap_n, t_split,
-                                                   dry_depth, recovered, loc)
+                s, hint, a_e, inv_e, vals_e = _free_step(
+                    s, d0, hint, t, dt, method, p, opt, vals_c, T0c, gap_c, vals_n, T0n,
+                    gap_n, t_split, dry_depth, recovered, loc)
             f, fg, fl = sample_point(s[X], s[Y], hint, a_e, inv_e, vals_e, dry_depth,
                                      recovered, loc)
             face[i] = f

@@ -201,7 +201,7 @@ def settle_summary(status, bound):
 
 @nb.njit(cache=True, inline="always")
 def _rk4_stage(s0, k, dt, d, hint, a, inv_dt, vals, dry_depth, recovered, loc, p, opt):
-    """The derivative at RK4 stage k: its state from s0 and d, the flow there, the forces."""
+    """(face, derivative) at RK4 stage k: its state from s0 and d, the flow there, forces."""
     return _stage_rhs(rk4_stage_row(s0, k, dt, d), hint, a, inv_dt, vals, dry_depth, recovered,
                       loc, p, opt)
 
@@ -212,7 +212,10 @@ def rk4_row(s0, d0, dt, hint, a_m, inv_m, vals_m, a_3, inv_3, vals_3, dry_depth,
     """One log's classical RK4 step from s0 with first stage d0 (eq. (46)).
 
     Stages 1 and 2 read the flow at t0 + dt/2 (``a_m``, ``inv_m``, ``vals_m``), stage 3 at
-    t0 + dt (``a_3``, ...); every stage's point location starts from the face ``hint``.
+    t0 + dt (``a_3``, ...).  The first stage's point location starts from the face ``hint``,
+    each next one from the face the stage before found (as ``rk4_tracer_step``'s: the same
+    face, and numbers, wherever a point is inside one face).  Returns the new state and the
+    last stage's face, where the end's point location starts.
     """
     # the three stages in one loop, so that the inlined sampling and forces are compiled once
     # rather than three times (the kernels that inline a step compile several times faster);
@@ -224,22 +227,23 @@ def rk4_row(s0, d0, dt, hint, a_m, inv_m, vals_m, a_3, inv_3, vals_3, dry_depth,
         a, inv, vals = a_m, inv_m, vals_m
         if k == 3:
             a, inv, vals = a_3, inv_3, vals_3
-        d = _rk4_stage(s0, k, dt, d, hint, a, inv, vals, dry_depth, recovered, loc, p, opt)
+        f, d = _rk4_stage(s0, k, dt, d, hint, a, inv, vals, dry_depth, recovered, loc, p, opt)
+        hint = f if f >= 0 else hint
         if k == 1:
             d1 = d
         elif k == 2:
             d12 = add_row(d1, d)
-    return rk4_sum_row(s0, dt, d0, d12, d)
+    return rk4_sum_row(s0, dt, d0, d12, d), hint
 
 
 @nb.njit(cache=True, inline="always")
 def _stage_rhs(s, hint, a, inv_dt, vals, dry_depth, recovered, loc, p, opt):
-    """The derivative at stage state s: the flow there (the columns the forces read), forces."""
+    """(face, derivative) at stage state s: the flow there (the columns the forces read)."""
     depth, rot, full, slope = stage_columns(opt)
-    _, _, fl = sample_point_columns(s[X], s[Y], hint, a, inv_dt, vals, dry_depth, recovered,
+    f, _, fl = sample_point_columns(s[X], s[Y], hint, a, inv_dt, vals, dry_depth, recovered,
                                     loc, depth, rot, full, slope, False)
     dk, _ = log_rhs(s, fl, p, opt, False)
-    return dk
+    return f, dk
 
 
 @kernel(nrt=False)
@@ -269,16 +273,17 @@ def rk4_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
     """Classical RK4 step of every log from states S0 with first stage D0.
 
     Stages at t0 + dt/2 (node values ``vals_m``, weight ``a_m``) and t0 + dt (``vals_e``,
-    ``a_e``); every stage's point location starts from the log's face at t0, as in the
-    general path.  Outputs as ``euler_mesh_step``.
+    ``a_e``); each stage's point location walks on from the previous stage's face
+    (``rk4_row``), the general path's from the log's face at t0 (the same faces and numbers
+    but for a point on an edge two faces share).  Outputs as ``euler_mesh_step``.
     """
     for i in nb.prange(S0.shape[0]):
         if skip_hole(i, S0, out, settle, status):
             continue
         hint = face[i]
         # stages 1 and 2 at t0 + dt/2, stage 3 at t0 + dt (RK4_C)
-        s = rk4_row(row(S0, i), row(D0, i), dt, hint, a_m, inv_m, vals_m, a_e, inv_e, vals_e,
-                    dry_depth, recovered, loc, P[i], opt)
+        s, hint = rk4_row(row(S0, i), row(D0, i), dt, hint, a_m, inv_m, vals_m, a_e, inv_e,
+                          vals_e, dry_depth, recovered, loc, P[i], opt)
         _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a_e, inv_e,
                 vals_e, dry_depth, recovered, loc, settle, ctl, length, status, bound)
 

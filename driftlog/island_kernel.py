@@ -435,9 +435,9 @@ def _step_one(S, D0, F, flag, face, lin0, i, p, opt, t, dt, method, tracer, rota
     s = row(S, i)
     d0 = row(D0, i)
     hint = face[i]
-    s, a_e, inv_e, vals_e = _free_step(s, d0, hint, t, dt, method, p, opt, vals_c, T0c,
-                                       gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
-                                       recovered, loc)
+    s, hint, a_e, inv_e, vals_e = _free_step(s, d0, hint, t, dt, method, p, opt, vals_c, T0c,
+                                             gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
+                                             recovered, loc)
     f, fg, fl = sample_point(s[X], s[Y], hint, a_e, inv_e, vals_e, dry_depth, recovered, loc)
     face[i] = f
     flag[i] = fg
