@@ -104,9 +104,9 @@ def _free_step(s, d0, hint, t, dt, method, p, opt, vals_c, T0c, gap_c, vals_n, T
     if method == RK4:
         a_m, inv_m, vals_m = _pair_at(t + 0.5 * dt, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
                                       t_split, False)
-        s, hint = rk4_row(s, d0, dt, hint, a_m, inv_m, vals_m, a_s, inv_s, vals_s, dry_depth,
-                          recovered, loc, p, opt)
-        return s, hint, a_e, inv_e, vals_e
+        r = rk4_row(s, d0, dt, hint, a_m, inv_m, vals_m, a_s, inv_s, vals_s, dry_depth,
+                    recovered, loc, p, opt)
+        return (r[0], r[1], r[2], r[3], r[4], r[5]), r[6], a_e, inv_e, vals_e
     return euler_row(s, dt, d0), hint, a_e, inv_e, vals_e
 
 

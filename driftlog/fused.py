@@ -233,7 +233,10 @@ def rk4_row(s0, d0, dt, hint, a_m, inv_m, vals_m, a_3, inv_3, vals_3, dry_depth,
             d1 = d
         elif k == 2:
             d12 = add_row(d1, d)
-    return rk4_sum_row(s0, dt, d0, d12, d), hint
+    s = rk4_sum_row(s0, dt, d0, d12, d)
+    # one flat tuple: numba's parfors array analysis fails on a nested one (the state tuple
+    # and the face) returned by an inlined function in a prange loop
+    return s[0], s[1], s[2], s[3], s[4], s[5], hint
 
 
 @nb.njit(cache=True, inline="always")
@@ -282,8 +285,10 @@ def rk4_mesh_step(S0, D0, lin0, out, face, F, flag, P, opt, dt, want_next,
             continue
         hint = face[i]
         # stages 1 and 2 at t0 + dt/2, stage 3 at t0 + dt (RK4_C)
-        s, hint = rk4_row(row(S0, i), row(D0, i), dt, hint, a_m, inv_m, vals_m, a_e, inv_e,
-                          vals_e, dry_depth, recovered, loc, P[i], opt)
+        r = rk4_row(row(S0, i), row(D0, i), dt, hint, a_m, inv_m, vals_m, a_e, inv_e, vals_e,
+                    dry_depth, recovered, loc, P[i], opt)
+        s = (r[0], r[1], r[2], r[3], r[4], r[5])
+        hint = r[6]
         _finish(i, s, hint, out, face, F, flag, D0, lin0, P, opt, want_next, a_e, inv_e,
                 vals_e, dry_depth, recovered, loc, settle, ctl, length, status, bound)
 

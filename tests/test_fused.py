@@ -321,3 +321,32 @@ def test_holes_left_by_stopped_logs_change_no_number(monkeypatch, level, method,
             np.testing.assert_array_equal(c0[k], c1[k], err_msg=k)
     # the scene: logs left through the outlet, stranded on the bank, lifted and floating
     assert np.sum(b.status == LEFT) > 10 and np.sum(b.status == FLOATING) > 10
+
+
+@pytest.mark.parametrize("level,method,clock", [
+    ("full", "rk4", "global"), ("tracer", "rk4", "global"), ("full", "rk4", "per_log")])
+def test_parallel_kernels_give_the_serial_numbers(monkeypatch, level, method, clock):
+    """The multi-threaded compilations of the tracker's per-log kernels (taken from
+    ``driftlog._numba.PARALLEL_MIN`` logs on; lowered here so that 200 logs take them): they
+    compile (numba's parfors analysis refused a nested tuple returned by an inlined RK4 step,
+    which no serial run shows) and give the serial kernels' trajectories bit for bit (each
+    log is computed on its own)."""
+    import driftlog._numba as nbmod
+
+    def go(parallel_min):
+        monkeypatch.setattr(nbmod, "PARALLEL_MIN", parallel_min)
+        rng = np.random.default_rng(5)
+        n = 200
+        logs = Logs(rng.uniform(0.5, 29.5, n), rng.uniform(0.5, 9.5, n),
+                    rng.uniform(0, np.pi, n), rng.uniform(0.5, 1.5, n), 0.1,
+                    rng.uniform(500.0, 900.0, n))
+        tr = Tracker(FLOW, logs, PhysicsOptions(level=level), method,
+                     StepOptions(max_step=0.7, clock=clock), t_end=8.0, output_interval=4.0)
+        tr.run()
+        return tr, logs
+
+    serial, a = go(1 << 40)
+    parallel, b = go(1)
+    assert parallel.fused
+    assert_same_runs(parallel, b, serial, a)
+    assert np.sum(b.status == FLOATING) > 10
