@@ -419,8 +419,8 @@ def _step_members(S, D0, F, flag, face, lin0, mem, na, P, opt, t, dt, method, tr
     """``_step_one`` for the logs mem[:na], in one call.
 
     The step is inlined here rather than called once per member: a call passes some 30
-    arguments (arrays, the locator's tuple) and the island kernels took a fifth of their time
-    in those calls on a Moreau-Jean crowd (the same numbers; BENCHMARKS.md, per-log clocks).
+    arguments (arrays, the locator's tuple), and with a call per member the per-log run of a
+    Moreau-Jean crowd took 1.2x as long (the same numbers; BENCHMARKS.md, per-log clocks).
     """
     for a in range(na):
         i = mem[a]
