@@ -382,13 +382,17 @@ def _reach(tr):
 
 
 def _pairs(box, reach):
-    """Log pairs whose swept boxes grown by ``reach`` overlap (``broadphase.grid_pairs``)."""
-    from driftlog.contact.broadphase import grid_pairs
+    """Log pairs whose swept boxes grown by ``reach`` overlap (``broadphase.sweep_pairs``).
+
+    In no particular order: the windows use them as a set (the contact set, the islands'
+    labels by their smallest log, the closure's new pairs).
+    """
+    from driftlog.contact.broadphase import sweep_pairs
 
     cx = 0.5 * (box[:, 0] + box[:, 2])
     cy = 0.5 * (box[:, 1] + box[:, 3])
-    return grid_pairs(cx, cy, 0.5 * (box[:, 2] - box[:, 0]) + reach,
-                      0.5 * (box[:, 3] - box[:, 1]) + reach)
+    return sweep_pairs(cx, cy, 0.5 * (box[:, 2] - box[:, 0]) + reach,
+                       0.5 * (box[:, 3] - box[:, 1]) + reach)
 
 
 def _obstacle_pairs(tr, box, reach, frame, span):

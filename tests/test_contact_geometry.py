@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from driftlog.contact.broadphase import StaticGrid, brute_pairs, grid_pairs
+from driftlog.contact.broadphase import StaticGrid, brute_pairs, grid_pairs, sweep_pairs
 from driftlog.contact.geometry import capsule_gap, segment_closest_points
 
 
@@ -125,6 +125,29 @@ def test_grid_pairs_equal_brute_force(rng, n, spread):
     b = brute_pairs(x, y, ex, ey)
     assert len(g) == len(np.unique(g, axis=0))  # never twice
     assert set(map(tuple, g)) == set(map(tuple, b))
+
+
+@pytest.mark.parametrize("n,sx,sy", [(2, 1.0, 1.0), (300, 3.0, 3.0), (3000, 400.0, 5.0),
+                                      (3000, 5.0, 400.0), (3000, 1e5, 1e5)])
+def test_sweep_pairs_are_the_grid_pairs(rng, n, sx, sy):
+    """``sweep_pairs``: the set of ``grid_pairs`` (each pair once, i < j), along either axis,
+    boxes that exactly touch included, non-finite boxes left to the grid."""
+    x, y = rng.uniform(-sx, sx, n), rng.uniform(-sy, sy, n)
+    ex, ey = rng.uniform(0.01, 0.6, (2, n))
+    if n > 2:  # boxes that touch exactly along x, along y, and at a corner: pairs
+        x[0], y[0], ex[0], ey[0] = 1.0, 2.0, 0.5, 0.25  # exact binary fractions
+        x[1], y[1], ex[1], ey[1] = x[0] + ex[0] + 0.25, y[0], 0.25, ey[0]
+        x[2], y[2], ex[2], ey[2] = x[0], y[0] - ey[0] - 0.5, ex[0], 0.5
+        x[3], y[3], ex[3], ey[3] = x[0] - ex[0] - 0.125, y[0] + ey[0] + 0.125, 0.125, 0.125
+    s = sweep_pairs(x, y, ex, ey)
+    g = grid_pairs(x, y, ex, ey)
+    assert len(s) == len(np.unique(s, axis=0)) and np.all(s[:, 0] < s[:, 1])
+    assert set(map(tuple, s.tolist())) == set(map(tuple, g.tolist()))
+    if n > 2:
+        assert {(0, 1), (0, 2), (0, 3)} <= set(map(tuple, s.tolist()))
+    x[-1] = np.nan
+    assert set(map(tuple, sweep_pairs(x, y, ex, ey).tolist())) == \
+        set(map(tuple, grid_pairs(x, y, ex, ey).tolist()))
 
 
 def test_grid_pairs_parallel_kernel(rng):
