@@ -518,6 +518,11 @@ def main(argv=None):
     if not Path(a.flow).is_file():
         raise SystemExit(f"flow file {a.flow} not found: python benchmarks/malpasset.py "
                          f"--flow {a.flow} --solve-only")
+    try:
+        import shapely  # noqa: F401  (the valley polygon, in every child process)
+    except ImportError:
+        raise SystemExit("million_logs.py needs shapely, in the bench extra: "
+                         "pip install -e '.[bench]' (or pip install 'shapely>=2.0')") from None
     a.logs = int(a.logs)
     if a.results_from:
         rows = []
