@@ -38,6 +38,20 @@ def test_scenario_keys_and_check(tmp_path, capsys):
     assert "[physics.level] = 'wrong'" in err and "'tracer'" in err
 
 
+def test_scenario_file_in_place_of_the_action(tmp_path, capsys):
+    """``driftlog scenario FILE`` checks FILE (a wrong file fails as with ``check``); an action
+    that is neither an action nor a file nor a case is named in the error with what is allowed."""
+    f = tmp_path / "s.toml"
+    f.write_text("[physics]\nlevel = 'wrong'\n")
+    assert main(["scenario", str(f)]) == 2
+    assert "[physics.level] = 'wrong'" in capsys.readouterr().err
+    assert main(["scenario", "vortex"]) == 0
+    assert "valid: the run will start" in capsys.readouterr().out
+    assert main(["scenario", "frobnicate"]) == 2
+    err = capsys.readouterr().err
+    assert "'frobnicate'" in err and "'keys'" in err and "'check'" in err
+
+
 def test_info_missing_file(capsys):
     assert main(["info", "/nonexistent/flow.nc"]) == 2
     assert "not found" in capsys.readouterr().err

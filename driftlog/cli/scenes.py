@@ -28,8 +28,9 @@ def add_scenario(sub):
     p = sub_parser(sub, "scenario", "list the scenario keys, or check a scenario file (every check "
              "a run makes before it starts: flow readable, logs inside the mesh, obstacles)",
              "driftlog scenario check cases/vortex/scenario.toml")
-    p.add_argument("action", choices=("keys", "check"), help="keys: print every key with its "
-                   "type, default, units and rule; check: validate a file")
+    p.add_argument("action", metavar="{keys,check}", help="keys: print every key with its "
+                   "type, default, units and rule; check: validate a file (a file or case "
+                   "given instead of the action is checked: driftlog scenario FILE)")
     p.add_argument("file", nargs="?", help="scenario file (for check)")
     p.add_argument("--section", help="only this section (for keys)")
     p.set_defaults(run=cmd_scenario)
@@ -38,6 +39,17 @@ def add_scenario(sub):
 def cmd_scenario(args):
     from driftlog.scenario import describe_keys, load_scenario
 
+    if args.action not in ("keys", "check"):
+        from driftlog.api import cases_dir
+
+        a = args.action
+        if args.file is None and (a.endswith(".toml") or Path(a).exists()
+                                  or (cases_dir() / a / "scenario.toml").is_file()):
+            args.action, args.file = "check", a  # driftlog scenario FILE (or CASE)
+        else:
+            raise DriftlogError(f"driftlog scenario: action {args.action!r}: must be 'keys' "
+                                "(print every key) or 'check' (check a file: driftlog scenario "
+                                "check FILE)")
     if args.action == "keys":
         print(describe_keys(args.section))
         return 0
