@@ -52,6 +52,20 @@ def test_scenario_file_in_place_of_the_action(tmp_path, capsys):
     assert "'frobnicate'" in err and "'keys'" in err and "'check'" in err
 
 
+def test_ensemble_errors_name_the_file(tmp_path, capsys):
+    """A scenario without [ensemble], or a base that is not there: the file in the message."""
+    f = tmp_path / "plain.toml"
+    f.write_text("[time]\nend = 5.0\n")
+    assert main(["ensemble", str(f)]) == 2
+    err = capsys.readouterr().err
+    assert str(f) in err and "[ensemble] = 'missing'" in err
+    e = tmp_path / "e.toml"
+    e.write_text("[ensemble]\nbase = 'nothere.toml'\nmembers = 2\n")
+    assert main(["ensemble", str(e)]) == 2
+    err = capsys.readouterr().err
+    assert str(e) in err and "nothere.toml" in err and "file not found" in err
+
+
 def test_info_missing_file(capsys):
     assert main(["info", "/nonexistent/flow.nc"]) == 2
     assert "not found" in capsys.readouterr().err

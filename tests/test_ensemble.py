@@ -196,7 +196,7 @@ def test_bad_ensemble_section_values(tmp_path, flow_file):
         load_ensemble(text.replace('"latin_hypercube"', '"latin"'))
     with pytest.raises(ScenarioError, match=r"\[ensemble.members\] = 0: must be >= 1"):
         load_ensemble(text.replace("members = 6", "members = 0"))
-    with pytest.raises(ScenarioError, match=r"\[ensemble\] = None: an ensemble file needs"):
+    with pytest.raises(ScenarioError, match=r"\[ensemble\] = 'missing': an ensemble file needs"):
         load_ensemble(text.split("[ensemble]")[0])
     # the CLI's scenario check validates [ensemble] too
     from driftlog.cli import main

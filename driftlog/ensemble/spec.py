@@ -263,16 +263,17 @@ def load_ensemble(source, overrides: dict | None = None) -> Ensemble:
     base_dir = file_path.parent if file_path else Path.cwd()
     if overrides:
         raw = merge(raw, overrides)
+    where = str(file_path) if file_path else None
     ens = raw.get("ensemble")
     if not isinstance(ens, dict):
-        raise ScenarioError("ensemble", ens, "an ensemble file needs an [ensemble] section "
-                            "(the parameters to vary; see `driftlog scenario keys --section "
-                            "ensemble`)")
+        raise ScenarioError("ensemble", "missing" if ens is None else ens,
+                            "an ensemble file needs an [ensemble] section (the parameters to "
+                            "vary; see `driftlog scenario keys --section ensemble`)", where)
     raw = _absolute_paths(raw, base_dir)
     ens = raw["ensemble"]
     if ens.get("base"):
         if not Path(ens["base"]).is_file():
-            raise ScenarioError("ensemble.base", ens["base"], "file not found")
+            raise ScenarioError("ensemble.base", ens["base"], "file not found", where)
         data = json.loads(load_scenario(ens["base"]).to_json())
         data.pop("ensemble", None)
         raw = merge(data, raw)
