@@ -50,6 +50,9 @@ def test_scenario_file_in_place_of_the_action(tmp_path, capsys):
     assert main(["scenario", "frobnicate"]) == 2
     err = capsys.readouterr().err
     assert "'frobnicate'" in err and "'keys'" in err and "'check'" in err
+    assert "unknown case" in err  # and why it is not a case either
+    assert main(["scenario", str(tmp_path / "nope.toml")]) == 2
+    assert "scenario file not found" in capsys.readouterr().err
 
 
 def test_ensemble_errors_name_the_file(tmp_path, capsys):

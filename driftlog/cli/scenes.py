@@ -39,17 +39,16 @@ def add_scenario(sub):
 def cmd_scenario(args):
     from driftlog.scenario import describe_keys, load_scenario
 
-    if args.action not in ("keys", "check"):
-        from driftlog.api import cases_dir
-
-        a = args.action
-        if args.file is None and (a.endswith(".toml") or Path(a).exists()
-                                  or (cases_dir() / a / "scenario.toml").is_file()):
-            args.action, args.file = "check", a  # driftlog scenario FILE (or CASE)
-        else:
-            raise DriftlogError(f"driftlog scenario: action {args.action!r}: must be 'keys' "
-                                "(print every key) or 'check' (check a file: driftlog scenario "
-                                "check FILE)")
+    if args.action not in ("keys", "check"):  # driftlog scenario FILE (or CASE): check it
+        wrong = (f"driftlog scenario: action {args.action!r}: must be 'keys' (print every key) "
+                 "or 'check' (check a file: driftlog scenario check FILE)")
+        if args.file is not None:
+            raise DriftlogError(wrong)
+        try:
+            scenario_path(args.action)
+        except DriftlogError as e:
+            raise DriftlogError(f"{wrong}; as a scenario file or case: {e}") from None
+        args.action, args.file = "check", args.action
     if args.action == "keys":
         print(describe_keys(args.section))
         return 0
