@@ -209,6 +209,23 @@ class Tracker:
         self._t_start = self.t
         self._stops = self._landing_times()
 
+    # ----------------------------------------------------------------- first stage
+    # ``_d0_valid``: D0 and lin0 hold the first stage at every compact row's state (and F the
+    # flow there).  ``_d0_window``: they do for the next contact window only (set by
+    # ``clocks.contact_window`` at its end; any change of ``_d0_valid``, as every change of the
+    # compact rows makes, clears it), so that its free advance need not evaluate them again
+    # while the paths that keep rows across a change of the set still sample them anew.
+    _d0_window = False
+
+    @property
+    def _d0_valid(self):
+        return self._d0v
+
+    @_d0_valid.setter
+    def _d0_valid(self, value):
+        self._d0v = value
+        self._d0_window = False
+
     # ----------------------------------------------------------------- compact arrays
     # Logs that stop may leave their rows in the compact arrays as holes (``_make_holes``),
     # up to a sixteenth of the rows (HOLE_FRACTION); False: every stop drops its rows at once
