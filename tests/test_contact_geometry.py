@@ -150,6 +150,18 @@ def test_sweep_pairs_are_the_grid_pairs(rng, n, sx, sy):
         set(map(tuple, grid_pairs(x, y, ex, ey).tolist()))
 
 
+def test_sweep_pairs_with_lower_ends_a_round_off_apart():
+    """Centres a round-off apart and boxes a metre long: the sweep's quantum is some 1e-22 m,
+    so the boxes' quantised upper ends lie about 1e22 quanta out, beyond int64 (capped: a
+    wrapped, negative cut would stop the sweep at once and find no pair)."""
+    k = np.arange(4.0)
+    x, y = 1.0 + k * 2.0 ** -40, 2.0 + k * 2.0 ** -41
+    ex, ey = np.full(4, 1.0), np.full(4, 0.6)
+    s = sweep_pairs(x, y, ex, ey)
+    assert len(s) == 6  # every box on top of every other
+    assert set(map(tuple, s.tolist())) == set(map(tuple, brute_pairs(x, y, ex, ey).tolist()))
+
+
 def test_grid_pairs_parallel_kernel(rng):
     x, y, ex, ey = _boxes(rng, 5000, 30.0)  # above PARALLEL_MIN: the prange compilation
     assert set(map(tuple, grid_pairs(x, y, ex, ey))) == set(map(tuple, brute_pairs(x, y, ex, ey)))

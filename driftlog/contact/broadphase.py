@@ -171,8 +171,12 @@ RADIX = 11
 
 @nb.njit(cache=True, inline="always")
 def _quant(v, lo_min, scale):
-    """Quantised position: non-decreasing in v (monotone rounding), >= 0 from lo_min on."""
-    return np.int64((v - lo_min) * scale)
+    """Quantised position: non-decreasing in v (monotone rounding), >= 0 from lo_min on.
+
+    Capped at 2**62: a box's upper end may lie far beyond the lower ends' range (lower ends
+    a round-off apart, a box a metre long), where the product would overflow int64.
+    """
+    return np.int64(min((v - lo_min) * scale, 4.611686018427388e18))
 
 
 @nb.njit(cache=True)
