@@ -34,7 +34,6 @@ from driftlog.clock_kernel import (
 from driftlog.columns import VELOCITY
 from driftlog.contact.islands import island_labels
 from driftlog.logs import FLOATING
-from driftlog.physics import rhs_kernel
 
 __all__ = ["CLOCKS", "per_log_interval", "free_advance", "relift_advance", "contact_advance",
            "contact_window"]
@@ -425,7 +424,7 @@ def _union(a, b):
 
     The compact rows (``tr.act``) and the logs joining them are each sorted: their
     concatenation is two runs, which the stable sort (timsort) merges in linear time
-    (``np.union1d`` hashes, then sorts: 5x slower at 1e4 rows).
+    (``np.union1d`` hashes, then sorts).
     """
     c = np.concatenate([np.asarray(a, np.int64), np.asarray(b, np.int64)])
     c.sort(kind="stable")
@@ -623,16 +622,13 @@ def contact_window(tr, stop, max_tries=3):
     # rows stay as they are (``Tracker._d0_window``, cleared by ``_set_active``): the free
     # logs' is the one their last sub-step left in ``tr.D0`` (``per_log_mesh_advance``
     # evaluates it on the state and flow sample it leaves), the islands' logs get theirs from
-    # the state and flow sample the island kernel left (``rhs_kernel`` on their rows): what
+    # the state and flow sample the island kernel left (``_first_stage_rows``): what
     # ``_rhs`` computes for every row from the same rows.  ``_d0_valid`` stays False: the
     # paths that keep rows across a change of the set (``_kept_stage``) sample them again.
     # Not after the Python model's islands (``_reference_islands``), which gather each
     # island's rows anew (the compact arrays are new ones).
     if tr.D0 is free_d0[0] and tr.lin0 is free_d0[1]:
-        pool = np.flatnonzero(pool_mask)
-        D, lin = np.empty((pool.size, tr.D0.shape[1])), np.empty((pool.size, tr.lin0.shape[1]))
-        rhs_kernel(S[pool], F[pool], tr.P[pool], tr.opt, D, lin, True)
-        tr.D0[pool], tr.lin0[pool] = D, lin
+        tr._first_stage_rows(np.flatnonzero(pool_mask))
         tr._d0_window = True
     tr._scatter()
     k = int(nhit[0])

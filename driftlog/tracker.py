@@ -423,12 +423,16 @@ class Tracker:
         flag = np.empty(rows.size, np.int8)
         self.flow.sample_into(np.ascontiguousarray(S[:, X]), np.ascontiguousarray(S[:, Y]),
                               self.t, face, F, flag)
-        D = np.empty((rows.size, self.D0.shape[1]))
-        lin = np.empty((rows.size, self.lin0.shape[1]))
-        rhs_kernel(S, F, self.P[rows], self.opt, D, lin, True)
         self.face[rows] = face
         self.F[rows] = F
         self.flag[rows] = flag
+        self._first_stage_rows(rows)
+
+    def _first_stage_rows(self, rows):
+        """D0 and lin0 of the compact rows ``rows`` from their state and flow sample ``F``."""
+        D = np.empty((rows.size, self.D0.shape[1]))
+        lin = np.empty((rows.size, self.lin0.shape[1]))
+        rhs_kernel(self.state[rows], self.F[rows], self.P[rows], self.opt, D, lin, True)
         self.D0[rows] = D
         self.lin0[rows] = lin
 
