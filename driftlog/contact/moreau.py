@@ -63,11 +63,22 @@ def _pgs(order, start, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, 
     not change it either), so the result is the sweep over all contacts bit for bit, at the
     cost of the islands still moving.  ``island_stop``: an island is also left once its own
     largest change is below vtol (each island converged to vtol on its own, not in lockstep).
+
+    Within an island, a contact whose last update changed nothing is skipped until one of its
+    two bodies' velocities changes: its update reads only P, target, w and those velocities,
+    so it would change nothing again (the same numbers bit for bit).  Speculative contacts of
+    a large island (pairs near each other but apart, P = 0) cost a few integer compares a
+    sweep, not a gather of both bodies and a division.  ``tick`` counts the velocity
+    changes; ``seen[b]`` is the tick of body b's last change, ``quiet[c]`` the tick at which
+    contact c last changed nothing (-1: it has to be evaluated).
     """
     count = start.size - 1
     active = np.empty(count, np.bool_)
     for q in range(count):
         active[q] = start[q + 1] > start[q]
+    seen = np.zeros(V.shape[0], np.int64)
+    quiet = np.full(body1.size, -1, np.int64)
+    tick = 0
     it = 0
     residual = 0.0
     while it < max_iterations:
@@ -83,6 +94,9 @@ def _pgs(order, start, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, 
                 if w[c] <= 0.0:
                     continue
                 i, j = body1[c], body2[c]
+                qc = quiet[c]
+                if qc >= seen[i] and (j < 0 or qc >= seen[j]):
+                    continue
                 nx, ny = res[c, NX], res[c, NY]
                 u = V[i, GU] * nx + V[i, GV] * ny + V[i, GOMEGA] * rn1[c]
                 if j >= 0:
@@ -90,16 +104,21 @@ def _pgs(order, start, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, 
                 p_new = max(P[c] + (target[c] - u) / w[c], 0.0)
                 d = p_new - P[c]
                 if d == 0.0:
+                    quiet[c] = tick
                     continue
+                quiet[c] = -1
                 changed = True
+                tick += 1
                 P[c] = p_new
                 V[i, GU] += d * nx * inv_m[i]
                 V[i, GV] += d * ny * inv_m[i]
                 V[i, GOMEGA] += d * rn1[c] * inv_i[i]
+                seen[i] = tick
                 if j >= 0:
                     V[j, GU] -= d * nx * inv_m[j]
                     V[j, GV] -= d * ny * inv_m[j]
                     V[j, GOMEGA] -= d * rn2[c] * inv_i[j]
+                    seen[j] = tick
                 rq = max(rq, abs(d) * w[c])
             residual = max(residual, rq)
             if not changed or (island_stop and rq <= vtol):
