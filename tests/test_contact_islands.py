@@ -296,3 +296,35 @@ def test_island_contacts_sweep_finds_every_pair_in_order(rng, n, stopped, ncap, 
     assert got == ref  # the same pairs, in the same order, bit for bit
     assert len(ref) > (n // 10 if n + ncap > ALL_PAIRS else 0)
     assert any(r[1] < 0 for r in ref) or ncap == 0 or not use_margin
+
+
+def test_position_pass_pushes_no_pair_that_is_still_apart():
+    """Split impulse (docs/model.md eq. (88)): an overlap deeper than the slop is removed 20 %
+    a step by pseudo-velocities; a neighbour 2 cm away is not pushed, as the move closes only
+    part of that gap.  (When every pair was held as if touching, the push went on to the
+    neighbour and through a whole pile.)"""
+    from driftlog.columns import GAP, NRES
+    from driftlog.contact.geometry import capsule_gap, log_endpoints
+
+    r, L, dt, slop = 0.08, 1.0, 0.1, 1e-5
+    S0 = np.zeros((3, 6))
+    S0[:, 0] = [0.0, 0.15, 0.15 + 2 * r + 0.02]  # overlap 1 cm, then a gap of 2 cm
+    S0[:, 2] = np.pi / 2  # side by side, axes along y
+    pairs = [(0, 1), (1, 2)]
+    res = np.empty((2, NRES))
+    for c, (a, b) in enumerate(pairs):
+        capsule_gap(*log_endpoints(*S0[a, :3], L), r, *log_endpoints(*S0[b, :3], L), r, res[c])
+    assert res[0, GAP] == pytest.approx(-0.01) and res[1, GAP] == pytest.approx(0.02)
+    S = S0.copy()
+    P = np.zeros(2)
+    ones = np.ones(3)
+    moreau_solve(S0, S, ones, ones, np.array([0, 1]), np.array([1, 2]), res, dt, 0.0, slop,
+                 slop, 1e-12, 200, P, 0.2)
+    assert np.all(P == 0.0)  # nothing approaches: no velocity impulse
+    assert np.all(S[:, UB:] == 0.0)
+    np.testing.assert_array_equal(S[2], S0[2])  # the neighbour apart is not pushed
+    moved = S[:, 0] - S0[:, 0]
+    # equal masses, levers zero: the two overlapping logs share 20 % of the overlap less the slop
+    np.testing.assert_allclose(moved[:2], np.array([-0.5, 0.5]) * 0.2 * (0.01 - slop),
+                               rtol=1e-9)
+    np.testing.assert_array_equal(S[:, 1:3], S0[:, 1:3])

@@ -258,9 +258,14 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
         if j >= 0:
             u -= V[j, GU] * nx + V[j, GV] * ny + V[j, GOMEGA] * rn2[c]
         g_end = g_free[c] + dt * (u - u_free[c])
-        target[c] = recovery * max(-g_end - slop, 0.0) / dt
-        if target[c] > 0.0:
+        if -g_end - slop > 0.0:
+            target[c] = recovery * (-g_end - slop) / dt
             deep += 1
+        else:
+            # a pair still apart at the step's end may close up to touching, one in touch
+            # (within the slop) holds: held as if touching, pairs merely near each other
+            # passed the push on through a whole pile (docs/model.md eq. (88))
+            target[c] = -max(g_end, 0.0) / dt
     if deep:
         _pgs(order, start, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, Vp, Pp, vtol,
              max_iterations, island_stop)
