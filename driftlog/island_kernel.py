@@ -79,18 +79,6 @@ def _pair_key(id1, id2):
 ALL_PAIRS = 24
 
 
-@nb.njit(cache=True)
-def _push(out, m, a, b):
-    """Append the pair (a, b) at row m of out, grown when full; returns out."""
-    if m == out.shape[0]:
-        grown = np.empty((2 * m + 16, 2), np.int64)
-        grown[:m] = out[:m]
-        out = grown
-    out[m, 0] = a
-    out[m, 1] = b
-    return out
-
-
 @nb.njit(cache=True, inline="always")
 def _boxes_apart(x1, y1, ex1, ey1, x2, y2, ex2, ey2):
     """``broadphase.grid_pairs``' test: boxes (centre, half-extents) 1 and 2 do not overlap."""
@@ -143,19 +131,20 @@ def island_pairs(Sl, ln, rd, na, margin, caps, ocaps):
         h = 0.5 * ln[a]
         ex[a] = h * abs(np.cos(Sl[a, THETA])) + rd[a] + margin[a]
         ey[a] = h * abs(np.sin(Sl[a, THETA])) + rd[a] + margin[a]
-    out = np.empty((max(16, 2 * na), 2), np.int64)
     m = 0
     if na + no <= ALL_PAIRS:
+        # room for every pair (at most 276): no growing, no call per pair
+        out = np.empty((na * (na - 1) // 2 + na * no, 2), np.int64)
         for a in range(na):
             for b in range(a + 1, na):
                 if not _log_log_apart(Sl, a, b, ex, ey):
-                    out = _push(out, m, a, b)
+                    out[m, 0], out[m, 1] = a, b
                     m += 1
         nll = m
         for a in range(na):
             for c in range(no):
                 if not _log_cap_apart(Sl, a, ex, ey, caps, ocaps[c]):
-                    out = _push(out, m, a, -(c + 1))
+                    out[m, 0], out[m, 1] = a, -(c + 1)
                     m += 1
         return out[:m].copy(), nll
     # sort and sweep along x or y, whichever the logs spread over more (boxes padded by
@@ -357,7 +346,7 @@ def _diverged(S, mem, na):
     return False
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx, fy, tau):
     """The island's logs that still float, kept in ``mem`` in order; their number.
 

@@ -98,7 +98,19 @@ def _manifold(Sl, ln, rd, pairs, caps, ocaps, margin):
     b1 = np.empty(5 * m, np.int64)
     b2 = np.empty(5 * m, np.int64)
     cap = np.full(5 * m, -1, np.int64)
-    tmp = np.empty((4, NRES))
+    k = _manifold_rows(Sl, ln, rd, pairs, caps, ocaps, margin, res, b1, b2, cap,
+                       np.empty((4, NRES)))
+    return b1[:k], b2[:k], cap[:k], res[:k]
+
+
+@nb.njit(cache=True, _nrt=False)
+def _manifold_rows(Sl, ln, rd, pairs, caps, ocaps, margin, res, b1, b2, cap, tmp):
+    """``_manifold``'s contacts into its arrays (5 per pair at most); how many.
+
+    Compiled without reference counting: the row views and the calls per pair counted
+    references at every pair (BENCHMARKS.md, "Islands of speculative contacts").
+    """
+    m = pairs.shape[0]
     for c in range(m):
         a, e = pairs[c, 0], pairs[c, 1]
         ax, ay, bx, by = log_endpoints(Sl[a, X], Sl[a, Y], Sl[a, THETA], ln[a])
@@ -134,7 +146,7 @@ def _manifold(Sl, ln, rd, pairs, caps, ocaps, margin):
                     res[k, q] = tmp[r, q]
                 b1[k], b2[k], cap[k] = a, b2[c], cap[c]
                 k += 1
-    return b1[:k], b2[:k], cap[:k], res[:k]
+    return k
 
 
 @nb.njit(cache=True)
@@ -170,6 +182,25 @@ def _min_gap(Sl, ln, rd, na, caps, ocaps, tol):
             qa, qb, qc, qd, qr = capsule_row(caps, ocaps[-e - 1])
             g = min(g, capsule_gap(ax, ay, bx, by, rd[a], qa, qb, qc, qd, qr, out))
     return g
+
+
+@nb.njit(cache=True, _nrt=False)
+def _resample(S, Sl, F, flag, face, mem, na, t, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
+              t_split, dry_depth, recovered, loc):
+    """The island's states Sl[:na] back into S, and the flow sampled again at them.
+
+    Without reference counting: inlined into ``_island`` the sampling counted the references
+    of the flow's arrays and the locator's at every log.
+    """
+    for a in range(na):
+        i = mem[a]
+        for k in range(6):
+            S[i, k] = Sl[a, k]
+        f, fg, fl = _sample_at(S[i, X], S[i, Y], face[i], t, vals_c, T0c, gap_c, vals_n, T0n,
+                               gap_n, t_split, dry_depth, recovered, loc)
+        face[i], flag[i] = f, fg
+        for k in range(NVAR):
+            F[i, k] = fl[k]
 
 
 @nb.njit(cache=True)
@@ -317,15 +348,8 @@ def _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radiu
                         rec_j[nrec[0], 1] = Pc[c] * res[c, NY]
                         nrec[0] += 1
             # the contacts moved the logs: the flow sampled again where they are
-            for a in range(na):
-                i = mem[a]
-                for k in range(6):
-                    S[i, k] = Sl[a, k]
-                f, fg, fl = _sample_at(S[i, X], S[i, Y], face[i], t, vals_c, T0c, gap_c,
-                                       vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc)
-                face[i], flag[i] = f, fg
-                for k in range(NVAR):
-                    F[i, k] = fl[k]
+            _resample(S, Sl, F, flag, face, mem, na, t, vals_c, T0c, gap_c, vals_n, T0n,
+                      gap_n, t_split, dry_depth, recovered, loc)
             lim[2] = min(lim[2], _min_gap(Sl, ln, rd, nt, caps, oc, tol))
             # hits: contacts that start pushing, one per (log, other body) at the step's
             # start, impulses summed, point impulse-weighted

@@ -107,7 +107,7 @@ def _crossing_depth(ax, ay, bx, by, cx, cy, dx, dy):
     return best, bnx, bny
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def capsule_gap(ax, ay, bx, by, r1, cx, cy, dx, dy, r2, out):
     """Signed gap between capsule 1 ([a, b], r1) and capsule 2 ([c, d], r2).
 

@@ -36,7 +36,7 @@ def _log_obstacle_gaps(pairs, S, length, radius, caps, out):
         capsule_gap(ax, ay, bx, by, radius[i], cax, cay, cbx, cby, cr, out[k])
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def _ends_against(ax, ay, bx, by, r1, cx, cy, dx, dy, r2, flip, out, row):
     """Gaps of the two axis ends of capsule 1 (as discs) to capsule 2, in out[row:row+2].
 
