@@ -35,7 +35,9 @@ def compiled_functions():
 
     found = {}
     for obj in gc.get_objects():
-        if not isinstance(obj, CPUDispatcher):
+        # type(), not isinstance(): gc also lists weak proxies, and isinstance() on a proxy
+        # whose object is gone raises ReferenceError
+        if not issubclass(type(obj), CPUDispatcher):
             continue
         for cres in list(obj.overloads.values()):
             lib = cres.library

@@ -53,3 +53,21 @@ def test_refuses_a_missing_script(capsys):
 def test_help(argv, capsys):
     assert _tool().main(argv) == (2 if not argv else 0)
     assert "perf record" in capsys.readouterr().out
+
+
+def test_dead_weak_proxies_are_passed_over(tmp_path):
+    """gc lists weak proxies too; one whose object is gone must not stop the map."""
+    import gc
+    import weakref
+
+    class Thing:
+        pass
+
+    t = Thing()
+    proxy = weakref.proxy(t)
+    del t
+    gc.collect()
+    assert any(o is proxy for o in gc.get_objects())  # listed, its object gone
+    _perf_probe(1.0)
+    path = _tool().write_perf_map(tmp_path / "perf-2.map")
+    assert "_perf_probe" in Path(path).read_text()
