@@ -402,6 +402,25 @@ def _sample_at(x, y, hint, ts, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, 
 
 
 @nb.njit(cache=True, _nrt=False)
+def _resample(S, Sl, F, flag, face, mem, na, t, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
+              t_split, dry_depth, recovered, loc):
+    """The island's states Sl[:na] back into S, and the flow sampled again at them.
+
+    Without reference counting: inlined into the island kernels the sampling counted the references
+    of the flow's arrays and the locator's at every log.
+    """
+    for a in range(na):
+        i = mem[a]
+        for k in range(6):
+            S[i, k] = Sl[a, k]
+        f, fg, fl = _sample_at(S[i, X], S[i, Y], face[i], t, vals_c, T0c, gap_c, vals_n, T0n,
+                               gap_n, t_split, dry_depth, recovered, loc)
+        face[i], flag[i] = f, fg
+        for k in range(NVAR):
+            F[i, k] = fl[k]
+
+
+@nb.njit(cache=True, _nrt=False)
 def _step_members(S, D0, F, flag, face, lin0, mem, na, P, opt, t, dt, method, tracer,
                   rotation, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
                   recovered, loc):
@@ -642,19 +661,14 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                 moved = 0
                 if rest_speed > 0.0:
                     moved = separate_resting(Sl, lm, b1[:nc], b2[:nc], cres[:nc], rest_speed)
-                for a in range(na):
-                    for k in range(6):
-                        S[mem[a], k] = Sl[a, k]
-                if moved:
+                if moved:  # moved apart: the flow sampled again where they are
                     stats[ST_SEPARATIONS] += 1
-                    for a in range(na):  # moved apart: the flow sampled again where they are
-                        i = mem[a]
-                        f, fg, fl = _sample_at(S[i, X], S[i, Y], face[i], t, vals_c, T0c,
-                                               gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
-                                               recovered, loc)
-                        face[i], flag[i] = f, fg
-                        for k in range(NVAR):
-                            F[i, k] = fl[k]
+                    _resample(S, Sl, F, flag, face, mem, na, t, vals_c, T0c, gap_c, vals_n,
+                              T0n, gap_n, t_split, dry_depth, recovered, loc)
+                else:
+                    for a in range(na):
+                        for k in range(6):
+                            S[mem[a], k] = Sl[a, k]
             npv = nc
             for c in range(nc):
                 prev[c] = ckey[c]

@@ -42,7 +42,7 @@ import numba as nb
 import numpy as np
 
 from driftlog.clock_kernel import _own_bound
-from driftlog.columns import CX, CY, GAP, NRES, NVAR, NX, NY, OMEGA, THETA, UB, VB, X, Y
+from driftlog.columns import CX, CY, GAP, NRES, NX, NY, OMEGA, THETA, UB, VB, X, Y
 from driftlog.contact.geometry import capsule_gap, capsule_row, log_endpoints
 from driftlog.contact.moreau import moreau_solve
 from driftlog.contact.native import _ends_against
@@ -56,7 +56,7 @@ from driftlog.island_kernel import (
     _diverged,
     _first_stage,
     _pair_key,
-    _sample_at,
+    _resample,
     _step_members,
     _still_floating,
     add_hit,
@@ -182,25 +182,6 @@ def _min_gap(Sl, ln, rd, na, caps, ocaps, tol):
             qa, qb, qc, qd, qr = capsule_row(caps, ocaps[-e - 1])
             g = min(g, capsule_gap(ax, ay, bx, by, rd[a], qa, qb, qc, qd, qr, out))
     return g
-
-
-@nb.njit(cache=True, _nrt=False)
-def _resample(S, Sl, F, flag, face, mem, na, t, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
-              t_split, dry_depth, recovered, loc):
-    """The island's states Sl[:na] back into S, and the flow sampled again at them.
-
-    Without reference counting: inlined into ``_island`` the sampling counted the references
-    of the flow's arrays and the locator's at every log.
-    """
-    for a in range(na):
-        i = mem[a]
-        for k in range(6):
-            S[i, k] = Sl[a, k]
-        f, fg, fl = _sample_at(S[i, X], S[i, Y], face[i], t, vals_c, T0c, gap_c, vals_n, T0n,
-                               gap_n, t_split, dry_depth, recovered, loc)
-        face[i], flag[i] = f, fg
-        for k in range(NVAR):
-            F[i, k] = fl[k]
 
 
 @nb.njit(cache=True)
