@@ -44,10 +44,11 @@ import numpy as np
 from driftlog.clock_kernel import _own_bound
 from driftlog.columns import CX, CY, GAP, NRES, NX, NY, OMEGA, THETA, UB, VB, X, Y
 from driftlog.contact.geometry import capsule_gap, capsule_row, log_endpoints
-from driftlog.contact.moreau import moreau_solve
+from driftlog.contact.moreau import moreau_solve_into, solve_workspace
 from driftlog.contact.native import _ends_against
 from driftlog.integrators import row
 from driftlog.island_kernel import (
+    ALL_PAIRS,
     DIVERGED,
     HIT_FULL,
     OBST_BIT,
@@ -55,6 +56,8 @@ from driftlog.island_kernel import (
     TOO_SMALL,
     _diverged,
     _first_stage,
+    _log_cap_apart,
+    _log_log_apart,
     _pair_key,
     _resample,
     _step_members,
@@ -98,19 +101,19 @@ def _manifold(Sl, ln, rd, pairs, caps, ocaps, margin):
     b1 = np.empty(5 * m, np.int64)
     b2 = np.empty(5 * m, np.int64)
     cap = np.full(5 * m, -1, np.int64)
-    k = _manifold_rows(Sl, ln, rd, pairs, caps, ocaps, margin, res, b1, b2, cap,
+    k = _manifold_rows(Sl, ln, rd, pairs, m, caps, ocaps, margin, res, b1, b2, cap,
                        np.empty((4, NRES)))
     return b1[:k], b2[:k], cap[:k], res[:k]
 
 
 @nb.njit(cache=True, _nrt=False)
-def _manifold_rows(Sl, ln, rd, pairs, caps, ocaps, margin, res, b1, b2, cap, tmp):
-    """``_manifold``'s contacts into its arrays (5 per pair at most); how many.
+def _manifold_rows(Sl, ln, rd, pairs, m, caps, ocaps, margin, res, b1, b2, cap, tmp):
+    """``_manifold``'s contacts of the first m pairs into its arrays (at most 5 per pair).
 
+    Returns how many.
     Compiled without reference counting: the row views and the calls per pair counted
     references at every pair (BENCHMARKS.md, "Islands of speculative contacts").
     """
-    m = pairs.shape[0]
     for c in range(m):
         a, e = pairs[c, 0], pairs[c, 1]
         ax, ay, bx, by = log_endpoints(Sl[a, X], Sl[a, Y], Sl[a, THETA], ln[a])
@@ -118,7 +121,7 @@ def _manifold_rows(Sl, ln, rd, pairs, caps, ocaps, margin, res, b1, b2, cap, tmp
         if e >= 0:
             cx, cy, dx, dy = log_endpoints(Sl[e, X], Sl[e, Y], Sl[e, THETA], ln[e])
             capsule_gap(ax, ay, bx, by, rd[a], cx, cy, dx, dy, rd[e], res[c])
-            b2[c] = e
+            b2[c], cap[c] = e, -1
         else:
             k = ocaps[-e - 1]
             qa, qb, qc, qd, qr = capsule_row(caps, k)
@@ -184,6 +187,148 @@ def _min_gap(Sl, ln, rd, na, caps, ocaps, tol):
     return g
 
 
+@nb.njit(cache=True, _nrt=False)
+def _near_pairs(Sl, ln, rd, nt, na, margin, caps, ocaps, ex, ey, out):
+    """``_moving_pairs`` of an island of at most ``ALL_PAIRS`` bodies, into ``out``; how many.
+
+    The same pairs in the same order (every pair tested, log pairs by a then b, then the
+    capsule pairs by a then c), with no allocation: ``ex``, ``ey`` (>= nt) are work rows and
+    ``out`` holds ``ALL_PAIRS ** 2 // 2`` pairs, more than an island of that size has.
+    """
+    no = ocaps.size
+    for a in range(nt):
+        h = 0.5 * ln[a]
+        ex[a] = h * abs(np.cos(Sl[a, THETA])) + rd[a] + margin[a]
+        ey[a] = h * abs(np.sin(Sl[a, THETA])) + rd[a] + margin[a]
+    m = 0
+    for a in range(na):
+        for b in range(a + 1, nt):
+            if not _log_log_apart(Sl, a, b, ex, ey):
+                out[m, 0], out[m, 1] = a, b
+                m += 1
+    for a in range(na):
+        for c in range(no):
+            if not _log_cap_apart(Sl, a, ex, ey, caps, ocaps[c]):
+                out[m, 0], out[m, 1] = a, -(c + 1)
+                m += 1
+    return m
+
+
+@nb.njit(cache=True, _nrt=False)
+def _near_gap(Sl, ln, rd, nt, caps, ocaps, tol, margin, ex, ey, pairs, out):
+    """``_min_gap`` of at most ``ALL_PAIRS`` bodies, on work arrays.
+
+    ``margin``, ``ex``, ``ey``, ``pairs``: ``_near_pairs``' work rows; ``out``: one row of
+    ``NRES``.
+    """
+    for a in range(nt):
+        margin[a] = tol
+    m = _near_pairs(Sl, ln, rd, nt, nt, margin, caps, ocaps, ex, ey, pairs)
+    g = np.inf
+    for c in range(m):
+        a, e = pairs[c, 0], pairs[c, 1]
+        ax, ay, bx, by = log_endpoints(Sl[a, X], Sl[a, Y], Sl[a, THETA], ln[a])
+        if e >= 0:
+            cx, cy, dx, dy = log_endpoints(Sl[e, X], Sl[e, Y], Sl[e, THETA], ln[e])
+            g = min(g, capsule_gap(ax, ay, bx, by, rd[a], cx, cy, dx, dy, rd[e], out))
+        else:
+            qa, qb, qc, qd, qr = capsule_row(caps, ocaps[-e - 1])
+            g = min(g, capsule_gap(ax, ay, bx, by, rd[a], qa, qb, qc, qd, qr, out))
+    return g
+
+
+@nb.njit(cache=True, _nrt=False)
+def _island_rows(S, lin0, mem, na, nt, length, radius, mass, inertia, S0l, Sl, ln, rd, lm, li,
+                 lf, ang, drag_fraction, explicit, max_step):
+    """An island step's local rows and its own bound (eq. (70)): (dt, r_min).
+
+    The rows: states at the step's start, lengths, radii, inverse masses and inertias (the
+    stopped logs mem[na:nt] fixed).
+
+    Here and in ``_near_speed`` and ``_free_margins`` without reference counting: in
+    ``_islands`` itself the inlined helpers counted the references of their arrays at every
+    log and pair of every step.
+    """
+    dt = max_step
+    rmin = np.inf
+    for a in range(na, nt):  # a stopped log: at rest, immovable (zero inverse mass)
+        i = mem[a]
+        for k in range(6):
+            S0l[a, k] = Sl[a, k] = S[i, k]
+        ln[a], rd[a] = length[i], radius[i]
+        lm[a] = li[a] = 0.0
+        rmin = min(rmin, radius[i])
+    for a in range(na):
+        i = mem[a]
+        lnr = (lin0[i, 0], lin0[i, 1], lin0[i, 2], lin0[i, 3], lin0[i, 4])
+        dt = min(dt, _own_bound(row(S, i), length[i], lnr, lf, ang, drag_fraction, explicit,
+                                np.inf))
+        rmin = min(rmin, radius[i])
+        for k in range(6):
+            S0l[a, k] = S[i, k]
+        ln[a], rd[a] = length[i], radius[i]
+        lm[a], li[a] = 1.0 / mass[i], 1.0 / inertia[i]
+    return dt, rmin
+
+
+@nb.njit(cache=True, _nrt=False)
+def _near_speed(S0l, ln, rd, pairs, npair, na, near, relative_motion):
+    """The speed that bounds a step near contacts (eq. (81)) over the first npair pairs."""
+    speed = 0.0
+    if relative_motion:
+        # the speed at which each near pair's geometry changes
+        for c in range(npair):
+            a, e = pairs[c, 0], pairs[c, 1]
+            speed = max(speed, _pair_speed(S0l, ln, rd, a, e))
+    else:
+        for c in range(npair):
+            near[pairs[c, 0]] = True
+            if pairs[c, 1] >= 0:
+                near[pairs[c, 1]] = True
+        for a in range(na):
+            if near[a]:
+                speed = max(speed, np.hypot(S0l[a, UB], S0l[a, VB])
+                            + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
+    return speed
+
+
+@nb.njit(cache=True, _nrt=False)
+def _free_margins(S, mem, na, S0l, Sl, ln, rd, margin, dt, tol):
+    """The free step's states into Sl and the pairs' margins over it; the largest speed."""
+    vmax = 0.0
+    for a in range(na):
+        i = mem[a]
+        for k in range(6):
+            Sl[a, k] = S[i, k]
+        vmax = max(vmax, max(abs(Sl[a, UB]), abs(Sl[a, VB])))
+        # candidates over the motion of the step: the larger of the two speeds
+        fu = max(abs(S0l[a, UB]), abs(Sl[a, UB]))
+        fv = max(abs(S0l[a, VB]), abs(Sl[a, VB]))
+        fo = max(abs(S0l[a, OMEGA]), abs(Sl[a, OMEGA]))
+        margin[a] = (np.hypot(fu, fv) + fo * (0.5 * ln[a] + rd[a])) * dt + tol
+    return vmax
+
+
+@nb.njit(cache=True)
+def island_workspace(nmax, nobst):
+    """``_islands``' work arrays for islands of up to nmax logs and nobst obstacle capsules.
+
+    An island step used to allocate some forty arrays (candidate pairs twice, the contact
+    manifold, the solver's rows, the least gap), and a crowd's windows take millions of steps
+    of islands of a few logs (BENCHMARKS.md, "Islands of speculative contacts"): made once per
+    kernel call instead.  The pair and contact rows hold what such an island can have, up to
+    ``ALL_PAIRS`` bodies; a larger island grows its own copy (``_islands``).
+    """
+    n = min(nmax, ALL_PAIRS)
+    npair = max(min(n * (n - 1) // 2 + n * nobst, ALL_PAIRS * ALL_PAIRS // 2), 1)
+    ncon = 5 * npair
+    cap = max(ncon, nmax + 1)
+    return (np.empty(16, np.int64), np.empty(ALL_PAIRS), np.empty(ALL_PAIRS),
+            np.empty(ALL_PAIRS), np.empty((npair, 2), np.int64), np.empty((ncon, NRES)),
+            np.empty(ncon, np.int64), np.empty(ncon, np.int64), np.empty(ncon, np.int64),
+            np.empty((4, NRES)), np.empty(cap)) + solve_workspace(cap)
+
+
 @nb.njit(cache=True)
 def _grow(a, n):
     """The int64 array a, grown to hold at least n entries."""
@@ -195,201 +340,193 @@ def _grow(a, n):
 
 
 @nb.njit(cache=True)
-def _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radius, mass,
-            inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol, method, lf, ang,
-            drag_fraction, explicit, max_step, min_step, tracer, rotation, thr, friction, vals_c,
-            T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc, tolerance, eps,
-            iterations, motion_share, relative_motion, island_stop, keep_stopped, active_in, fx,
-            fy, box, obst_impulse, direct, rec_o, rec_j, nrec, hit_t, hit_log, hit_other, hit_j,
-            hit_x, hit_y, nhit, active_out, nactive, stats, lim, code, t_code, mem, S0l, Sl, ln, rd,
-            lm, li, margin, near):
-    """Island q of ``moreau_islands`` from t0 to t_stop; False when an output buffer is full.
+def _islands(q0, q1, members, start, S, F, flag, face, D0, lin0, P, opt, length, radius, mass,
+             inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol, method, lf, ang,
+             drag_fraction, explicit, max_step, min_step, tracer, rotation, thr, friction, vals_c,
+             T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc, tolerance, eps,
+             iterations, motion_share, relative_motion, island_stop, keep_stopped, active_in, fx,
+             fy, box, obst_impulse, direct, rec_o, rec_j, nrec, hit_t, hit_log, hit_other, hit_j,
+             hit_x, hit_y, nhit, active_out, nactive, stats, lim, code, t_code, mem, S0l, Sl, ln,
+             rd, lm, li, margin, near, ws):
+    """Islands q0 .. q1 - 1 of ``moreau_islands`` from t0 to t_stop, one after another.
 
-    Writes its logs' rows, code[q], t_code[q], its hits from ``nhit[0]`` on, its pairs in touch
-    from ``nactive[0]`` on and adds to ``stats`` and ``lim``.  The impulses on the fixed
-    obstacles go to ``obst_impulse`` (``direct``) or, in the order they are made, to the
-    records ``rec_o`` (obstacle), ``rec_j`` (impulse) from ``nrec[0]`` on, so that they can be
-    added to ``obst_impulse`` later in the serial kernel's order.  mem .. near: work arrays of
-    at least the island's size.
+    Returns -1, or the island whose output buffer was full (the islands before it done).
+    Each island writes its logs' rows, code[q], t_code[q], its hits from ``nhit[0]`` on, its
+    pairs in touch from ``nactive[0]`` on and adds to ``stats`` and ``lim``.  The impulses on
+    the fixed obstacles go to ``obst_impulse`` (``direct``) or, in the order they are made, to
+    the records ``rec_o`` (obstacle), ``rec_j`` (impulse) from ``nrec[0]`` on, so that they can
+    be added to ``obst_impulse`` later in the serial kernel's order.  mem .. near: work arrays
+    of at least the largest island's size; ``ws``: ``island_workspace``'s.
+    One call for many islands: a call counts the references of its sixty-odd array arguments
+    on entry, and the islands of a crowd take one or two steps each on average (BENCHMARKS.md,
+    "Islands of speculative contacts").
     """
-    code[q] = OK
-    t_code[q] = t0
-    na = start[q + 1] - start[q]
-    for a in range(na):
-        mem[a] = members[start[q] + a]
-    oc = ocaps[ostart[q]:ostart[q + 1]]
-    # pairs touching or pushing at t0 (a hit is a contact that starts pushing)
-    prev = np.empty(16, np.int64)
-    npv = 0
-    for a in range(na):
-        lo = np.searchsorted(active_in, _pair_key(ids[mem[a]], 0))
-        hi = np.searchsorted(active_in, _pair_key(ids[mem[a]] + 1, 0))
-        prev = _grow(prev, npv + hi - lo)
-        for k in range(lo, hi):
-            prev[npv] = active_in[k]
-            npv += 1
-    t = t0
-    nx = 0  # logs that stopped floating in the window: mem[na:na + nx], fixed (keep_stopped)
-    while t < t_stop and na > 0:
-        nt = na + nx
-        # the island's own bound (Tracker.max_step over its logs)
-        _first_stage(S, F, D0, lin0, P, opt, mem, na)
-        dt = max_step
-        rmin = np.inf
-        for a in range(na, nt):  # a stopped log: at rest, immovable (zero inverse mass)
-            i = mem[a]
-            for k in range(6):
-                S0l[a, k] = Sl[a, k] = S[i, k]
-            ln[a], rd[a] = length[i], radius[i]
-            lm[a] = li[a] = 0.0
-            rmin = min(rmin, radius[i])
+    prev, ex, ey, mg, pb, mres, mb1, mb2, mcap, mtmp, Pc, fw, iw, bw, V, Vp = ws
+    for q in range(q0, q1):
+        code[q] = OK
+        t_code[q] = t0
+        na = start[q + 1] - start[q]
         for a in range(na):
-            i = mem[a]
-            lnr = (lin0[i, 0], lin0[i, 1], lin0[i, 2], lin0[i, 3], lin0[i, 4])
-            dt = min(dt, _own_bound(row(S, i), length[i], lnr, lf, ang, drag_fraction,
-                                    explicit, np.inf))
-            rmin = min(rmin, radius[i])
-            for k in range(6):
-                S0l[a, k] = S[i, k]
-            ln[a], rd[a] = length[i], radius[i]
-            lm[a], li[a] = 1.0 / mass[i], 1.0 / inertia[i]
-        dt = min(dt, t_stop - t)
-        if dt < min_step and t_stop - t > min_step:
-            code[q], t_code[q] = TOO_SMALL, t
-            break
-        tol = tolerance * rmin
-        # near contacts: no pair moves against each other by more than motion_share r_min
-        # (eq. (81))
-        for a in range(nt):
-            sp = (np.hypot(S0l[a, UB], S0l[a, VB])
-                  + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
-            margin[a] = sp * dt + tol
-            near[a] = False
-        pairs = _moving_pairs(S0l, ln, rd, na, nt, margin, caps, oc)
-        if pairs.shape[0]:
-            speed = 0.0
-            if relative_motion:
-                # the speed at which each near pair's geometry changes (eq. (81))
-                for c in range(pairs.shape[0]):
-                    a, e = pairs[c, 0], pairs[c, 1]
-                    speed = max(speed, _pair_speed(S0l, ln, rd, a, e))
+            mem[a] = members[start[q] + a]
+        oc = ocaps[ostart[q]:ostart[q + 1]]
+        # pairs touching or pushing at t0 (a hit is a contact that starts pushing)
+        npv = 0
+        for a in range(na):
+            lo = np.searchsorted(active_in, _pair_key(ids[mem[a]], 0))
+            hi = np.searchsorted(active_in, _pair_key(ids[mem[a]] + 1, 0))
+            prev = _grow(prev, npv + hi - lo)
+            for k in range(lo, hi):
+                prev[npv] = active_in[k]
+                npv += 1
+        t = t0
+        nx = 0  # logs that stopped floating in the window: mem[na:na + nx], fixed (keep_stopped)
+        while t < t_stop and na > 0:
+            nt = na + nx
+            # the island's own bound (Tracker.max_step over its logs)
+            _first_stage(S, F, D0, lin0, P, opt, mem, na)
+            dt, rmin = _island_rows(S, lin0, mem, na, nt, length, radius, mass, inertia, S0l, Sl,
+                                    ln, rd, lm, li, lf, ang, drag_fraction, explicit, max_step)
+            dt = min(dt, t_stop - t)
+            if dt < min_step and t_stop - t > min_step:
+                code[q], t_code[q] = TOO_SMALL, t
+                break
+            tol = tolerance * rmin
+            # near contacts: no pair moves against each other by more than motion_share r_min
+            # (eq. (81))
+            for a in range(nt):
+                sp = (np.hypot(S0l[a, UB], S0l[a, VB])
+                      + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
+                margin[a] = sp * dt + tol
+                near[a] = False
+            small = nt + oc.size <= ALL_PAIRS
+            if small:
+                npair = _near_pairs(S0l, ln, rd, nt, na, margin, caps, oc, ex, ey, pb)
+                pairs = pb
             else:
-                for c in range(pairs.shape[0]):
-                    near[pairs[c, 0]] = True
-                    if pairs[c, 1] >= 0:
-                        near[pairs[c, 1]] = True
-                for a in range(na):
-                    if near[a]:
-                        speed = max(speed, np.hypot(S0l[a, UB], S0l[a, VB])
-                                    + abs(S0l[a, OMEGA]) * (0.5 * ln[a] + rd[a]))
-            if speed > 0.0:
-                dt = min(dt, motion_share * rmin / speed)
-        # the free step
-        _step_members(S, D0, F, flag, face, lin0, mem, na, P, opt, t, dt, method, tracer,
-                      rotation, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
-                      recovered, loc)
-        stats[ST_ADVANCES] += 1
-        vmax = 0.0
-        for a in range(na):
-            i = mem[a]
-            for k in range(6):
-                Sl[a, k] = S[i, k]
-            vmax = max(vmax, max(abs(Sl[a, UB]), abs(Sl[a, VB])))
-            # candidates over the motion of the step: the larger of the two speeds
-            fu = max(abs(S0l[a, UB]), abs(Sl[a, UB]))
-            fv = max(abs(S0l[a, VB]), abs(Sl[a, VB]))
-            fo = max(abs(S0l[a, OMEGA]), abs(Sl[a, OMEGA]))
-            margin[a] = (np.hypot(fu, fv) + fo * (0.5 * ln[a] + rd[a])) * dt + tol
-        t_prev = t
-        t = t + dt
-        if t_stop - t <= time_tol:
-            t = t_stop
-        pairs = _moving_pairs(S0l, ln, rd, na, nt, margin, caps, oc)
-        b1, b2, cap, res = _manifold(S0l, ln, rd, pairs, caps, oc, margin)
-        nc = b1.size
-        if nc:
-            Pc = np.zeros(nc)
-            it, _ = moreau_solve(S0l[:nt], Sl[:nt], lm[:nt], li[:nt], b1, b2, res, dt, eps,
-                                 tol, tol, 1e-9 * (vmax + 1e-3), iterations, Pc, 0.2,
-                                 island_stop)
-            stats[ST_PGS] += it
-            stats[ST_PGS_MAX] = max(stats[ST_PGS_MAX], it)
-            stats[ST_MAX_CONTACTS] = max(stats[ST_MAX_CONTACTS], nc)
-            for c in range(nc):
-                if b2[c] < 0 and Pc[c] != 0.0 and obst_impulse.shape[0]:
-                    o = owner[cap[c]]
-                    if direct:
-                        obst_impulse[o, 0] -= Pc[c] * res[c, NX]
-                        obst_impulse[o, 1] -= Pc[c] * res[c, NY]
-                    else:
-                        if nrec[0] == rec_o.size:
-                            return False
-                        rec_o[nrec[0]] = o
-                        rec_j[nrec[0], 0] = Pc[c] * res[c, NX]
-                        rec_j[nrec[0], 1] = Pc[c] * res[c, NY]
-                        nrec[0] += 1
-            # the contacts moved the logs: the flow sampled again where they are
-            _resample(S, Sl, F, flag, face, mem, na, t, vals_c, T0c, gap_c, vals_n, T0n,
-                      gap_n, t_split, dry_depth, recovered, loc)
-            lim[2] = min(lim[2], _min_gap(Sl, ln, rd, nt, caps, oc, tol))
-            # hits: contacts that start pushing, one per (log, other body) at the step's
-            # start, impulses summed, point impulse-weighted
-            first = nhit[0]
-            for c in range(nc):
-                if not Pc[c] > 0.0:
-                    continue
-                lid = ids[mem[b1[c]]]
-                other = ids[mem[b2[c]]] if b2[c] >= 0 else OBST_BIT + owner[cap[c]]
-                key = _pair_key(lid, other)
-                seen = False
-                for k in range(npv):
-                    if prev[k] == key:
-                        seen = True
-                        break
-                if seen:
-                    continue
-                oth = ids[mem[b2[c]]] if b2[c] >= 0 else -(owner[cap[c]] + 1)
-                if not add_hit(first, nhit, hit_t, hit_log, hit_other, hit_j, hit_x, hit_y,
-                               t_prev, lid, oth, Pc[c], res[c, CX], res[c, CY]):
-                    return False
-            for k in range(first, nhit[0]):
-                hit_x[k] /= hit_j[k]
-                hit_y[k] /= hit_j[k]
-            # touching or pushing: a contact that flickers within the tolerance is one hit
-            npv = 0
-            prev = _grow(prev, nc)
-            for c in range(nc):
-                if Pc[c] > 0.0 or res[c, GAP] <= tol:
+                pairs = _moving_pairs(S0l, ln, rd, na, nt, margin, caps, oc)
+                npair = pairs.shape[0]
+            if npair:
+                speed = _near_speed(S0l, ln, rd, pairs, npair, na, near, relative_motion)
+                if speed > 0.0:
+                    dt = min(dt, motion_share * rmin / speed)
+            # the free step
+            _step_members(S, D0, F, flag, face, lin0, mem, na, P, opt, t, dt, method, tracer,
+                          rotation, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
+                          recovered, loc)
+            stats[ST_ADVANCES] += 1
+            vmax = _free_margins(S, mem, na, S0l, Sl, ln, rd, margin, dt, tol)
+            t_prev = t
+            t = t + dt
+            if t_stop - t <= time_tol:
+                t = t_stop
+            if small:
+                npair = _near_pairs(S0l, ln, rd, nt, na, margin, caps, oc, ex, ey, pb)
+                pairs = pb
+            else:
+                pairs = _moving_pairs(S0l, ln, rd, na, nt, margin, caps, oc)
+                npair = pairs.shape[0]
+                if 5 * npair > mb1.size:  # a large island: its own, larger rows
+                    mres = np.empty((10 * npair, NRES))
+                    mb1 = np.empty(10 * npair, np.int64)
+                    mb2 = np.empty(10 * npair, np.int64)
+                    mcap = np.empty(10 * npair, np.int64)
+            nc = _manifold_rows(S0l, ln, rd, pairs, npair, caps, oc, margin, mres, mb1, mb2, mcap,
+                                mtmp)
+            b1, b2, cap, res = mb1, mb2, mcap, mres
+            if nc:
+                if nc > Pc.size or nt + 1 > Pc.size:
+                    Pc = np.empty(2 * max(nc, nt + 1))
+                    fw, iw, bw, V, Vp = solve_workspace(Pc.size)
+                it, _ = moreau_solve_into(S0l, Sl, lm, li, nt, b1, b2, res, nc, dt, eps, tol, tol,
+                                          1e-9 * (vmax + 1e-3), iterations, Pc, 0.2, island_stop,
+                                          fw, iw, bw, V, Vp)
+                stats[ST_PGS] += it
+                stats[ST_PGS_MAX] = max(stats[ST_PGS_MAX], it)
+                stats[ST_MAX_CONTACTS] = max(stats[ST_MAX_CONTACTS], nc)
+                for c in range(nc):
+                    if b2[c] < 0 and Pc[c] != 0.0 and obst_impulse.shape[0]:
+                        o = owner[cap[c]]
+                        if direct:
+                            obst_impulse[o, 0] -= Pc[c] * res[c, NX]
+                            obst_impulse[o, 1] -= Pc[c] * res[c, NY]
+                        else:
+                            if nrec[0] == rec_o.size:
+                                return q
+                            rec_o[nrec[0]] = o
+                            rec_j[nrec[0], 0] = Pc[c] * res[c, NX]
+                            rec_j[nrec[0], 1] = Pc[c] * res[c, NY]
+                            nrec[0] += 1
+                # the contacts moved the logs: the flow sampled again where they are
+                _resample(S, Sl, F, flag, face, mem, na, t, vals_c, T0c, gap_c, vals_n, T0n,
+                          gap_n, t_split, dry_depth, recovered, loc)
+                if small:
+                    gap = _near_gap(Sl, ln, rd, nt, caps, oc, tol, mg, ex, ey, pb, mtmp[0])
+                else:
+                    gap = _min_gap(Sl, ln, rd, nt, caps, oc, tol)
+                lim[2] = min(lim[2], gap)
+                # hits: contacts that start pushing, one per (log, other body) at the step's
+                # start, impulses summed, point impulse-weighted
+                first = nhit[0]
+                for c in range(nc):
+                    if not Pc[c] > 0.0:
+                        continue
+                    lid = ids[mem[b1[c]]]
                     other = ids[mem[b2[c]]] if b2[c] >= 0 else OBST_BIT + owner[cap[c]]
-                    prev[npv] = _pair_key(ids[mem[b1[c]]], other)
-                    npv += 1
-        else:
-            npv = 0
-        taken = t - t_prev
-        lim[0] = min(lim[0], taken)
-        lim[1] = max(lim[1], taken)
-        stats[ST_STEPS] += 1
-        stats[ST_LOG_STEPS] += na
-        if _diverged(S, mem, na):
-            code[q], t_code[q] = DIVERGED, t
-            break
-        # swept boxes; statuses: a log that stops floating leaves the island's motion; with
-        # keep_stopped it stays in the island as a fixed body to the window's end (as it is a
-        # grounded obstacle from then on, docs/model.md 13), else the others pass over it
-        if keep_stopped:
-            na, nx = split_stopped(S, F, flag, P, thr, friction, opt, box, mem, na, nx,
-                                    length, fx, fy, t - t0)
-        else:
-            na = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx,
-                                 fy, t - t0)
-    # the pairs touching or pushing at the end, each once
-    keys = np.unique(prev[:npv])
-    if nactive[0] + keys.size > active_out.size:
-        return False
-    for k in range(keys.size):
-        active_out[nactive[0]] = keys[k]
-        nactive[0] += 1
-    return True
+                    key = _pair_key(lid, other)
+                    seen = False
+                    for k in range(npv):
+                        if prev[k] == key:
+                            seen = True
+                            break
+                    if seen:
+                        continue
+                    oth = ids[mem[b2[c]]] if b2[c] >= 0 else -(owner[cap[c]] + 1)
+                    if not add_hit(first, nhit, hit_t, hit_log, hit_other, hit_j, hit_x, hit_y,
+                                   t_prev, lid, oth, Pc[c], res[c, CX], res[c, CY]):
+                        return q
+                for k in range(first, nhit[0]):
+                    hit_x[k] /= hit_j[k]
+                    hit_y[k] /= hit_j[k]
+                # touching or pushing: a contact that flickers within the tolerance is one hit
+                npv = 0
+                prev = _grow(prev, nc)
+                for c in range(nc):
+                    if Pc[c] > 0.0 or res[c, GAP] <= tol:
+                        other = ids[mem[b2[c]]] if b2[c] >= 0 else OBST_BIT + owner[cap[c]]
+                        prev[npv] = _pair_key(ids[mem[b1[c]]], other)
+                        npv += 1
+            else:
+                npv = 0
+            taken = t - t_prev
+            lim[0] = min(lim[0], taken)
+            lim[1] = max(lim[1], taken)
+            stats[ST_STEPS] += 1
+            stats[ST_LOG_STEPS] += na
+            if _diverged(S, mem, na):
+                code[q], t_code[q] = DIVERGED, t
+                break
+            # swept boxes; statuses: a log that stops floating leaves the island's motion; with
+            # keep_stopped it stays in the island as a fixed body to the window's end (as it is a
+            # grounded obstacle from then on, docs/model.md 13), else the others pass over it
+            if keep_stopped:
+                na, nx = split_stopped(S, F, flag, P, thr, friction, opt, box, mem, na, nx,
+                                        length, fx, fy, t - t0)
+            else:
+                na = _still_floating(S, F, flag, P, thr, friction, opt, box, mem, na, length, fx,
+                                     fy, t - t0)
+        # the pairs touching or pushing at the end, each once
+        keys = prev[:npv]
+        keys.sort()
+        nk = 0
+        for k in range(npv):
+            nk += k == 0 or keys[k] != keys[k - 1]
+        if nactive[0] + nk > active_out.size:
+            return q
+        for k in range(npv):
+            if k == 0 or keys[k] != keys[k - 1]:
+                active_out[nactive[0]] = keys[k]
+                nactive[0] += 1
+    return -1
 
 
 @nb.njit(cache=True)
@@ -449,19 +586,25 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
     rec_j = np.empty((0, 2))
     nrec = np.zeros(1, np.int64)
     nh, na_ = hit_t.size, active_out.size
+    nob = 0
     for q in range(start.size - 1):
-        if not _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radius,
-                       mass, inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol,
-                       method, lf, ang, drag_fraction, explicit, max_step, min_step, tracer,
-                       rotation, thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
-                       t_split, dry_depth, recovered, loc, tolerance, eps, iterations,
-                       motion_share, relative_motion, island_stop, keep_stopped, active_in, fx, fy,
-                       box, obst_impulse, True, rec_o, rec_j, nrec, hit_t[0:nh], hit_log[0:nh],
-                       hit_other[0:nh], hit_j[0:nh], hit_x[0:nh], hit_y[0:nh], nhit,
-                       active_out[0:na_], nactive, stats, lim, code, t_code, mem, S0l, Sl, ln,
-                       rd, lm, li, margin, near):
-            code[q] = HIT_FULL
-            return
+        nob = max(nob, ostart[q + 1] - ostart[q])
+    ws = island_workspace(nmax, nob)
+    # the buffers as the parallel kernel passes them (views), made once
+    ht, hl, ho, hj, hx, hy = (hit_t[0:nh], hit_log[0:nh], hit_other[0:nh], hit_j[0:nh],
+                              hit_x[0:nh], hit_y[0:nh])
+    ao = active_out[0:na_]
+    full = _islands(0, start.size - 1, members, start, S, F, flag, face, D0, lin0, P, opt,
+                    length, radius, mass, inertia, ids, caps, owner, ocaps, ostart, t0, t_stop,
+                    time_tol, method, lf, ang, drag_fraction, explicit, max_step, min_step,
+                    tracer, rotation, thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
+                    t_split, dry_depth, recovered, loc, tolerance, eps, iterations, motion_share,
+                    relative_motion, island_stop, keep_stopped, active_in, fx, fy, box,
+                    obst_impulse, True, rec_o, rec_j, nrec, ht, hl, ho, hj, hx, hy, nhit, ao,
+                    nactive, stats, lim, code, t_code, mem, S0l, Sl, ln, rd, lm, li, margin,
+                    near, ws)
+    if full >= 0:
+        code[full] = HIT_FULL
 
 
 @nb.njit(cache=True)
@@ -472,7 +615,7 @@ def _island_apart(q, members, start, S, F, flag, face, D0, lin0, P, opt, length,
                   recovered, loc, tolerance, eps, iterations, motion_share, relative_motion,
                   island_stop, keep_stopped, active_in, fx, fy, box, obst_impulse, rec_o, rec_j,
                   hit_t, hit_log, hit_other, hit_j, hit_x, hit_y, act, cnt, st, lm, code, t_code):
-    """``_island`` q on copies of its logs' rows (a thread's own memory), then copied back.
+    """``_islands`` of island q on copies of its logs' rows (a thread's own memory), copied back.
 
     Islands on other threads write, every step, the rows of their own logs; neighbouring
     islands' logs are neighbouring rows, so working in place would share cache lines between
@@ -494,16 +637,17 @@ def _island_apart(q, members, start, S, F, flag, face, D0, lin0, P, opt, length,
     lml = lm.copy()
     c3 = np.zeros(3, np.int64)
     n = max(na, 1)
-    ok = _island(0, mem0, st0, Sx, Fx, flagx, facex, D0x, lin0x, Px, opt, lnx, rdx, msx, inx, idx,
-                 caps, owner, oc, ost0, t0, t_stop, time_tol, method, lf, ang, drag_fraction,
-                 explicit, max_step, min_step, tracer, rotation, thx, friction, vals_c, T0c,
-                 gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc, tolerance, eps,
-                 iterations, motion_share, relative_motion, island_stop, keep_stopped, active_in,
-                 fx, fy, boxx, obst_impulse, False, rec_o, rec_j, c3[2:3], hit_t, hit_log,
-                 hit_other, hit_j, hit_x, hit_y, c3[0:1], act, c3[1:2], stl, lml, cx, tx,
-                 np.empty(n, np.int64), np.empty((n, 6)), np.empty((n, 6)), np.empty(n),
-                 np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.bool_))
-    if not ok:
+    full = _islands(0, 1, mem0, st0, Sx, Fx, flagx, facex, D0x, lin0x, Px, opt, lnx, rdx, msx,
+                    inx, idx, caps, owner, oc, ost0, t0, t_stop, time_tol, method, lf, ang,
+                    drag_fraction, explicit, max_step, min_step, tracer, rotation, thx, friction,
+                    vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc,
+                    tolerance, eps, iterations, motion_share, relative_motion, island_stop,
+                    keep_stopped, active_in, fx, fy, boxx, obst_impulse, False, rec_o, rec_j,
+                    c3[2:3], hit_t, hit_log, hit_other, hit_j, hit_x, hit_y, c3[0:1], act,
+                    c3[1:2], stl, lml, cx, tx, np.empty(n, np.int64), np.empty((n, 6)),
+                    np.empty((n, 6)), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+                    np.empty(n), np.empty(n, np.bool_), island_workspace(n, oc.size))
+    if full >= 0:
         return False
     for a in range(na):
         i = g[a]
@@ -661,17 +805,17 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
         # its range was full (its rows untouched): again, alone, into the caller's buffers
         stats[ST_RERUNS] += 1
         n = nmax
-        if not _island(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radius,
-                       mass, inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol,
-                       method, lf, ang, drag_fraction, explicit, max_step, min_step, tracer,
-                       rotation, thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
-                       t_split, dry_depth, recovered, loc, tolerance, eps, iterations,
-                       motion_share, relative_motion, island_stop, keep_stopped, active_in, fx, fy,
-                       box, obst_impulse, True, rec_none, recj_none, nrec, hit_t[0:nh],
-                       hit_log[0:nh], hit_other[0:nh], hit_j[0:nh], hit_x[0:nh], hit_y[0:nh],
-                       nhit, active_out[0:na_], nactive, stats, lim, code, t_code,
-                       np.empty(n, np.int64), np.empty((n, 6)), np.empty((n, 6)), np.empty(n),
-                       np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-                       np.empty(n, np.bool_)):
+        if _islands(q, q + 1, members, start, S, F, flag, face, D0, lin0, P, opt, length,
+                    radius, mass, inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol,
+                    method, lf, ang, drag_fraction, explicit, max_step, min_step, tracer,
+                    rotation, thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split,
+                    dry_depth, recovered, loc, tolerance, eps, iterations, motion_share,
+                    relative_motion, island_stop, keep_stopped, active_in, fx, fy, box,
+                    obst_impulse, True, rec_none, recj_none, nrec, hit_t[0:nh], hit_log[0:nh],
+                    hit_other[0:nh], hit_j[0:nh], hit_x[0:nh], hit_y[0:nh], nhit,
+                    active_out[0:na_], nactive, stats, lim, code, t_code,
+                    np.empty(n, np.int64), np.empty((n, 6)), np.empty((n, 6)), np.empty(n),
+                    np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.bool_),
+                    island_workspace(n, ocaps.size)) >= 0:
             code[q] = HIT_FULL
             return

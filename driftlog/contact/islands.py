@@ -20,7 +20,8 @@ import numpy as np
 
 from driftlog.errors import ArgumentError
 
-__all__ = ["islands", "island_labels", "island_runs", "swept_islands"]
+__all__ = ["islands", "island_labels", "island_runs", "labels_into", "runs_into",
+           "swept_islands"]
 
 
 @nb.njit(cache=True, inline="always")
@@ -38,8 +39,20 @@ def island_labels(n, body1, body2):
     Labels are 0 .. count - 1, numbered by the smallest log of each island (log 0's island is
     0; a log without contacts is an island of its own).  Returns (labels, count).
     """
-    parent = np.arange(n)
-    for c in range(body1.size):
+    labels = np.empty(n, np.int64)
+    count = labels_into(n, body1, body2, body1.size, np.empty(n, np.int64), labels)
+    return labels, count
+
+
+@nb.njit(cache=True, _nrt=False)
+def labels_into(n, body1, body2, k, parent, labels):
+    """``island_labels`` of the first k contacts into ``labels`` (work: ``parent``, >= n); count.
+
+    No allocation and no reference counting, for kernels that solve many small islands.
+    """
+    for i in range(n):
+        parent[i] = i
+    for c in range(k):
         i, j = body1[c], body2[c]
         if i < 0 or j < 0:
             continue
@@ -50,7 +63,6 @@ def island_labels(n, body1, body2):
             parent[b] = a
         else:
             parent[a] = b
-    labels = np.empty(n, np.int64)
     count = 0
     for i in range(n):
         r = _root(parent, i)
@@ -59,7 +71,7 @@ def island_labels(n, body1, body2):
             count += 1
         else:
             labels[i] = labels[r]
-    return labels, count
+    return count
 
 
 def islands(pairs, n):
@@ -98,18 +110,27 @@ def island_runs(labels, count, body1):
 
     Returns (order, start): the contacts of island q are order[start[q]:start[q + 1]].
     """
-    start = np.zeros(count + 1, np.int64)
-    for c in range(body1.size):
+    start = np.empty(count + 1, np.int64)
+    order = np.empty(body1.size, np.int64)
+    runs_into(labels, count, body1, body1.size, order, start, np.empty(count, np.int64))
+    return order, start
+
+
+@nb.njit(cache=True, _nrt=False)
+def runs_into(labels, count, body1, k, order, start, fill):
+    """``island_runs`` of the first k contacts into ``order``, ``start`` (work: ``fill``)."""
+    for q in range(count + 1):
+        start[q] = 0
+    for c in range(k):
         start[labels[body1[c]] + 1] += 1
     for q in range(count):
         start[q + 1] += start[q]
-    fill = start[:-1].copy()
-    order = np.empty(body1.size, np.int64)
-    for c in range(body1.size):
+    for q in range(count):
+        fill[q] = start[q]
+    for c in range(k):
         q = labels[body1[c]]
         order[fill[q]] = c
         fill[q] += 1
-    return order, start
 
 
 def swept_islands(swept, reach):

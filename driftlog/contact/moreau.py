@@ -44,13 +44,12 @@ from driftlog.columns import (
     THETA,
     UB,
     VB,
-    VELOCITY,
     X,
     Y,
 )
-from driftlog.contact.islands import island_labels, island_runs
+from driftlog.contact.islands import labels_into, runs_into
 
-__all__ = ["moreau_solve"]
+__all__ = ["moreau_solve", "moreau_solve_into", "solve_workspace"]
 
 
 @nb.njit(cache=True)
@@ -73,11 +72,26 @@ def _pgs(order, start, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, 
     contact c last changed nothing (-1: it has to be evaluated).
     """
     count = start.size - 1
-    active = np.empty(count, np.bool_)
+    return _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i,
+                     V, V.shape[0], P, body1.size, vtol, max_iterations, island_stop,
+                     np.empty(count, np.bool_), np.empty(V.shape[0], np.int64),
+                     np.empty(body1.size, np.int64))
+
+
+@nb.njit(cache=True, _nrt=False)
+def _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, n,
+              P, k, vtol, max_iterations, island_stop, active, seen, quiet):
+    """``_pgs`` of ``count`` islands, n bodies and k contacts, on work arrays.
+
+    ``active`` (>= count), ``seen`` (>= n) and ``quiet`` (>= k): no allocation, no reference
+    counting.
+    """
     for q in range(count):
         active[q] = start[q + 1] > start[q]
-    seen = np.zeros(V.shape[0], np.int64)
-    quiet = np.full(body1.size, -1, np.int64)
+    for b in range(n):
+        seen[b] = 0
+    for c in range(k):
+        quiet[c] = -1
     tick = 0
     it = 0
     residual = 0.0
@@ -134,10 +148,18 @@ def _gained(labels, count, S, V, inv_m, inv_i):
 
     Beyond round-off: 1e-9 of the free energy plus a speed of 1e-9 m/s over the island's mass.
     """
-    e0 = np.zeros(count)
-    e1 = np.zeros(count)
-    floor = np.zeros(count)
-    for b in range(labels.size):
+    out = np.empty(count, np.bool_)
+    _gained_into(labels, count, labels.size, S, V, inv_m, inv_i, np.empty(count),
+                 np.empty(count), np.empty(count), out)
+    return out
+
+
+@nb.njit(cache=True, _nrt=False)
+def _gained_into(labels, count, n, S, V, inv_m, inv_i, e0, e1, floor, out):
+    """``_gained`` of n bodies into ``out`` (work: ``e0``, ``e1``, ``floor``, >= count)."""
+    for q in range(count):
+        e0[q] = e1[q] = floor[q] = 0.0
+    for b in range(n):
         if inv_m[b] == 0.0:  # a fixed body (a log stopped in its window) gains nothing
             continue
         q = labels[b]
@@ -145,10 +167,8 @@ def _gained(labels, count, S, V, inv_m, inv_i):
         e0[q] += 0.5 * (m * (S[b, UB] ** 2 + S[b, VB] ** 2) + i * S[b, OMEGA] ** 2)
         e1[q] += 0.5 * (m * (V[b, GU] ** 2 + V[b, GV] ** 2) + i * V[b, GOMEGA] ** 2)
         floor[q] += 0.5 * m * 1e-18
-    out = np.empty(count, np.bool_)
     for q in range(count):
         out[q] = e1[q] > e0[q] * (1.0 + 1e-9) + floor[q]
-    return out
 
 
 @nb.njit(cache=True)
@@ -182,13 +202,48 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
     """
     k = body1.size
     n = S.shape[0]
-    plain = np.empty(k)  # the targets without restitution (eq. (87))
-    rn1 = np.empty(k)
-    rn2 = np.zeros(k)
-    w = np.empty(k)
-    target = np.empty(k)
-    g_free = np.empty(k)
-    u_free = np.empty(k)
+    fw, iw, bw, V, Vp = solve_workspace(max(k, n + 1))
+    return moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol, slop,
+                             vtol, max_iterations, P, recovery, island_stop, fw, iw, bw, V, Vp)
+
+
+# moreau_solve_into's work rows: floats (per contact, then per island), integers (per contact,
+# then per body or island), flags (per island)
+NFW, NIW, NBW = 11, 9, 2
+
+
+@nb.njit(cache=True)
+def solve_workspace(cap):
+    """Work arrays for ``moreau_solve_into`` of up to cap - 1 bodies and cap contacts."""
+    # every entry that moreau_solve_into reads it has written first
+    return (np.empty((NFW, cap)), np.empty((NIW, cap), np.int64), np.empty((NBW, cap), np.bool_),
+            np.empty((cap, 3)), np.empty((cap, 3)))
+
+
+@nb.njit(cache=True, _nrt=False)
+def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol, slop, vtol,
+                      max_iterations, P, recovery, island_stop, fw, iw, bw, V, Vp):
+    """``moreau_solve`` of the first n bodies and k contacts, on work arrays.
+
+    ``fw``, ``iw``, ``bw``, ``V``, ``Vp``: ``solve_workspace(cap)`` with cap >= k and
+    cap > n.  No allocation and no reference counting (a crowd's island kernel solves
+    millions of small islands; BENCHMARKS.md, "Islands of speculative contacts").  The same
+    numbers as ``moreau_solve``, which calls it.
+    """
+    plain = fw[0]  # the targets without restitution (eq. (87))
+    rn1 = fw[1]
+    rn2 = fw[2]
+    w = fw[3]
+    target = fw[4]
+    g_free = fw[5]
+    u_free = fw[6]
+    Pp = fw[7]
+    e0, e1, floor = fw[8], fw[9], fw[10]
+    order, quiet, keep = iw[0], iw[1], iw[2]
+    parent, labels, start, fill, seen, start2 = iw[3], iw[4], iw[5], iw[6], iw[7], iw[8]
+    active, redo = bw[0], bw[1]
+    for c in range(k):
+        rn2[c] = 0.0
     for c in range(k):
         i, j = body1[c], body2[c]
         nx, ny = res[c, NX], res[c, NY]
@@ -217,20 +272,25 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
             target[c] = max(target[c], -eps * u0)
             plain[c] = max(plain[c], 0.0)
         P[c] = 0.0
-    labels, count = island_labels(n, body1, body2)
-    order, start = island_runs(labels, count, body1)
-    V = S[:, VELOCITY].copy()
-    it, residual = _pgs(order, start, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V,
-                        P, vtol, max_iterations, island_stop)
+    count = labels_into(n, body1, body2, k, parent, labels)
+    runs_into(labels, count, body1, k, order, start, fill)
+    for b in range(n):
+        for m in range(GOMEGA + 1):
+            V[b, m] = S[b, UB + m]
+    it, residual = _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m,
+                             inv_i, V, n, P, k, vtol, max_iterations, island_stop, active, seen,
+                             quiet)
     if eps > 0.0:
         # Newton's law at simultaneous contacts can make energy (a log spinning between two
         # fixed bodies, both contacts approaching: eq. (87)); an island whose impulses raised
         # its kinetic energy is solved again without restitution, which cannot
-        redo = _gained(labels, count, S, V, inv_m, inv_i)
-        if redo.any():
-            keep = np.empty(k, np.int64)
+        _gained_into(labels, count, n, S, V, inv_m, inv_i, e0, e1, floor, redo)
+        anyredo = False
+        for q in range(count):
+            anyredo = anyredo or redo[q]
+        if anyredo:
             m = 0
-            start2 = np.zeros(count + 1, np.int64)
+            start2[0] = 0
             for q in range(count):
                 if redo[q]:
                     for a in range(start[q], start[q + 1]):
@@ -244,12 +304,16 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
                 if redo[labels[b]]:
                     for q in range(GOMEGA + 1):
                         V[b, q] = S[b, UB + q]
-            it2, residual = _pgs(keep[:m], start2, body1, body2, res, rn1, rn2, w, target,
-                                 inv_m, inv_i, V, P, vtol, max_iterations, island_stop)
+            it2, residual = _pgs_into(keep, start2, count, body1, body2, res, rn1, rn2, w,
+                                      target, inv_m, inv_i, V, n, P, k, vtol, max_iterations,
+                                      island_stop, active, seen, quiet)
             it += it2
     # position pass: pseudo-velocities that remove a share of the remaining overlap
-    Vp = np.zeros((n, 3))
-    Pp = np.zeros(k)
+    for b in range(n):
+        for m in range(GOMEGA + 1):
+            Vp[b, m] = 0.0
+    for c in range(k):
+        Pp[c] = 0.0
     deep = 0
     for c in range(k):
         i, j = body1[c], body2[c]
@@ -267,8 +331,8 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
             # passed the push on through a whole pile (docs/model.md eq. (88))
             target[c] = -max(g_end, 0.0) / dt
     if deep:
-        _pgs(order, start, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, Vp, Pp, vtol,
-             max_iterations, island_stop)
+        _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, Vp,
+                  n, Pp, k, vtol, max_iterations, island_stop, active, seen, quiet)
     for b in range(n):  # q+ = q_free + dt (V+ - V_free) + dt Vp
         for m in range(GOMEGA + 1):  # position X + m has the rate UB + m (GU + m in V)
             S[b, X + m] += dt * (V[b, m] - S[b, UB + m] + Vp[b, m])
