@@ -173,9 +173,14 @@ def _min_gap(Sl, ln, rd, na, caps, ocaps, tol):
     """The least gap of the candidate pairs within tol (``ContactModel.check_overlap``)."""
     margin = np.full(na, tol)
     pairs, _ = island_pairs(Sl, ln, rd, na, margin, caps, ocaps)
+    return _least_gap(Sl, ln, rd, pairs, pairs.shape[0], caps, ocaps, np.empty(NRES))
+
+
+@nb.njit(cache=True, _nrt=False)
+def _least_gap(Sl, ln, rd, pairs, m, caps, ocaps, out):
+    """The least gap of the first m pairs (``out``: a row of ``NRES``, work)."""
     g = np.inf
-    out = np.empty(NRES)
-    for c in range(pairs.shape[0]):
+    for c in range(m):
         a, e = pairs[c, 0], pairs[c, 1]
         ax, ay, bx, by = log_endpoints(Sl[a, X], Sl[a, Y], Sl[a, THETA], ln[a])
         if e >= 0:
@@ -214,6 +219,19 @@ def _near_pairs(Sl, ln, rd, nt, na, margin, caps, ocaps, ex, ey, out):
     return m
 
 
+@nb.njit(cache=True, inline="always")
+def _candidates(small, Sl, ln, rd, nt, na, margin, caps, ocaps, ex, ey, pb):
+    """The candidate pairs of the moving logs and how many.
+
+    ``_near_pairs`` into ``pb`` for an island of at most ``ALL_PAIRS`` bodies (``small``),
+    else ``_moving_pairs``.
+    """
+    if small:
+        return pb, _near_pairs(Sl, ln, rd, nt, na, margin, caps, ocaps, ex, ey, pb)
+    pairs = _moving_pairs(Sl, ln, rd, na, nt, margin, caps, ocaps)
+    return pairs, pairs.shape[0]
+
+
 @nb.njit(cache=True, _nrt=False)
 def _near_gap(Sl, ln, rd, nt, caps, ocaps, tol, margin, ex, ey, pairs, out):
     """``_min_gap`` of at most ``ALL_PAIRS`` bodies, on work arrays.
@@ -224,17 +242,7 @@ def _near_gap(Sl, ln, rd, nt, caps, ocaps, tol, margin, ex, ey, pairs, out):
     for a in range(nt):
         margin[a] = tol
     m = _near_pairs(Sl, ln, rd, nt, nt, margin, caps, ocaps, ex, ey, pairs)
-    g = np.inf
-    for c in range(m):
-        a, e = pairs[c, 0], pairs[c, 1]
-        ax, ay, bx, by = log_endpoints(Sl[a, X], Sl[a, Y], Sl[a, THETA], ln[a])
-        if e >= 0:
-            cx, cy, dx, dy = log_endpoints(Sl[e, X], Sl[e, Y], Sl[e, THETA], ln[e])
-            g = min(g, capsule_gap(ax, ay, bx, by, rd[a], cx, cy, dx, dy, rd[e], out))
-        else:
-            qa, qb, qc, qd, qr = capsule_row(caps, ocaps[-e - 1])
-            g = min(g, capsule_gap(ax, ay, bx, by, rd[a], qa, qb, qc, qd, qr, out))
-    return g
+    return _least_gap(Sl, ln, rd, pairs, m, caps, ocaps, out)
 
 
 @nb.njit(cache=True, _nrt=False)
@@ -399,12 +407,7 @@ def _islands(q0, q1, members, start, S, F, flag, face, D0, lin0, P, opt, length,
                 margin[a] = sp * dt + tol
                 near[a] = False
             small = nt + oc.size <= ALL_PAIRS
-            if small:
-                npair = _near_pairs(S0l, ln, rd, nt, na, margin, caps, oc, ex, ey, pb)
-                pairs = pb
-            else:
-                pairs = _moving_pairs(S0l, ln, rd, na, nt, margin, caps, oc)
-                npair = pairs.shape[0]
+            pairs, npair = _candidates(small, S0l, ln, rd, nt, na, margin, caps, oc, ex, ey, pb)
             if npair:
                 speed = _near_speed(S0l, ln, rd, pairs, npair, na, near, relative_motion)
                 if speed > 0.0:
@@ -419,17 +422,12 @@ def _islands(q0, q1, members, start, S, F, flag, face, D0, lin0, P, opt, length,
             t = t + dt
             if t_stop - t <= time_tol:
                 t = t_stop
-            if small:
-                npair = _near_pairs(S0l, ln, rd, nt, na, margin, caps, oc, ex, ey, pb)
-                pairs = pb
-            else:
-                pairs = _moving_pairs(S0l, ln, rd, na, nt, margin, caps, oc)
-                npair = pairs.shape[0]
-                if 5 * npair > mb1.size:  # a large island: its own, larger rows
-                    mres = np.empty((10 * npair, NRES))
-                    mb1 = np.empty(10 * npair, np.int64)
-                    mb2 = np.empty(10 * npair, np.int64)
-                    mcap = np.empty(10 * npair, np.int64)
+            pairs, npair = _candidates(small, S0l, ln, rd, nt, na, margin, caps, oc, ex, ey, pb)
+            if 5 * npair > mb1.size:  # a large island: its own, larger rows
+                mres = np.empty((10 * npair, NRES))
+                mb1 = np.empty(10 * npair, np.int64)
+                mb2 = np.empty(10 * npair, np.int64)
+                mcap = np.empty(10 * npair, np.int64)
             nc = _manifold_rows(S0l, ln, rd, pairs, npair, caps, oc, margin, mres, mb1, mb2, mcap,
                                 mtmp)
             b1, b2, cap, res = mb1, mb2, mcap, mres

@@ -328,3 +328,84 @@ def test_position_pass_pushes_no_pair_that_is_still_apart():
     np.testing.assert_allclose(moved[:2], np.array([-0.5, 0.5]) * 0.2 * (0.01 - slop),
                                rtol=1e-9)
     np.testing.assert_array_equal(S[:, 1:3], S0[:, 1:3])
+
+
+def test_moreau_solve_on_a_reused_workspace_equals_fresh_solves(rng):
+    """The island kernel solves island after island on one workspace made once per call
+    (``moreau_solve_into``, no allocation): solves of different sizes, one after another on
+    a workspace poisoned with NaN and garbage first, give the fresh solves' numbers bit for bit
+    (no work entry is read before it is written), restitution (its second solve) and deep
+    overlaps (the position pass) included."""
+    from driftlog.contact.moreau import moreau_solve_into, solve_workspace
+
+    fw, iw, bw, V, Vp = solve_workspace(4000)
+    fw[:] = np.nan
+    iw[:] = -7
+    bw[:] = True
+    V[:] = np.nan
+    Vp[:] = np.nan
+    m = ContactModel(method="moreau", restitution=0.3)
+    dt = 0.02
+    for g, spacing, eps in ((20, 0.95, 0.3), (6, 0.9, 0.0), (12, 1.0, 0.8), (3, 0.9, 0.3)):
+        b = _crowd(rng, g=g, spacing=spacing)
+        S0 = b.state.copy()
+        S0[:, UB:VB + 1] -= 0.5 * (S0[:, X:Y + 1] - S0[:, X:Y + 1].mean(0))
+        C = m.detect_manifold(b, np.full(len(S0), 0.2), S=S0)
+        assert C.gap.min() < -0.01  # deep overlaps: the position pass runs
+        inv_m, inv_i = 1 / b.mass, 1 / b.inertia
+        S = S0.copy()
+        S[:, X:Y + 1] += dt * S0[:, UB:VB + 1]
+        S[:, 2] += dt * S0[:, OMEGA]
+        S1, S2 = S.copy(), S.copy()
+        P1, P2 = np.zeros(len(C)), np.full(len(C) + 2, np.nan)
+        r1 = moreau_solve(S0, S1, inv_m, inv_i, C.body1, C.body2, C.res, dt, eps, 5e-6, 5e-6,
+                          1e-9, 300, P1, 0.2, False)
+        # the rows past n and k hold other data, as an island kernel's local rows do
+        pad = np.vstack([S0, np.full((5, 6), np.nan)])
+        S2 = np.vstack([S2, np.full((5, 6), np.nan)])
+        r2 = moreau_solve_into(pad, S2, np.append(inv_m, np.ones(5)),
+                               np.append(inv_i, np.ones(5)), len(S0),
+                               np.append(C.body1, [0, 0]), np.append(C.body2, [1, 1]),
+                               np.vstack([C.res, C.res[:2]]), len(C), dt, eps, 5e-6, 5e-6, 1e-9,
+                               300, P2, 0.2, False, fw, iw, bw, V, Vp)
+        assert r1 == r2
+        assert (P1 > 0).sum() >= 1
+        assert S1.tobytes() == S2[:len(S0)].tobytes()
+        assert P1.tobytes() == P2[:len(C)].tobytes()
+
+
+@pytest.mark.parametrize("nt,stopped,ncap", [(2, 0, 0), (7, 2, 3), (16, 5, 8), (24, 0, 0),
+                                             (12, 11, 12)])
+def test_small_island_pairs_without_allocation_equal_island_pairs(rng, nt, stopped, ncap):
+    """The Moreau-Jean island kernel's candidate pairs of an island of at most ``ALL_PAIRS``
+    bodies (``_near_pairs``, into a work array) are ``_moving_pairs``' (``island_pairs`` less
+    the pairs of two fixed bodies): the same pairs in the same order; and its least gap
+    (``_near_gap``) is ``_min_gap``'s."""
+    from driftlog.columns import NRES
+    from driftlog.island_kernel import ALL_PAIRS
+    from driftlog.moreau_kernel import _min_gap, _moving_pairs, _near_gap, _near_pairs
+
+    assert nt + ncap <= ALL_PAIRS
+    for _ in range(20):
+        Sl = np.zeros((30, 6))
+        side = 1.5 * np.sqrt(nt + ncap)
+        Sl[:nt, X] = rng.uniform(0, side, nt) + 3e3
+        Sl[:nt, Y] = rng.uniform(0, side, nt) - 1e3
+        Sl[:nt, 2] = rng.uniform(-np.pi, np.pi, nt)
+        ln = rng.uniform(1.0, 2.0, 30)
+        rd = rng.uniform(0.05, 0.15, 30)
+        margin = rng.uniform(0.0, 0.3, 30)
+        cx = rng.uniform(0, side, 30) + 3e3
+        cy = rng.uniform(0, side, 30) - 1e3
+        caps = np.column_stack([cx, cy, cx + rng.uniform(-2, 2, 30),
+                                cy + rng.uniform(-2, 2, 30), rng.uniform(0.1, 0.4, 30)])
+        ocaps = rng.permutation(30)[:ncap].astype(np.int64)
+        na = nt - stopped
+        ref = _moving_pairs(Sl, ln, rd, na, nt, margin, caps, ocaps)
+        out = np.full((ALL_PAIRS * ALL_PAIRS // 2, 2), -99, np.int64)
+        m = _near_pairs(Sl, ln, rd, nt, na, margin, caps, ocaps, np.empty(ALL_PAIRS),
+                        np.empty(ALL_PAIRS), out)
+        np.testing.assert_array_equal(out[:m], ref)
+        g = _near_gap(Sl, ln, rd, nt, caps, ocaps, 0.05, np.empty(ALL_PAIRS),
+                      np.empty(ALL_PAIRS), np.empty(ALL_PAIRS), out, np.empty(NRES))
+        assert g == _min_gap(Sl, ln, rd, nt, caps, ocaps, 0.05)
