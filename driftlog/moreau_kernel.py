@@ -110,9 +110,8 @@ def _manifold(Sl, ln, rd, pairs, caps, ocaps, margin):
 def _manifold_rows(Sl, ln, rd, pairs, m, caps, ocaps, margin, res, b1, b2, cap, tmp):
     """``_manifold``'s contacts of the first m pairs into its arrays (at most 5 per pair).
 
-    Returns how many.
-    Compiled without reference counting: the row views and the calls per pair counted
-    references at every pair (BENCHMARKS.md, "Islands of speculative contacts").
+    Returns how many.  Compiled without reference counting: the row views and the calls per
+    pair counted references at every pair (BENCHMARKS.md, "Islands of speculative contacts").
     """
     for c in range(m):
         a, e = pairs[c, 0], pairs[c, 1]
@@ -198,7 +197,7 @@ def _near_pairs(Sl, ln, rd, nt, na, margin, caps, ocaps, ex, ey, out):
 
     The same pairs in the same order (every pair tested, log pairs by a then b, then the
     capsule pairs by a then c), with no allocation: ``ex``, ``ey`` (>= nt) are work rows and
-    ``out`` holds ``ALL_PAIRS ** 2 // 2`` pairs, more than an island of that size has.
+    ``out`` has room for every pair of the island (``island_workspace``).
     """
     no = ocaps.size
     for a in range(nt):
