@@ -703,12 +703,16 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
     pair in touch or an obstacle impulse runs again, tests); ``nthreads``: numba's threads
     (``numba.get_num_threads()``, given: called in the kernel it keeps numba from caching it).
     """
+    # no array expression, np.zeros or np.argmin here: in a parallel kernel numba makes each a
+    # parallel region of its own, and waking the threads for each (np.argmin once per island
+    # below) made two threads 2.4x slower than one on a packed crowd (BENCHMARKS.md)
     nisl = start.size - 1
     nlog = start[nisl] - start[0]
     size = np.empty(nisl, np.int64)
-    hoff = np.zeros(nisl + 1, np.int64)
-    aoff = np.zeros(nisl + 1, np.int64)
-    roff = np.zeros(nisl + 1, np.int64)
+    hoff = np.empty(nisl + 1, np.int64)
+    aoff = np.empty(nisl + 1, np.int64)
+    roff = np.empty(nisl + 1, np.int64)
+    hoff[0] = aoff[0] = roff[0] = 0
     for q in range(nisl):
         na = start[q + 1] - start[q]
         size[q] = na
@@ -728,28 +732,46 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
     rec_o = np.empty(roff[nisl], np.int64)
     rec_j = np.empty((roff[nisl], 2))
     # counts per island: hits, pairs in touch, obstacle impulses
-    cnt = np.zeros((nisl, 3), np.int64)
-    st = np.zeros((nisl, NSTAT), np.int64)
+    cnt = np.empty((nisl, 3), np.int64)
+    st = np.empty((nisl, NSTAT), np.int64)
     lm_ = np.empty((nisl, 3))
+    done = np.empty(nisl, np.bool_)
+    neg = np.empty(nisl, np.int64)
+    nmax = 1
     for q in range(nisl):
+        for k in range(3):
+            cnt[q, k] = 0
+        for k in range(NSTAT):
+            st[q, k] = 0
         lm_[q, 0], lm_[q, 1], lm_[q, 2] = lim[0], lim[1], lim[2]
-    done = np.zeros(nisl, np.bool_)
+        done[q] = False
+        neg[q] = -size[q]
+        nmax = max(nmax, size[q])
     # longest processing time first: the islands by size, each to the least loaded thread
     nw = max(1, min(nthreads, nisl))
-    order = np.argsort(-size, kind="mergesort")
-    load = np.zeros(nw, np.int64)
+    order = np.argsort(neg, kind="mergesort")
+    load = np.empty(nw, np.int64)
+    wstart = np.empty(nw + 1, np.int64)
+    wstart[0] = 0
+    for w in range(nw):
+        load[w] = 0
+        wstart[w + 1] = 0
     worker = np.empty(nisl, np.int64)
     for k in range(nisl):
-        w = np.argmin(load)
+        w = 0  # np.argmin(load): the first least loaded
+        for j in range(1, nw):
+            if load[j] < load[w]:
+                w = j
         worker[order[k]] = w
         load[w] += size[order[k]] + 1
-    wstart = np.zeros(nw + 1, np.int64)
     for q in range(nisl):
         wstart[worker[q] + 1] += 1
     for w in range(nw):
         wstart[w + 1] += wstart[w]
     wlist = np.empty(nisl, np.int64)
-    fill = wstart[:nw].copy()
+    fill = np.empty(nw, np.int64)
+    for w in range(nw):
+        fill[w] = wstart[w]
     for k in range(nisl):
         q = order[k]
         wlist[fill[worker[q]]] = q
@@ -769,10 +791,10 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
                 h_t[h0:h1], h_log[h0:h1], h_other[h0:h1], h_j[h0:h1], h_x[h0:h1], h_y[h0:h1],
                 act[a0:a1], cnt[q], st[q], lm_[q], code, t_code)
     # island by island in order: into the caller's buffers, as moreau_islands
-    nmax = max(1, size.max()) if nisl else 1
     rec_none = np.empty(0, np.int64)
     recj_none = np.empty((0, 2))
-    nrec = np.zeros(1, np.int64)
+    nrec = np.empty(1, np.int64)
+    nrec[0] = 0
     nh, na_ = hit_t.size, active_out.size
     for q in range(nisl):
         if done[q]:
