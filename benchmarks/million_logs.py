@@ -347,13 +347,17 @@ def threads(a):
                str(a.end), "--output-interval", str(a.output_interval), "--method", a.method,
                "--flush-interval", str(a.flush_interval), "--clock", a.clock, "--out", a.out,
                *(["--density", str(a.density)] if a.density else []), "--motion", a.motion,
-               "--grounded", a.grounded]
+               "--grounded", a.grounded,
+               # a child without --resume would delete the partial run it is asked to continue
+               *[f"--{k}" for k in ("resume", "keep", "progress") if getattr(a, k)]]
         env = dict(os.environ, NUMBA_NUM_THREADS=str(t))
         print(f"NUMBA_NUM_THREADS={t} " + " ".join(cmd), flush=True)
-        p = subprocess.run(cmd, capture_output=True, text=True, env=env)
+        # --progress: the child's progress bar (stderr) shown as it goes
+        p = subprocess.run(cmd, stdout=subprocess.PIPE,
+                           stderr=None if a.progress else subprocess.PIPE, text=True, env=env)
         line = [q for q in p.stdout.splitlines() if q.startswith("RESULT ")]
         if p.returncode or not line:
-            print(p.stdout[-3000:], p.stderr[-3000:])
+            print(p.stdout[-3000:], (p.stderr or "")[-3000:])
             rows.append(dict(logs=a.logs, threads=t, error=(p.stderr or p.stdout)[-500:]))
             continue
         rows.append(json.loads(line[-1][7:]))
@@ -524,6 +528,8 @@ def main(argv=None):
         raise SystemExit("million_logs.py needs shapely, in the bench extra: "
                          "pip install -e '.[bench]' (or pip install 'shapely>=2.0')") from None
     a.logs = int(a.logs)
+    if a.resume and a.sweep:
+        p.error("--resume continues one run (one --logs); it cannot go with --sweep")
     if a.results_from:
         rows = []
         for path in a.results_from:
