@@ -16,7 +16,9 @@ checkout of each (a second worktree, ``PYTHONPATH`` set to it), alternately:
         --density 100000 --end 900 --every 40        # about 0.9 GB at every 40th call
     python benchmarks/island_replay.py --replay /tmp/calls.pkl --name island_replay
 
-The capture's own run prints the kernel's share of it.  The arguments' signature is the
+``--replay FILE --parallel`` (with ``NUMBA_NUM_THREADS=2`` or more) runs each call by the
+serial and by the parallel kernel instead, checks that they leave the same states, and tables
+their wall times.  The capture's own run prints the kernel's share of it.  The arguments' signature is the
 kernel's: a capture replays only on code whose ``moreau_islands`` takes the same arguments.
 """
 
@@ -132,6 +134,62 @@ def replay(a):
              "runs": [row]}, indent=1))
 
 
+def replay_parallel(a):
+    """Each kept call by the serial and by the parallel kernel: wall times, states compared."""
+    import inspect
+
+    import numba
+
+    from driftlog import moreau_kernel as mk
+    from driftlog._numba import PARALLEL_MIN
+
+    with open(a.replay, "rb") as fh:
+        kept = pickle.load(fh)["calls"]
+    if not kept:
+        sys.exit(f"island_replay: {a.replay} holds no calls")
+    nt = numba.get_num_threads()
+    start = list(inspect.signature(mk.moreau_islands.py_func).parameters).index("start")
+    mk.moreau_islands(*_copy(kept[0][2]))
+    mk.moreau_islands_parallel(*_copy(kept[0][2]), 1.0, nt)  # compiled or loaded first
+    tot = {"all": [0.0, 0.0, 0], "parallel": [0.0, 0.0, 0]}
+    for _, _, args in kept:
+        ts = tp = np.inf
+        for _ in range(a.repeat):
+            x = _copy(args)
+            c = time.perf_counter()
+            mk.moreau_islands(*x)
+            ts = min(ts, time.perf_counter() - c)
+            y = _copy(args)
+            c = time.perf_counter()
+            mk.moreau_islands_parallel(*y, 1.0, nt)
+            tp = min(tp, time.perf_counter() - c)
+            if x[0].tobytes() != y[0].tobytes():
+                sys.exit("island_replay: the parallel kernel's states differ from the serial's")
+        nlog = int(args[start][-1])  # the logs of the call's islands
+        for key in ("all", "parallel") if nlog >= PARALLEL_MIN else ("all",):
+            tot[key][0] += ts
+            tot[key][1] += tp
+            tot[key][2] += 1
+    rows = [dict(calls=key + f" ({v[2]})", serial_wall_s=round(v[0], 3),
+                 parallel_wall_s=round(v[1], 3), ratio=round(v[0] / max(v[1], 1e-12), 2))
+            for key, v in tot.items()]
+    text = (f"### Island kernel calls replayed, serial and parallel kernels ({a.replay})\n\n"
+            f"Measured on {machine()}; {nt} numba threads, best of {a.repeat} per call, wall "
+            f"time; the states equal call by call.  'parallel': the calls of {PARALLEL_MIN} "
+            "logs or more, which the tracker sends to the parallel kernel.\n\n"
+            "| calls | serial wall (s) | parallel wall (s) | serial / parallel |\n"
+            "|---|---|---|---|\n"
+            + "".join(f"| {r['calls']} | {r['serial_wall_s']} | {r['parallel_wall_s']} | "
+                      f"{r['ratio']} |\n" for r in rows))
+    print(text)
+    if a.name:
+        RESULTS.mkdir(parents=True, exist_ok=True)
+        (RESULTS / f"{a.name}.md").write_text(text)
+        (RESULTS / f"{a.name}.json").write_text(json.dumps(
+            {"info": dict(machine=machine(), calls_file=str(a.replay), repeat=a.repeat,
+                          threads=nt), "runs": rows}, indent=1))
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     g = p.add_mutually_exclusive_group(required=True)
@@ -144,6 +202,9 @@ def main():
     p.add_argument("--every", type=int, default=40, help="keep every k-th call (--capture)")
     p.add_argument("--repeat", type=int, default=2, help="runs of each call (--replay)")
     p.add_argument("--name", default=None, help="results/<name>.{md,json} (--replay)")
+    p.add_argument("--parallel", action="store_true",
+                   help="--replay: each call by the serial and the parallel kernel (run with "
+                        "NUMBA_NUM_THREADS=2 or more), wall times")
     a = p.parse_args()
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     if a.capture:
@@ -155,7 +216,7 @@ def main():
     else:
         if not a.replay.is_file():
             p.error(f"--replay: no file {a.replay}")
-        replay(a)
+        (replay_parallel if a.parallel else replay)(a)
 
 
 if __name__ == "__main__":

@@ -88,30 +88,16 @@ def _pair_speed(Sl, ln, rd, a, e):
     return np.hypot(Sl[a, UB], Sl[a, VB]) + s
 
 
-@nb.njit(cache=True)
-def _manifold(Sl, ln, rd, pairs, caps, ocaps, margin):
-    """``ContactModel.detect_manifold`` on an island's candidate pairs at the states Sl.
-
-    The closest points of every pair, then the four axis-end contacts of every pair (ends of
-    body 1 on body 2, of body 2 on body 1) whose gap is within the pair's margins.  Returns
-    (b1, b2, cap, res): local bodies (b2 = -1 for a capsule, whose index in ``caps`` is cap).
-    """
-    m = pairs.shape[0]
-    res = np.empty((5 * m, NRES))
-    b1 = np.empty(5 * m, np.int64)
-    b2 = np.empty(5 * m, np.int64)
-    cap = np.full(5 * m, -1, np.int64)
-    k = _manifold_rows(Sl, ln, rd, pairs, m, caps, ocaps, margin, res, b1, b2, cap,
-                       np.empty((4, NRES)))
-    return b1[:k], b2[:k], cap[:k], res[:k]
-
-
 @nb.njit(cache=True, _nrt=False)
 def _manifold_rows(Sl, ln, rd, pairs, m, caps, ocaps, margin, res, b1, b2, cap, tmp):
-    """``_manifold``'s contacts of the first m pairs into its arrays (at most 5 per pair).
+    """``ContactModel.detect_manifold`` on an island's first m candidate pairs at states Sl.
 
-    Returns how many.  Compiled without reference counting: the row views and the calls per
-    pair counted references at every pair (BENCHMARKS.md, "Islands of speculative contacts").
+    The closest points of every pair, then the four axis-end contacts of every pair (ends of
+    body 1 on body 2, of body 2 on body 1) whose gap is within the pair's margins, into
+    ``res``, ``b1``, ``b2``, ``cap`` (at most 5 rows per pair): local bodies (b2 = -1 for a
+    capsule, whose index in ``caps`` is cap).  Returns how many.  Compiled without reference
+    counting: the row views and the calls per pair counted references at every pair
+    (BENCHMARKS.md, "Islands of speculative contacts").
     """
     for c in range(m):
         a, e = pairs[c, 0], pairs[c, 1]

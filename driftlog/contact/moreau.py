@@ -52,9 +52,9 @@ from driftlog.contact.islands import labels_into, runs_into
 __all__ = ["moreau_solve", "moreau_solve_into", "solve_workspace"]
 
 
-@nb.njit(cache=True)
-def _pgs(order, start, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, P, vtol,
-         max_iterations, island_stop):
+@nb.njit(cache=True, _nrt=False)
+def _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, n,
+              P, k, vtol, max_iterations, island_stop, active, seen, quiet):
     """Projected Gauss-Seidel: P >= 0 _|_ u_n(V) - target >= 0; V changed in place.
 
     Island by island (contacts order[start[q]:start[q + 1]] of island q, in their given
@@ -70,21 +70,9 @@ def _pgs(order, start, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, 
     sweep, not a gather of both bodies and a division.  ``tick`` counts the velocity
     changes; ``seen[b]`` is the tick of body b's last change, ``quiet[c]`` the tick at which
     contact c last changed nothing (-1: it has to be evaluated).
-    """
-    count = start.size - 1
-    return _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i,
-                     V, V.shape[0], P, body1.size, vtol, max_iterations, island_stop,
-                     np.empty(count, np.bool_), np.empty(V.shape[0], np.int64),
-                     np.empty(body1.size, np.int64))
 
-
-@nb.njit(cache=True, _nrt=False)
-def _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, n,
-              P, k, vtol, max_iterations, island_stop, active, seen, quiet):
-    """``_pgs`` of ``count`` islands, n bodies and k contacts, on work arrays.
-
-    ``active`` (>= count), ``seen`` (>= n) and ``quiet`` (>= k): no allocation, no reference
-    counting.
+    ``count`` islands, n bodies and k contacts; ``active`` (>= count), ``seen`` (>= n) and
+    ``quiet`` (>= k) are work arrays: no allocation, no reference counting.
     """
     for q in range(count):
         active[q] = start[q + 1] > start[q]
@@ -142,21 +130,13 @@ def _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m
     return it, residual
 
 
-@nb.njit(cache=True)
-def _gained(labels, count, S, V, inv_m, inv_i):
-    """Per island: whether the velocities V hold more kinetic energy than the free ones in S.
-
-    Beyond round-off: 1e-9 of the free energy plus a speed of 1e-9 m/s over the island's mass.
-    """
-    out = np.empty(count, np.bool_)
-    _gained_into(labels, count, labels.size, S, V, inv_m, inv_i, np.empty(count),
-                 np.empty(count), np.empty(count), out)
-    return out
-
-
 @nb.njit(cache=True, _nrt=False)
 def _gained_into(labels, count, n, S, V, inv_m, inv_i, e0, e1, floor, out):
-    """``_gained`` of n bodies into ``out`` (work: ``e0``, ``e1``, ``floor``, >= count)."""
+    """Per island: whether the velocities V hold more kinetic energy than the free ones in S.
+
+    Into ``out`` (>= count), for n bodies; beyond round-off: 1e-9 of the free energy plus a
+    speed of 1e-9 m/s over the island's mass.  ``e0``, ``e1``, ``floor`` (>= count): work.
+    """
     for q in range(count):
         e0[q] = e1[q] = floor[q] = 0.0
     for b in range(n):
