@@ -18,8 +18,9 @@ checkout of each (a second worktree, ``PYTHONPATH`` set to it), alternately:
 
 ``--replay FILE --parallel`` (with ``NUMBA_NUM_THREADS=2`` or more) runs each call by the
 serial and by the parallel kernel instead, checks that they leave the same states, and tables
-their wall times.  The capture's own run prints the kernel's share of it.  The arguments' signature is the
-kernel's: a capture replays only on code whose ``moreau_islands`` takes the same arguments.
+their wall times.  The capture's own run prints the kernel's share of it.  The arguments'
+signature is the kernel's: a capture replays only on code whose ``moreau_islands`` takes the
+same arguments.
 """
 
 from __future__ import annotations
