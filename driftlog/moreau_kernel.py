@@ -590,6 +590,36 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
         code[full] = HIT_FULL
 
 
+@nb.njit(cache=True, inline="always")
+def _row(dst, a, src, i):
+    """Row i of the 2-d array src into row a of dst."""
+    for k in range(src.shape[1]):
+        dst[a, k] = src[i, k]
+
+
+@nb.njit(cache=True)
+def apart_arena(n, nob, S, F, flag, face, D0, lin0, box, P, length, radius, mass, inertia, ids,
+                thr):
+    """A thread's memory for ``_island_apart``: room for islands of up to n logs, nob capsules.
+
+    The copies of an island's rows (S .. thr, its members' and obstacles' lists) and
+    ``_islands``' work arrays and ``island_workspace``, made once per thread and kernel call:
+    made per island, they were forty-odd allocations for islands of five logs and one or two
+    steps on average (the replayed crowd: 0.73-0.76 s on two threads before, 0.68-0.70 after;
+    BENCHMARKS.md, "Islands of speculative contacts").  n >= 1 and at most the number of logs.
+    """
+    return (np.empty_like(S[:n]), np.empty_like(F[:n]), np.empty_like(flag[:n]),
+            np.empty_like(face[:n]), np.empty_like(D0[:n]), np.empty_like(lin0[:n]),
+            np.empty_like(box[:n]), np.empty_like(P[:n]), np.empty_like(length[:n]),
+            np.empty_like(radius[:n]), np.empty_like(mass[:n]), np.empty_like(inertia[:n]),
+            np.empty_like(ids[:n]), np.empty_like(thr[:n]), np.empty(n, np.int64),
+            np.empty(max(nob, 1), np.int64), np.empty(n, np.int64), np.empty((n, 6)),
+            np.empty((n, 6)), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+            np.empty(n, np.bool_), island_workspace(n, nob), np.empty(2, np.int64),
+            np.empty(2, np.int64), np.empty(1, np.int64), np.empty(1), np.empty(NSTAT, np.int64),
+            np.empty(3), np.empty(3, np.int64))
+
+
 @nb.njit(cache=True)
 def _island_apart(q, members, start, S, F, flag, face, D0, lin0, P, opt, length, radius, mass,
                   inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol, method, lf,
@@ -597,29 +627,44 @@ def _island_apart(q, members, start, S, F, flag, face, D0, lin0, P, opt, length,
                   friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
                   recovered, loc, tolerance, eps, iterations, motion_share, relative_motion,
                   island_stop, keep_stopped, active_in, fx, fy, box, obst_impulse, rec_o, rec_j,
-                  hit_t, hit_log, hit_other, hit_j, hit_x, hit_y, act, cnt, st, lm, code, t_code):
+                  hit_t, hit_log, hit_other, hit_j, hit_x, hit_y, act, cnt, st, lm, code, t_code,
+                  ar):
     """``_islands`` of island q on copies of its logs' rows (a thread's own memory), copied back.
 
     Islands on other threads write, every step, the rows of their own logs; neighbouring
     islands' logs are neighbouring rows, so working in place would share cache lines between
     threads.  The rows go back only when the island fitted its ranges (True); its counts of
     hits, pairs in touch and obstacle impulses go to cnt, its statistics to st, lm.
+    ``ar``: the thread's ``apart_arena``, large enough for the island.
     """
+    (aS, aF, aflag, aface, aD0, alin0, abox, aP, aln, ard, ams, ain, aid, ath, amem0, aoc, mem,
+     S0l, Sl, ln, rd, lmw, li, margin, near, ws, st0, ost0, cx, tx, stl, lml, c3) = ar
     na = start[q + 1] - start[q]
+    no = ostart[q + 1] - ostart[q]
     g = members[start[q]:start[q + 1]]
-    Sx, Fx, flagx, facex, D0x, lin0x, boxx = S[g], F[g], flag[g], face[g], D0[g], lin0[g], box[g]
-    Px, lnx, rdx, msx, inx, idx, thx = (P[g], length[g], radius[g], mass[g], inertia[g], ids[g],
-                                        thr[g])
-    mem0 = np.arange(na)
-    st0 = np.array([0, na])
-    oc = ocaps[ostart[q]:ostart[q + 1]].copy()
-    ost0 = np.array([0, oc.size])
-    cx = np.zeros(1, np.int64)
-    tx = np.zeros(1)
-    stl = np.zeros(NSTAT, np.int64)
-    lml = lm.copy()
-    c3 = np.zeros(3, np.int64)
-    n = max(na, 1)
+    Sx, Fx, flagx, facex, D0x = aS[:na], aF[:na], aflag[:na], aface[:na], aD0[:na]
+    lin0x, boxx, Px, lnx, rdx = alin0[:na], abox[:na], aP[:na], aln[:na], ard[:na]
+    msx, inx, idx, thx, mem0, oc = ams[:na], ain[:na], aid[:na], ath[:na], amem0[:na], aoc[:no]
+    for a in range(na):
+        i = g[a]
+        _row(Sx, a, S, i)
+        _row(Fx, a, F, i)
+        flagx[a], facex[a] = flag[i], face[i]
+        _row(D0x, a, D0, i)
+        _row(lin0x, a, lin0, i)
+        _row(boxx, a, box, i)
+        _row(Px, a, P, i)
+        lnx[a], rdx[a], msx[a], inx[a] = length[i], radius[i], mass[i], inertia[i]
+        idx[a], thx[a] = ids[i], thr[i]
+        mem0[a] = a
+    for k in range(no):
+        oc[k] = ocaps[ostart[q] + k]
+    st0[0], st0[1], ost0[0], ost0[1], cx[0], tx[0] = 0, na, 0, no, 0, 0.0
+    for k in range(NSTAT):
+        stl[k] = 0
+    for k in range(3):
+        lml[k] = lm[k]
+        c3[k] = 0
     full = _islands(0, 1, mem0, st0, Sx, Fx, flagx, facex, D0x, lin0x, Px, opt, lnx, rdx, msx,
                     inx, idx, caps, owner, oc, ost0, t0, t_stop, time_tol, method, lf, ang,
                     drag_fraction, explicit, max_step, min_step, tracer, rotation, thx, friction,
@@ -627,23 +672,16 @@ def _island_apart(q, members, start, S, F, flag, face, D0, lin0, P, opt, length,
                     tolerance, eps, iterations, motion_share, relative_motion, island_stop,
                     keep_stopped, active_in, fx, fy, boxx, obst_impulse, False, rec_o, rec_j,
                     c3[2:3], hit_t, hit_log, hit_other, hit_j, hit_x, hit_y, c3[0:1], act,
-                    c3[1:2], stl, lml, cx, tx, np.empty(n, np.int64), np.empty((n, 6)),
-                    np.empty((n, 6)), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-                    np.empty(n), np.empty(n, np.bool_), island_workspace(n, oc.size))
+                    c3[1:2], stl, lml, cx, tx, mem, S0l, Sl, ln, rd, lmw, li, margin, near, ws)
     if full >= 0:
         return False
     for a in range(na):
         i = g[a]
-        for k in range(Sx.shape[1]):
-            S[i, k] = Sx[a, k]
-        for k in range(Fx.shape[1]):
-            F[i, k] = Fx[a, k]
-        for k in range(D0x.shape[1]):
-            D0[i, k] = D0x[a, k]
-        for k in range(lin0x.shape[1]):
-            lin0[i, k] = lin0x[a, k]
-        for k in range(boxx.shape[1]):
-            box[i, k] = boxx[a, k]
+        _row(S, i, Sx, a)
+        _row(F, i, Fx, a)
+        _row(D0, i, D0x, a)
+        _row(lin0, i, lin0x, a)
+        _row(box, i, boxx, a)
         flag[i], face[i] = flagx[a], facex[a]
     code[q], t_code[q] = cx[0], tx[0]
     for k in range(3):
@@ -763,6 +801,14 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
         wlist[fill[worker[q]]] = q
         fill[worker[q]] += 1
     for w in nb.prange(nw):
+        # the thread's memory, for its largest island and most obstacle capsules
+        n = 1
+        nob = 0
+        for k in range(wstart[w], wstart[w + 1]):
+            n = max(n, size[wlist[k]])
+            nob = max(nob, ostart[wlist[k] + 1] - ostart[wlist[k]])
+        ar = apart_arena(n, nob, S, F, flag, face, D0, lin0, box, P, length, radius, mass,
+                         inertia, ids, thr)
         for k in range(wstart[w], wstart[w + 1]):
             q = wlist[k]
             h0, h1, a0, a1 = hoff[q], hoff[q + 1], aoff[q], aoff[q + 1]
@@ -775,7 +821,7 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
                 tolerance, eps, iterations, motion_share, relative_motion, island_stop,
                 keep_stopped, active_in, fx, fy, box, obst_impulse, rec_o[r0:r1], rec_j[r0:r1],
                 h_t[h0:h1], h_log[h0:h1], h_other[h0:h1], h_j[h0:h1], h_x[h0:h1], h_y[h0:h1],
-                act[a0:a1], cnt[q], st[q], lm_[q], code, t_code)
+                act[a0:a1], cnt[q], st[q], lm_[q], code, t_code, ar)
     # island by island in order: into the caller's buffers, as moreau_islands
     rec_none = np.empty(0, np.int64)
     recj_none = np.empty((0, 2))
