@@ -92,19 +92,25 @@ def _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m
             rq = 0.0
             changed = False
             for a in range(start[q], start[q + 1]):
-                c = order[a]
-                if w[c] <= 0.0:
+                # unsigned indices where they are >= 0: no negative-index wraparound (the
+                # sweep is the hot loop of a packed crowd; driftlog.solver.fluxes)
+                c = np.uint64(order[a])
+                wc = w[c]
+                if wc <= 0.0:
                     continue
-                i, j = body1[c], body2[c]
+                i, j = np.uint64(body1[c]), body2[c]
                 qc = quiet[c]
-                if qc >= seen[i] and (j < 0 or qc >= seen[j]):
+                if qc >= seen[i] and (j < 0 or qc >= seen[np.uint64(j)]):
                     continue
                 nx, ny = res[c, NX], res[c, NY]
-                u = V[i, GU] * nx + V[i, GV] * ny + V[i, GOMEGA] * rn1[c]
+                r1 = rn1[c]
+                u = V[i, GU] * nx + V[i, GV] * ny + V[i, GOMEGA] * r1
                 if j >= 0:
-                    u -= V[j, GU] * nx + V[j, GV] * ny + V[j, GOMEGA] * rn2[c]
-                p_new = max(P[c] + (target[c] - u) / w[c], 0.0)
-                d = p_new - P[c]
+                    ju = np.uint64(j)
+                    u -= V[ju, GU] * nx + V[ju, GV] * ny + V[ju, GOMEGA] * rn2[c]
+                pc = P[c]
+                p_new = max(pc + (target[c] - u) / wc, 0.0)
+                d = p_new - pc
                 if d == 0.0:
                     quiet[c] = tick
                     continue
@@ -114,14 +120,15 @@ def _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m
                 P[c] = p_new
                 V[i, GU] += d * nx * inv_m[i]
                 V[i, GV] += d * ny * inv_m[i]
-                V[i, GOMEGA] += d * rn1[c] * inv_i[i]
+                V[i, GOMEGA] += d * r1 * inv_i[i]
                 seen[i] = tick
                 if j >= 0:
-                    V[j, GU] -= d * nx * inv_m[j]
-                    V[j, GV] -= d * ny * inv_m[j]
-                    V[j, GOMEGA] -= d * rn2[c] * inv_i[j]
-                    seen[j] = tick
-                rq = max(rq, abs(d) * w[c])
+                    ju = np.uint64(j)
+                    V[ju, GU] -= d * nx * inv_m[ju]
+                    V[ju, GV] -= d * ny * inv_m[ju]
+                    V[ju, GOMEGA] -= d * rn2[c] * inv_i[ju]
+                    seen[ju] = tick
+                rq = max(rq, abs(d) * wc)
             residual = max(residual, rq)
             if not changed or (island_stop and rq <= vtol):
                 active[q] = False
