@@ -46,6 +46,23 @@ def _copy(args):
     return tuple(a.copy() if isinstance(a, np.ndarray) else a for a in args)
 
 
+def _load(path):
+    """The kept calls of a capture; statistics arrays of older captures grown to NSTAT."""
+    import inspect
+
+    from driftlog import moreau_kernel as mk
+
+    with open(path, "rb") as fh:
+        kept = pickle.load(fh)["calls"]
+    k = list(inspect.signature(mk.moreau_islands.py_func).parameters).index("stats")
+    for n, (i, cpu, args) in enumerate(kept):
+        if len(args) > k and args[k].size < mk.NSTAT:  # captured before ST_CAPPED
+            st = np.zeros(mk.NSTAT, np.int64)
+            st[:args[k].size] = args[k]
+            kept[n] = (i, cpu, args[:k] + (st,) + args[k + 1:])
+    return kept
+
+
 def capture(a):
     """Run the scene, keeping every a.every-th island kernel call's arguments."""
     import million_logs as ml
@@ -90,8 +107,7 @@ def replay(a):
     from driftlog import moreau_kernel as mk
 
     names = list(inspect.signature(mk.moreau_islands.py_func).parameters)
-    with open(a.replay, "rb") as fh:
-        kept = pickle.load(fh)["calls"]
+    kept = _load(a.replay)
     if not kept:
         sys.exit(f"island_replay: {a.replay} holds no calls")
     if len(kept[0][2]) != len(names):
@@ -100,7 +116,7 @@ def replay(a):
     mk.moreau_islands(*_copy(kept[0][2]))  # compiled or loaded before timing
     digest = hashlib.sha256()
     best = []
-    st = dict(islands=0, largest=0, steps=0, log_steps=0, pgs=0, max_contacts=0)
+    st = dict(islands=0, largest=0, steps=0, log_steps=0, pgs=0, capped=0, max_contacts=0)
     for _, _, args in kept:
         t = np.inf
         for _ in range(a.repeat):
@@ -116,9 +132,12 @@ def replay(a):
         st["steps"] += int(s[mk.ST_STEPS])
         st["log_steps"] += int(s[mk.ST_LOG_STEPS])
         st["pgs"] += int(s[mk.ST_PGS])
+        st["capped"] += int(s[mk.ST_CAPPED])
         st["max_contacts"] = max(st["max_contacts"], int(s[mk.ST_MAX_CONTACTS]))
         for k in ("S", "stats", "code", "lim"):
-            digest.update(np.ascontiguousarray(d[k]).tobytes())
+            # the statistics before ST_CAPPED: the digests of older captures' replays compare
+            v = d[k][:mk.ST_CAPPED] if k == "stats" else d[k]
+            digest.update(np.ascontiguousarray(v).tobytes())
     row = dict(calls=len(kept), cpu_s=round(float(sum(best)), 3),
                heaviest_ms=round(1e3 * max(best), 1), **st, digest=digest.hexdigest()[:16])
     cols = list(row)
@@ -144,8 +163,7 @@ def replay_parallel(a):
     from driftlog import moreau_kernel as mk
     from driftlog._numba import PARALLEL_MIN
 
-    with open(a.replay, "rb") as fh:
-        kept = pickle.load(fh)["calls"]
+    kept = _load(a.replay)
     if not kept:
         sys.exit(f"island_replay: {a.replay} holds no calls")
     nt = numba.get_num_threads()

@@ -315,6 +315,8 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         writer.set_attrs(contact_stats=json.dumps({k: float(v) for k, v in
                                                    contact.stats.items()}))
     path = writer.close()
+    if contact is not None:
+        warn_unconverged_contacts(contact, float(np.min(logs.radius)) if len(logs) else 0.0)
     if order is not None:  # the logs' final states, in the scenario's order
         logs = tracked.take(back)
     extra = []
@@ -324,6 +326,37 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
                          dict(level=level, rotation=rotation, reason=reason), scen, extra, writer,
                          flow_name=getattr(flow, "name", str(flow)))
     return result
+
+
+# the deepest overlap, as a share of the smallest log radius, beyond which contact steps that
+# stopped at their cap of sweeps are reported (cases/bridge_jam's pile: 1.5 %, a few capped)
+OVERLAP_WARN = 0.1
+
+
+def warn_unconverged_contacts(contact, radius):
+    """A ``DriftlogWarning`` when Moreau-Jean steps stopped at their cap and logs overlap.
+
+    Projected Gauss-Seidel carries a push about one contact per sweep: in a pile many logs
+    across it stops at ``[contact] iterations`` unconverged and the logs overlap (the 1e5-log
+    Malpasset flood: a raft of 22,465 logs, overlaps of 0.19 m between logs 0.16 m thick;
+    BENCHMARKS.md).  ``radius``: the smallest log radius, to put the deepest overlap in scale.
+    """
+    import warnings
+
+    from driftlog.errors import DriftlogWarning
+
+    st = contact.stats
+    n = int(st.get("pgs_capped", 0))
+    gap = float(st.get("min_gap", np.inf))
+    if contact.method != "moreau" or n == 0 or not -gap > OVERLAP_WARN * radius:
+        return
+    deep = f"{-gap:.3g} m ({-gap / radius:.0%} of the smallest log radius)"
+    warnings.warn(DriftlogWarning(
+        f"contacts: the Moreau-Jean solver stopped at its cap of {contact.iterations} "
+        f"Gauss-Seidel sweeps without converging in {n:,} of {int(st['substeps']):,} contact "
+        f"steps (up to {int(st['max_contacts']):,} contacts in one step); the deepest overlap "
+        f"was {deep}: piles of many logs need more sweeps ([contact] iterations) or their logs "
+        "overlap"), stacklevel=2)
 
 
 def cases_dir() -> Path:

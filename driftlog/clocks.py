@@ -649,6 +649,7 @@ def contact_window(tr, stop, max_tries=3):
         cs["advances"] += int(stats[mk.ST_ADVANCES])
         cs["pgs_iterations"] += int(stats[mk.ST_PGS])
         cs["pgs_max_iterations"] = max(cs["pgs_max_iterations"], int(stats[mk.ST_PGS_MAX]))
+        cs["pgs_capped"] += int(stats[mk.ST_CAPPED])
         cs["max_contacts"] = max(cs["max_contacts"], int(stats[mk.ST_MAX_CONTACTS]))
         cs["min_gap"] = min(cs["min_gap"], float(dt_lim[2]))
         if stats[mk.ST_RERUNS]:

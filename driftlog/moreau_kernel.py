@@ -71,9 +71,11 @@ __all__ = ["moreau_islands", "moreau_islands_parallel", "island_pairs", "NSTAT",
            "TOO_SMALL", "DIVERGED", "HIT_FULL"]
 
 # moreau_islands' statistics (stats[k]); ST_RERUNS: islands that moreau_islands_parallel ran
-# again, alone, because they filled their range of its buffers
-ST_STEPS, ST_ADVANCES, ST_PGS, ST_PGS_MAX, ST_MAX_CONTACTS, ST_LOG_STEPS, ST_RERUNS = range(7)
-NSTAT = 7
+# again, alone, because they filled their range of its buffers; ST_CAPPED: contact steps whose
+# Gauss-Seidel solve stopped at its cap of sweeps without converging
+(ST_STEPS, ST_ADVANCES, ST_PGS, ST_PGS_MAX, ST_MAX_CONTACTS, ST_LOG_STEPS, ST_RERUNS,
+ ST_CAPPED) = range(8)
+NSTAT = 8
 @nb.njit(cache=True, inline="always")
 def _pair_speed(Sl, ln, rd, a, e):
     """How fast the geometry of pair (a, e) changes: relative speed plus both turning rates.
@@ -420,10 +422,12 @@ def _islands(q0, q1, members, start, S, F, flag, face, D0, lin0, P, opt, length,
                 if nc > Pc.size or nt + 1 > Pc.size:
                     Pc = np.empty(2 * max(nc, nt + 1))
                     fw, iw, bw, V, Vp = solve_workspace(Pc.size)
-                it, _ = moreau_solve_into(S0l, Sl, lm, li, nt, b1, b2, res, nc, dt, eps, tol, tol,
-                                          1e-9 * (vmax + 1e-3), iterations, Pc, 0.2, island_stop,
-                                          fw, iw, bw, V, Vp)
+                vtol = 1e-9 * (vmax + 1e-3)
+                it, resid = moreau_solve_into(S0l, Sl, lm, li, nt, b1, b2, res, nc, dt, eps, tol,
+                                              tol, vtol, iterations, Pc, 0.2, island_stop, fw, iw,
+                                              bw, V, Vp)
                 stats[ST_PGS] += it
+                stats[ST_CAPPED] += 1 if resid > vtol else 0
                 stats[ST_PGS_MAX] = max(stats[ST_PGS_MAX], it)
                 stats[ST_MAX_CONTACTS] = max(stats[ST_MAX_CONTACTS], nc)
                 for c in range(nc):

@@ -199,6 +199,41 @@ def test_jam_moreau_keeps_the_pile(tmp_path):
     assert m.stats["pgs_max_iterations"] <= m.iterations
 
 
+@pytest.mark.parametrize("iterations,warned", [(3, True), (200, False)])
+def test_moreau_steps_stopped_at_the_sweep_cap_are_reported(tmp_path, iterations, warned):
+    """Steps whose Gauss-Seidel solve stopped at ``[contact] iterations`` unconverged are
+    counted (``pgs_capped``, in the file's contact statistics); with the logs overlapping by
+    more than a tenth of their radius the run warns, naming the cap, the counts and the
+    overlap.  The jam at the deck: 3 sweeps let the logs sink into each other (a warning); at
+    the default 200 many steps still stop at the cap (the tolerance is 1e-9 of the speeds),
+    but the overlaps stay at a few millimetres (no warning)."""
+    import json
+    import warnings
+
+    import netCDF4
+
+    from driftlog.api import track
+    from driftlog.errors import DriftlogWarning
+
+    scen = _channel("moreau", 30, _bridge_deck(), 20.0, eps=0.3, tmp=tmp_path)
+    scen["contact"]["iterations"] = iterations
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = track(scen)
+    with netCDF4.Dataset(res.path) as ds:
+        cs = json.loads(ds.getncattr("contact_stats"))
+    assert 0 < cs["pgs_capped"] <= cs["substeps"]
+    ours = [str(w.message) for w in caught if issubclass(w.category, DriftlogWarning)
+            and "Gauss-Seidel" in str(w.message)]
+    if not warned:
+        assert cs["min_gap"] > -0.01 and not ours
+        return
+    assert len(ours) == 1 and cs["min_gap"] < -0.01
+    assert (f"cap of {iterations} Gauss-Seidel sweeps without converging in "
+            f"{int(cs['pgs_capped']):,} of {int(cs['substeps']):,} contact steps") in ours[0]
+    assert f"{-cs['min_gap']:.3g} m" in ours[0]
+
+
 def _wedge(rng, eps):
     """One Moreau-Jean step of a log (0.8 x 0.08 m, along x) touching two fixed discs, one
     above at x = a, one below at x = b, with a random velocity; its free step consistent."""

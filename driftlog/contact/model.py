@@ -154,8 +154,8 @@ class ContactModel:
         # one after another (the reference the kernels are tested against)
         self.island_kernel = True
         self.stats = dict(substeps=0, advances=0, rejected=0, events=0, detections=0,
-                          pgs_iterations=0, separations=0, pgs_max_iterations=0, max_contacts=0,
-                          min_gap=np.inf)
+                          pgs_iterations=0, separations=0, pgs_max_iterations=0, pgs_capped=0,
+                          max_contacts=0, min_gap=np.inf)
         self._hits = []
         # momentum passed to each fixed obstacle by the contact impulses (kg m/s, x and y)
         self.obstacle_impulse = np.zeros((len(self.obstacles.names), 2))
@@ -572,10 +572,11 @@ class ContactModel:
         inv_m, inv_i = self._inverse_masses(bodies)
         P = np.zeros(len(C))
         vscale = float(np.abs(S[:, UB:VB + 1]).max()) + 1e-3
-        it, _ = moreau_solve(S0, S, inv_m, inv_i, C.body1, C.body2, C.res, dt,
-                             self.restitution, tol, tol, 1e-9 * vscale, self.iterations, P,
-                             0.2, self.island_stop)
+        it, resid = moreau_solve(S0, S, inv_m, inv_i, C.body1, C.body2, C.res, dt,
+                                 self.restitution, tol, tol, 1e-9 * vscale, self.iterations, P,
+                                 0.2, self.island_stop)
         st["pgs_iterations"] += it
+        st["pgs_capped"] += resid > 1e-9 * vscale
         self._pass_to_obstacles(C, P)
         st["pgs_max_iterations"] = max(st["pgs_max_iterations"], it)
         st["max_contacts"] = max(st["max_contacts"], len(C))
