@@ -76,6 +76,8 @@ __all__ = ["moreau_islands", "moreau_islands_parallel", "island_pairs", "NSTAT",
 (ST_STEPS, ST_ADVANCES, ST_PGS, ST_PGS_MAX, ST_MAX_CONTACTS, ST_LOG_STEPS, ST_RERUNS,
  ST_CAPPED) = range(8)
 NSTAT = 8
+
+
 @nb.njit(cache=True, inline="always")
 def _pair_speed(Sl, ln, rd, a, e):
     """How fast the geometry of pair (a, e) changes: relative speed plus both turning rates.
