@@ -54,9 +54,10 @@ def _load(path):
 
     with open(path, "rb") as fh:
         kept = pickle.load(fh)["calls"]
-    k = list(inspect.signature(mk.moreau_islands.py_func).parameters).index("stats")
+    names = list(inspect.signature(mk.moreau_islands.py_func).parameters)
+    k = names.index("stats")
     for n, (i, cpu, args) in enumerate(kept):
-        if len(args) > k and args[k].size < mk.NSTAT:  # captured before ST_CAPPED
+        if len(args) == len(names) and args[k].size < mk.NSTAT:  # captured before ST_CAPPED
             st = np.zeros(mk.NSTAT, np.int64)
             st[:args[k].size] = args[k]
             kept[n] = (i, cpu, args[:k] + (st,) + args[k + 1:])

@@ -327,6 +327,19 @@ def island_workspace(nmax, nobst):
 
 
 @nb.njit(cache=True)
+def island_work(n, nob):
+    """``_islands``' work arrays for islands of up to n logs and nob obstacle capsules.
+
+    (mem, S0l, Sl, ln, rd, lm, li, margin, near, ws): the island's members, start and free
+    states, lengths, radii, inverse masses and inertias, motion margins, near flags, and
+    ``island_workspace``'s arrays.
+    """
+    return (np.empty(n, np.int64), np.empty((n, 6)), np.empty((n, 6)), np.empty(n), np.empty(n),
+            np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.bool_),
+            island_workspace(n, nob))
+
+
+@nb.njit(cache=True)
 def _grow(a, n):
     """The int64 array a, grown to hold at least n entries."""
     if n <= a.size:
@@ -559,26 +572,15 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
     stats : (NSTAT) int64, added to; lim : [shortest, longest step, least gap after a step].
     code, t_code : per island outcome (OK, TOO_SMALL, DIVERGED, HIT_FULL) and its time.
     """
-    nmax = 0
+    nmax = nob = 0
     for q in range(start.size - 1):
         nmax = max(nmax, start[q + 1] - start[q])
-    mem = np.empty(nmax, np.int64)
-    S0l = np.empty((nmax, 6))
-    Sl = np.empty((nmax, 6))
-    ln = np.empty(nmax)
-    rd = np.empty(nmax)
-    lm = np.empty(nmax)
-    li = np.empty(nmax)
-    margin = np.empty(nmax)
-    near = np.empty(nmax, np.bool_)
+        nob = max(nob, ostart[q + 1] - ostart[q])
+    mem, S0l, Sl, ln, rd, lm, li, margin, near, ws = island_work(nmax, nob)
     rec_o = np.empty(0, np.int64)
     rec_j = np.empty((0, 2))
     nrec = np.zeros(1, np.int64)
     nh, na_ = hit_t.size, active_out.size
-    nob = 0
-    for q in range(start.size - 1):
-        nob = max(nob, ostart[q + 1] - ostart[q])
-    ws = island_workspace(nmax, nob)
     # the buffers as the parallel kernel passes them (views), made once
     ht, hl, ho, hj, hx, hy = (hit_t[0:nh], hit_log[0:nh], hit_other[0:nh], hit_j[0:nh],
                               hit_x[0:nh], hit_y[0:nh])
@@ -608,22 +610,20 @@ def apart_arena(n, nob, S, F, flag, face, D0, lin0, box, P, length, radius, mass
                 thr):
     """A thread's memory for ``_island_apart``: room for islands of up to n logs, nob capsules.
 
-    The copies of an island's rows (S .. thr, its members' and obstacles' lists) and
-    ``_islands``' work arrays and ``island_workspace``, made once per thread and kernel call:
-    made per island, they were forty-odd allocations for islands of five logs and one or two
-    steps on average (the replayed crowd: 0.73-0.76 s on two threads before, 0.68-0.70 after;
-    BENCHMARKS.md, "Islands of speculative contacts").  n >= 1 and at most the number of logs.
+    The copies of an island's rows (S .. thr, its members' and obstacles' lists),
+    ``island_work`` and the island's own counters, made once per thread and kernel call: made
+    per island, they were forty-odd allocations for islands of five logs and one or two steps
+    on average (the replayed crowd: 0.73-0.76 s on two threads before, 0.68-0.70 after;
+    BENCHMARKS.md, "The front of the 1e5-log flood").  n >= 1 and at most the number of logs.
     """
-    return (np.empty_like(S[:n]), np.empty_like(F[:n]), np.empty_like(flag[:n]),
-            np.empty_like(face[:n]), np.empty_like(D0[:n]), np.empty_like(lin0[:n]),
-            np.empty_like(box[:n]), np.empty_like(P[:n]), np.empty_like(length[:n]),
-            np.empty_like(radius[:n]), np.empty_like(mass[:n]), np.empty_like(inertia[:n]),
-            np.empty_like(ids[:n]), np.empty_like(thr[:n]), np.empty(n, np.int64),
-            np.empty(max(nob, 1), np.int64), np.empty(n, np.int64), np.empty((n, 6)),
-            np.empty((n, 6)), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-            np.empty(n, np.bool_), island_workspace(n, nob), np.empty(2, np.int64),
-            np.empty(2, np.int64), np.empty(1, np.int64), np.empty(1), np.empty(NSTAT, np.int64),
-            np.empty(3), np.empty(3, np.int64))
+    return ((np.empty_like(S[:n]), np.empty_like(F[:n]), np.empty_like(flag[:n]),
+             np.empty_like(face[:n]), np.empty_like(D0[:n]), np.empty_like(lin0[:n]),
+             np.empty_like(box[:n]), np.empty_like(P[:n]), np.empty_like(length[:n]),
+             np.empty_like(radius[:n]), np.empty_like(mass[:n]), np.empty_like(inertia[:n]),
+             np.empty_like(ids[:n]), np.empty_like(thr[:n]), np.empty(n, np.int64),
+             np.empty(max(nob, 1), np.int64)) + island_work(n, nob)
+            + (np.empty(2, np.int64), np.empty(2, np.int64), np.empty(1, np.int64), np.empty(1),
+               np.empty(NSTAT, np.int64), np.empty(3), np.empty(3, np.int64)))
 
 
 @nb.njit(cache=True)
@@ -861,7 +861,7 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
             continue
         # its range was full (its rows untouched): again, alone, into the caller's buffers
         stats[ST_RERUNS] += 1
-        n = nmax
+        mem, S0l, Sl, ln, rd, lm, li, margin, near, ws = island_work(nmax, ocaps.size)
         if _islands(q, q + 1, members, start, S, F, flag, face, D0, lin0, P, opt, length,
                     radius, mass, inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol,
                     method, lf, ang, drag_fraction, explicit, max_step, min_step, tracer,
@@ -870,9 +870,7 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
                     relative_motion, island_stop, keep_stopped, active_in, fx, fy, box,
                     obst_impulse, True, rec_none, recj_none, nrec, hit_t[0:nh], hit_log[0:nh],
                     hit_other[0:nh], hit_j[0:nh], hit_x[0:nh], hit_y[0:nh], nhit,
-                    active_out[0:na_], nactive, stats, lim, code, t_code,
-                    np.empty(n, np.int64), np.empty((n, 6)), np.empty((n, 6)), np.empty(n),
-                    np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.bool_),
-                    island_workspace(n, ocaps.size)) >= 0:
+                    active_out[0:na_], nactive, stats, lim, code, t_code, mem, S0l, Sl, ln,
+                    rd, lm, li, margin, near, ws) >= 0:
             code[q] = HIT_FULL
             return

@@ -571,12 +571,12 @@ class ContactModel:
             return dt
         inv_m, inv_i = self._inverse_masses(bodies)
         P = np.zeros(len(C))
-        vscale = float(np.abs(S[:, UB:VB + 1]).max()) + 1e-3
+        vtol = 1e-9 * (float(np.abs(S[:, UB:VB + 1]).max()) + 1e-3)
         it, resid = moreau_solve(S0, S, inv_m, inv_i, C.body1, C.body2, C.res, dt,
-                                 self.restitution, tol, tol, 1e-9 * vscale, self.iterations, P,
-                                 0.2, self.island_stop)
+                                 self.restitution, tol, tol, vtol, self.iterations, P, 0.2,
+                                 self.island_stop)
         st["pgs_iterations"] += it
-        st["pgs_capped"] += resid > 1e-9 * vscale
+        st["pgs_capped"] += int(resid > vtol)
         self._pass_to_obstacles(C, P)
         st["pgs_max_iterations"] = max(st["pgs_max_iterations"], it)
         st["max_contacts"] = max(st["max_contacts"], len(C))
