@@ -46,21 +46,32 @@ def _copy(args):
     return tuple(a.copy() if isinstance(a, np.ndarray) else a for a in args)
 
 
-def _load(path):
-    """The kept calls of a capture; statistics arrays of older captures grown to NSTAT."""
+def _load(path, solver=None):
+    """The kept calls of a capture; statistics arrays of older captures grown to NSTAT.
+
+    solver: "pgs" or "nncg" replaces the captured contact solver (older captures: the PGS).
+    """
     import inspect
 
     from driftlog import moreau_kernel as mk
+    from driftlog.contact.moreau import PGS, SOLVERS
 
     with open(path, "rb") as fh:
         kept = pickle.load(fh)["calls"]
     names = list(inspect.signature(mk.moreau_islands.py_func).parameters)
     k = names.index("stats")
+    s = names.index("solver")
     for n, (i, cpu, args) in enumerate(kept):
+        if len(args) == len(names) - 1:  # captured before [contact] solver: the PGS
+            args = args[:s] + (PGS,) + args[s:]
+            kept[n] = (i, cpu, args)
         if len(args) == len(names) and args[k].size < mk.NSTAT:  # captured before ST_CAPPED
             st = np.zeros(mk.NSTAT, np.int64)
             st[:args[k].size] = args[k]
             kept[n] = (i, cpu, args[:k] + (st,) + args[k + 1:])
+        if solver is not None:
+            args = kept[n][2]
+            kept[n] = (i, cpu, args[:s] + (SOLVERS.index(solver),) + args[s + 1:])
     return kept
 
 
@@ -108,7 +119,7 @@ def replay(a):
     from driftlog import moreau_kernel as mk
 
     names = list(inspect.signature(mk.moreau_islands.py_func).parameters)
-    kept = _load(a.replay)
+    kept = _load(a.replay, a.solver)
     if not kept:
         sys.exit(f"island_replay: {a.replay} holds no calls")
     if len(kept[0][2]) != len(names):
@@ -164,7 +175,7 @@ def replay_parallel(a):
     from driftlog import moreau_kernel as mk
     from driftlog._numba import PARALLEL_MIN
 
-    kept = _load(a.replay)
+    kept = _load(a.replay, a.solver)
     if not kept:
         sys.exit(f"island_replay: {a.replay} holds no calls")
     nt = numba.get_num_threads()
@@ -222,6 +233,8 @@ def main():
     p.add_argument("--every", type=int, default=40, help="keep every k-th call (--capture)")
     p.add_argument("--repeat", type=int, default=2, help="runs of each call (--replay)")
     p.add_argument("--name", default=None, help="results/<name>.{md,json} (--replay)")
+    p.add_argument("--solver", choices=("pgs", "nncg"), default=None,
+                   help="replay with this contact solver (default: the captured one)")
     p.add_argument("--parallel", action="store_true",
                    help="--replay: each call by the serial and the parallel kernel (run with "
                         "NUMBA_NUM_THREADS=2 or more), wall times")

@@ -82,7 +82,7 @@ def valley_polygon(mesh):
 
 
 def overrides(flow, n, end, output_interval, method, flush_interval, clock="per_log",
-              density=None, grounded=False):
+              density=None, grounded=False, solver="pgs"):
     """The malpasset case with N logs on a grid over the valley, contacts on.
 
     ``density``: seed them as densely as that many logs over the whole valley floor (the
@@ -90,6 +90,7 @@ def overrides(flow, n, end, output_interval, method, flush_interval, clock="per_
     1e5 (3.4 m) in a twentieth of the area.  ``grounded``: resting and stranded logs are
     fixed obstacles to the floating ones (docs/model.md 13; False, the default of
     ``[contact] grounded`` and of ``--grounded``: passed over, as before 2026-12-02).
+    ``solver``: ``[contact] solver`` (Moreau-Jean's impulses: "pgs" or "nncg").
     """
     from driftlog.flowfile import open_flow
 
@@ -108,7 +109,8 @@ def overrides(flow, n, end, output_interval, method, flush_interval, clock="per_
                   "radius": 0.08, "density": 700.0, "velocity": "rest"}],
         "physics": {"level": "full"},
         "integrator": {"method": "rk4", "clock": clock},
-        "contact": {"enabled": True, "method": method, "grounded": bool(grounded)},
+        "contact": {"enabled": True, "method": method, "grounded": bool(grounded),
+                    "solver": solver},
         "output": {"flush_interval": int(flush_interval)},
     }
 
@@ -283,7 +285,7 @@ def run_one(a):
     load0 = os.getloadavg()[0]
     scen = as_scenario(CASE, overrides(a.flow, a.logs, a.end, a.output_interval, a.method,
                                        a.flush_interval, a.clock, a.density,
-                                       a.grounded == "on"))
+                                       a.grounded == "on", a.solver))
     kern = time_island_kernels()
     res = track(scen, output=out, progress=a.progress, resume=a.resume)
     mon.stop()
@@ -300,6 +302,7 @@ def run_one(a):
         "contact_set", "clock_retries", "lifted", "island_reruns")]
     row = dict(logs=a.logs, end_s=a.end, output_interval_s=a.output_interval,
                contact_method=a.method, clock=a.clock, motion=a.motion, grounded=a.grounded,
+               solver=a.solver,
                wall_s=wall, cpu_s=cpu,
                rss_start_mb=rss0 / 2**20,
                peak_rss_mb=max([resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024]
@@ -327,7 +330,7 @@ def sweep(a):
                str(a.end), "--output-interval", str(a.output_interval), "--method", a.method,
                "--flush-interval", str(a.flush_interval), "--clock", a.clock, "--out", a.out,
                *(["--density", str(a.density)] if a.density else []),
-               "--motion", a.motion, "--grounded", a.grounded]
+               "--motion", a.motion, "--grounded", a.grounded, "--solver", a.solver]
         print(" ".join(cmd), flush=True)
         p = subprocess.run(cmd, capture_output=True, text=True)
         line = [q for q in p.stdout.splitlines() if q.startswith("RESULT ")]
@@ -348,7 +351,7 @@ def threads(a):
                str(a.end), "--output-interval", str(a.output_interval), "--method", a.method,
                "--flush-interval", str(a.flush_interval), "--clock", a.clock, "--out", a.out,
                *(["--density", str(a.density)] if a.density else []), "--motion", a.motion,
-               "--grounded", a.grounded,
+               "--grounded", a.grounded, "--solver", a.solver,
                # a child without --resume would delete the partial run it is asked to continue
                *[f"--{k}" for k in ("resume", "keep", "progress") if getattr(a, k)]]
         env = dict(os.environ, NUMBA_NUM_THREADS=str(t))
@@ -503,6 +506,8 @@ def main(argv=None):
     p.add_argument("--grounded", default="off", choices=("on", "off"),
                    help="resting and stranded logs fixed obstacles to the floating ones "
                         "([contact] grounded; off: passed over, as before 2026-12-02)")
+    p.add_argument("--solver", default="pgs", choices=("pgs", "nncg"),
+                   help="Moreau-Jean's contact impulses ([contact] solver)")
     p.add_argument("--out", default="/tmp/million_logs.nc", help="trajectory file")
     p.add_argument("--name", help="results name (default million_logs)")
     p.add_argument("--keep", action="store_true", help="keep the trajectory file")

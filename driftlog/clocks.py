@@ -565,7 +565,7 @@ def contact_window(tr, stop, max_tries=3):
                                    active_in, code, t_code, active_out, nactive)
             elif moreau:
                 args = (*head, C.tolerance, C.restitution, C.iterations, C.motion_share,
-                        bool(C.relative_motion), bool(C.island_stop),
+                        bool(C.relative_motion), bool(C.island_stop), C.solver,
                         bool(getattr(C, "grounded", False)), active_in, *tail)
                 if _islands_parallel(pool.size, start.size - 1):
                     import numba

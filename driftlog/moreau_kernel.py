@@ -307,8 +307,10 @@ def _free_margins(S, mem, na, S0l, Sl, ln, rd, margin, dt, tol):
 
 
 @nb.njit(cache=True)
-def island_workspace(nmax, nobst):
+def island_workspace(nmax, nobst, solver):
     """``_islands``' work arrays for islands of up to nmax logs and nobst obstacle capsules.
+
+    For the contact ``solver`` (``contact.moreau.PGS`` or ``NNCG``).
 
     An island step used to allocate some forty arrays (candidate pairs twice, the contact
     manifold, the solver's rows, the least gap), and a crowd's windows take millions of steps
@@ -323,12 +325,12 @@ def island_workspace(nmax, nobst):
     return (np.empty(16, np.int64), np.empty(ALL_PAIRS), np.empty(ALL_PAIRS),
             np.empty(ALL_PAIRS), np.empty((npair, 2), np.int64), np.empty((ncon, NRES)),
             np.empty(ncon, np.int64), np.empty(ncon, np.int64), np.empty(ncon, np.int64),
-            np.empty((4, NRES)), np.empty(cap)) + solve_workspace(cap)
+            np.empty((4, NRES)), np.empty(cap)) + solve_workspace(cap, solver)
 
 
 @nb.njit(cache=True)
-def island_work(n, nob):
-    """``_islands``' work arrays for islands of up to n logs and nob obstacle capsules.
+def island_work(n, nob, solver):
+    """``_islands``' work arrays for islands of up to n logs and nob obstacle capsules (solver).
 
     (mem, S0l, Sl, ln, rd, lm, li, margin, near, ws): the island's members, start and free
     states, lengths, radii, inverse masses and inertias, motion margins, near flags, and
@@ -336,7 +338,7 @@ def island_work(n, nob):
     """
     return (np.empty(n, np.int64), np.empty((n, 6)), np.empty((n, 6)), np.empty(n), np.empty(n),
             np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.bool_),
-            island_workspace(n, nob))
+            island_workspace(n, nob, solver))
 
 
 @nb.njit(cache=True)
@@ -354,10 +356,10 @@ def _islands(q0, q1, members, start, S, F, flag, face, D0, lin0, P, opt, length,
              inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol, method, lf, ang,
              drag_fraction, explicit, max_step, min_step, tracer, rotation, thr, friction, vals_c,
              T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc, tolerance, eps,
-             iterations, motion_share, relative_motion, island_stop, keep_stopped, active_in, fx,
-             fy, box, obst_impulse, direct, rec_o, rec_j, nrec, hit_t, hit_log, hit_other, hit_j,
-             hit_x, hit_y, nhit, active_out, nactive, stats, lim, code, t_code, mem, S0l, Sl, ln,
-             rd, lm, li, margin, near, ws):
+             iterations, motion_share, relative_motion, island_stop, solver, keep_stopped,
+             active_in, fx, fy, box, obst_impulse, direct, rec_o, rec_j, nrec, hit_t, hit_log,
+             hit_other, hit_j, hit_x, hit_y, nhit, active_out, nactive, stats, lim, code, t_code,
+             mem, S0l, Sl, ln, rd, lm, li, margin, near, ws):
     """Islands q0 .. q1 - 1 of ``moreau_islands`` from t0 to t_stop, one after another.
 
     Returns -1, or the island whose output buffer was full (the islands before it done).
@@ -436,11 +438,11 @@ def _islands(q0, q1, members, start, S, F, flag, face, D0, lin0, P, opt, length,
             if nc:
                 if nc > Pc.size or nt + 1 > Pc.size:
                     Pc = np.empty(2 * max(nc, nt + 1))
-                    fw, iw, bw, V, Vp = solve_workspace(Pc.size)
+                    fw, iw, bw, V, Vp = solve_workspace(Pc.size, solver)
                 vtol = 1e-9 * (vmax + 1e-3)
                 it, resid = moreau_solve_into(S0l, Sl, lm, li, nt, b1, b2, res, nc, dt, eps, tol,
-                                              tol, vtol, iterations, Pc, 0.2, island_stop, fw, iw,
-                                              bw, V, Vp)
+                                              tol, vtol, iterations, Pc, 0.2, island_stop, solver,
+                                              fw, iw, bw, V, Vp)
                 stats[ST_PGS] += it
                 stats[ST_CAPPED] += 1 if resid > vtol else 0
                 stats[ST_PGS_MAX] = max(stats[ST_PGS_MAX], it)
@@ -537,9 +539,9 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                    lf, ang, drag_fraction, explicit, max_step, min_step, tracer, rotation,
                    thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
                    recovered, loc, tolerance, eps, iterations, motion_share, relative_motion,
-                   island_stop, keep_stopped, active_in, fx, fy, box, obst_impulse, hit_t, hit_log,
-                   hit_other, hit_j, hit_x, hit_y, nhit, active_out, nactive, stats, lim, code,
-                   t_code):
+                   island_stop, solver, keep_stopped, active_in, fx, fy, box, obst_impulse,
+                   hit_t, hit_log, hit_other, hit_j, hit_x, hit_y, nhit, active_out, nactive,
+                   stats, lim, code, t_code):
     """Run each island of ``members``/``start`` from t0 to t_stop with Moreau-Jean steps.
 
     One island after another (``moreau_islands_parallel``: the same results on several
@@ -552,11 +554,11 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
     explicit, max_step, min_step, tracer, rotation, thr, friction, vals_c, T0c, gap_c,
     vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc
         As ``island_kernel.island_advance``.
-    tolerance, eps, iterations, motion_share, relative_motion, island_stop
+    tolerance, eps, iterations, motion_share, relative_motion, island_stop, solver
         The contact model's tolerance (share of the smallest radius), restitution,
         Gauss-Seidel sweeps at most, motion per step near contacts (share of the smallest
         radius), whether that motion is the pairs' relative motion (eq. (81)) or each near
-        log's own, and ``island_stop``.
+        log's own, ``island_stop`` and the solver (``contact.moreau.PGS`` or ``NNCG``).
     keep_stopped : bool
         A log that stops floating within the window stays in its island as a fixed body (at
         rest, zero inverse mass) to the window's end, as it is a grounded obstacle from the
@@ -576,7 +578,7 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
     for q in range(start.size - 1):
         nmax = max(nmax, start[q + 1] - start[q])
         nob = max(nob, ostart[q + 1] - ostart[q])
-    mem, S0l, Sl, ln, rd, lm, li, margin, near, ws = island_work(nmax, nob)
+    mem, S0l, Sl, ln, rd, lm, li, margin, near, ws = island_work(nmax, nob, solver)
     rec_o = np.empty(0, np.int64)
     rec_j = np.empty((0, 2))
     nrec = np.zeros(1, np.int64)
@@ -590,7 +592,7 @@ def moreau_islands(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                     time_tol, method, lf, ang, drag_fraction, explicit, max_step, min_step,
                     tracer, rotation, thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n,
                     t_split, dry_depth, recovered, loc, tolerance, eps, iterations, motion_share,
-                    relative_motion, island_stop, keep_stopped, active_in, fx, fy, box,
+                    relative_motion, island_stop, solver, keep_stopped, active_in, fx, fy, box,
                     obst_impulse, True, rec_o, rec_j, nrec, ht, hl, ho, hj, hx, hy, nhit, ao,
                     nactive, stats, lim, code, t_code, mem, S0l, Sl, ln, rd, lm, li, margin,
                     near, ws)
@@ -607,7 +609,7 @@ def _row(dst, a, src, i):
 
 @nb.njit(cache=True)
 def apart_arena(n, nob, S, F, flag, face, D0, lin0, box, P, length, radius, mass, inertia, ids,
-                thr):
+                thr, solver):
     """A thread's memory for ``_island_apart``: room for islands of up to n logs, nob capsules.
 
     The copies of an island's rows (S .. thr, its members' and obstacles' lists),
@@ -621,7 +623,7 @@ def apart_arena(n, nob, S, F, flag, face, D0, lin0, box, P, length, radius, mass
              np.empty_like(box[:n]), np.empty_like(P[:n]), np.empty_like(length[:n]),
              np.empty_like(radius[:n]), np.empty_like(mass[:n]), np.empty_like(inertia[:n]),
              np.empty_like(ids[:n]), np.empty_like(thr[:n]), np.empty(n, np.int64),
-             np.empty(max(nob, 1), np.int64)) + island_work(n, nob)
+             np.empty(max(nob, 1), np.int64)) + island_work(n, nob, solver)
             + (np.empty(2, np.int64), np.empty(2, np.int64), np.empty(1, np.int64), np.empty(1),
                np.empty(NSTAT, np.int64), np.empty(3), np.empty(3, np.int64)))
 
@@ -632,9 +634,9 @@ def _island_apart(q, members, start, S, F, flag, face, D0, lin0, P, opt, length,
                   ang, drag_fraction, explicit, max_step, min_step, tracer, rotation, thr,
                   friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth,
                   recovered, loc, tolerance, eps, iterations, motion_share, relative_motion,
-                  island_stop, keep_stopped, active_in, fx, fy, box, obst_impulse, rec_o, rec_j,
-                  hit_t, hit_log, hit_other, hit_j, hit_x, hit_y, act, cnt, st, lm, code, t_code,
-                  ar):
+                  island_stop, solver, keep_stopped, active_in, fx, fy, box, obst_impulse,
+                  rec_o, rec_j, hit_t, hit_log, hit_other, hit_j, hit_x, hit_y, act, cnt, st, lm,
+                  code, t_code, ar):
     """``_islands`` of island q on copies of its logs' rows (a thread's own memory), copied back.
 
     Islands on other threads write, every step, the rows of their own logs; neighbouring
@@ -675,7 +677,7 @@ def _island_apart(q, members, start, S, F, flag, face, D0, lin0, P, opt, length,
                     inx, idx, caps, owner, oc, ost0, t0, t_stop, time_tol, method, lf, ang,
                     drag_fraction, explicit, max_step, min_step, tracer, rotation, thx, friction,
                     vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc,
-                    tolerance, eps, iterations, motion_share, relative_motion, island_stop,
+                    tolerance, eps, iterations, motion_share, relative_motion, island_stop, solver,
                     keep_stopped, active_in, fx, fy, boxx, obst_impulse, False, rec_o, rec_j,
                     c3[2:3], hit_t, hit_log, hit_other, hit_j, hit_x, hit_y, c3[0:1], act,
                     c3[1:2], stl, lml, cx, tx, mem, S0l, Sl, ln, rd, lmw, li, margin, near, ws)
@@ -713,7 +715,7 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
                             time_tol, method, lf, ang, drag_fraction, explicit, max_step,
                             min_step, tracer, rotation, thr, friction, vals_c, T0c, gap_c,
                             vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc, tolerance,
-                            eps, iterations, motion_share, relative_motion, island_stop,
+                            eps, iterations, motion_share, relative_motion, island_stop, solver,
                             keep_stopped, active_in, fx, fy, box, obst_impulse, hit_t, hit_log,
                             hit_other, hit_j, hit_x, hit_y, nhit, active_out, nactive, stats, lim,
                             code, t_code, room, nthreads):
@@ -814,7 +816,7 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
             n = max(n, size[wlist[k]])
             nob = max(nob, ostart[wlist[k] + 1] - ostart[wlist[k]])
         ar = apart_arena(n, nob, S, F, flag, face, D0, lin0, box, P, length, radius, mass,
-                         inertia, ids, thr)
+                         inertia, ids, thr, solver)
         for k in range(wstart[w], wstart[w + 1]):
             q = wlist[k]
             h0, h1, a0, a1 = hoff[q], hoff[q + 1], aoff[q], aoff[q + 1]
@@ -824,7 +826,7 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
                 inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol, method, lf, ang,
                 drag_fraction, explicit, max_step, min_step, tracer, rotation, thr, friction,
                 vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split, dry_depth, recovered, loc,
-                tolerance, eps, iterations, motion_share, relative_motion, island_stop,
+                tolerance, eps, iterations, motion_share, relative_motion, island_stop, solver,
                 keep_stopped, active_in, fx, fy, box, obst_impulse, rec_o[r0:r1], rec_j[r0:r1],
                 h_t[h0:h1], h_log[h0:h1], h_other[h0:h1], h_j[h0:h1], h_x[h0:h1], h_y[h0:h1],
                 act[a0:a1], cnt[q], st[q], lm_[q], code, t_code, ar)
@@ -861,13 +863,13 @@ def moreau_islands_parallel(S, F, flag, face, D0, lin0, P, opt, length, radius, 
             continue
         # its range was full (its rows untouched): again, alone, into the caller's buffers
         stats[ST_RERUNS] += 1
-        mem, S0l, Sl, ln, rd, lm, li, margin, near, ws = island_work(nmax, ocaps.size)
+        mem, S0l, Sl, ln, rd, lm, li, margin, near, ws = island_work(nmax, ocaps.size, solver)
         if _islands(q, q + 1, members, start, S, F, flag, face, D0, lin0, P, opt, length,
                     radius, mass, inertia, ids, caps, owner, ocaps, ostart, t0, t_stop, time_tol,
                     method, lf, ang, drag_fraction, explicit, max_step, min_step, tracer,
                     rotation, thr, friction, vals_c, T0c, gap_c, vals_n, T0n, gap_n, t_split,
                     dry_depth, recovered, loc, tolerance, eps, iterations, motion_share,
-                    relative_motion, island_stop, keep_stopped, active_in, fx, fy, box,
+                    relative_motion, island_stop, solver, keep_stopped, active_in, fx, fy, box,
                     obst_impulse, True, rec_none, recj_none, nrec, hit_t[0:nh], hit_log[0:nh],
                     hit_other[0:nh], hit_j[0:nh], hit_x[0:nh], hit_y[0:nh], nhit,
                     active_out[0:na_], nactive, stats, lim, code, t_code, mem, S0l, Sl, ln,

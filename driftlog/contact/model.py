@@ -30,7 +30,7 @@ import numpy as np
 from driftlog.columns import CX, CY, GAP, NRES, NX, NY, OMEGA, POSITION, UB, VB, VELOCITY
 from driftlog.contact.impulses import resolve_islands, separate_resting
 from driftlog.contact.islands import islands
-from driftlog.contact.moreau import moreau_solve
+from driftlog.contact.moreau import SOLVERS, moreau_solve
 from driftlog.contact.native import NativeBackend, end_contacts
 from driftlog.contact.obstacles import Obstacles
 from driftlog.contact.toi import conservative_step, motion_margin, skin
@@ -102,6 +102,9 @@ class ContactModel:
         stops (a jam).
     iterations : int
         Moreau: Gauss-Seidel sweeps at most per step.
+    solver : {"pgs", "nncg"}
+        Moreau: projected Gauss-Seidel (default), or the same sweeps with nonsmooth nonlinear
+        conjugate gradient steps (Silcowitz et al. 2010; far fewer sweeps on piles).
     rest_speed : float
         Approach speeds below this do not bounce (resting contact; 0: the paper).  Without it a
         log pushed on a wall by the flow bounces ever less, ever more often (Zeno) and the
@@ -119,9 +122,12 @@ class ContactModel:
 
     def __init__(self, obstacles=None, method="event", time_of_impact="conservative",
                  restitution=1.0, backend="native", tolerance=1e-4, max_events=10000,
-                 iterations=200, rest_speed=0.01, grounded=False):
+                 iterations=200, rest_speed=0.01, grounded=False, solver="pgs"):
         if method not in ("event", "moreau"):
             raise ScenarioError("contact.method", method, "must be one of 'event', 'moreau'")
+        if solver not in SOLVERS:
+            raise ScenarioError("contact.solver", solver,
+                                "must be one of " + ", ".join(f"'{v}'" for v in SOLVERS))
         if time_of_impact not in ("conservative", "dichotomy"):
             raise ScenarioError("contact.time_of_impact", time_of_impact,
                                 "must be one of 'conservative', 'dichotomy'")
@@ -144,6 +150,7 @@ class ContactModel:
         self.tolerance = float(tolerance)
         self.max_events = int(max_events)
         self.iterations = int(iterations)
+        self.solver = SOLVERS.index(solver)  # moreau.PGS or moreau.NNCG
         self.rest_speed = float(rest_speed)
         self.check_overlap = True  # Moreau: measure the overlap after each step (stats)
         self.near = 0.05  # event: pairs closer than this share of the radius that separate
@@ -235,7 +242,7 @@ class ContactModel:
                    restitution=contact["restitution"], backend=contact["backend"],
                    tolerance=contact["tolerance"], max_events=contact["max_events"],
                    iterations=contact["iterations"], rest_speed=contact["rest_speed"],
-                   grounded=contact["grounded"])
+                   grounded=contact["grounded"], solver=contact["solver"])
 
     # ----------------------------------------------------------------- detection
     def _candidates(self, bodies, margin, S):
@@ -574,7 +581,7 @@ class ContactModel:
         vtol = 1e-9 * (float(np.abs(S[:, UB:VB + 1]).max()) + 1e-3)
         it, resid = moreau_solve(S0, S, inv_m, inv_i, C.body1, C.body2, C.res, dt,
                                  self.restitution, tol, tol, vtol, self.iterations, P, 0.2,
-                                 self.island_stop)
+                                 self.island_stop, self.solver)
         st["pgs_iterations"] += it
         st["pgs_capped"] += int(resid > vtol)
         self._pass_to_obstacles(C, P)
@@ -616,6 +623,9 @@ CONTACT_SECTION = Section("contact", [
         "ever more often, and stall the method; 0 = the paper)", "m/s", min=0.0),
     Key("iterations", "int", 200, "moreau: projected Gauss-Seidel sweeps at most per step",
         min=1),
+    Key("solver", "str", "pgs", "moreau: the contact impulses by projected Gauss-Seidel, or by "
+        "the same sweeps with nonsmooth nonlinear conjugate gradient steps (far fewer sweeps "
+        "on piles and rafts; docs/model.md section 13)", choices=("pgs", "nncg")),
     Key("grounded", "bool", False, "resting and stranded logs are fixed obstacles to the "
         "floating ones (held by the bed; docs/model.md 13, 16: not yet robust in dense "
         "floods); false: floating logs pass over them"),

@@ -49,30 +49,123 @@ from driftlog.columns import (
 )
 from driftlog.contact.islands import labels_into, runs_into
 
-__all__ = ["moreau_solve", "moreau_solve_into", "solve_workspace"]
+__all__ = ["NNCG", "PGS", "SOLVERS", "moreau_solve", "moreau_solve_into", "solve_workspace"]
+
+# moreau_solve_into's work rows: floats (per contact, then per island), integers (per contact,
+# then per body or island), flags (per island); NNCG's own float rows after the NFW
+NFW, NIW, NBW, NCG = 14, 11, 2, 7
+# the contact solvers (``[contact] solver``)
+PGS, NNCG = 0, 1
+SOLVERS = ("pgs", "nncg")
+
+
+@nb.njit(cache=True, _nrt=False, inline="always")
+def _sweep(a0, a1, order, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, P, seen,
+           quiet, tick):
+    """One Gauss-Seidel sweep of contacts order[a0:a1]: (changed, tick, sum of squared changes).
+
+    Each contact's impulse P[c] becomes max(P[c] + (target - u_n) / w, 0) and both bodies'
+    velocities follow.  A contact whose last update changed nothing is skipped until one of
+    its two bodies' velocities changes: its update reads only P, target, w and those
+    velocities, so it would change nothing again (the same numbers bit for bit).  Speculative
+    contacts of a large island (pairs near each other but apart, P = 0) cost a few integer
+    compares a sweep, not a gather of both bodies and a division.  ``tick`` counts the
+    velocity changes; ``seen[b]`` is the tick of body b's last change, ``quiet[c]`` the tick
+    at which contact c last changed nothing (-1: it has to be evaluated).
+    """
+    changed = False
+    g2 = 0.0
+    for a in range(a0, a1):
+        # unsigned indices where they are >= 0: no negative-index wraparound (the sweep is
+        # the hot loop of a packed crowd; driftlog.solver.fluxes)
+        c = np.uint64(order[a])
+        wc = w[c]
+        if wc <= 0.0:
+            continue
+        i, j = np.uint64(body1[c]), body2[c]
+        qc = quiet[c]
+        if qc >= seen[i] and (j < 0 or qc >= seen[np.uint64(j)]):
+            continue
+        nx, ny = res[c, NX], res[c, NY]
+        r1 = rn1[c]
+        u = V[i, GU] * nx + V[i, GV] * ny + V[i, GOMEGA] * r1
+        if j >= 0:
+            ju = np.uint64(j)
+            u -= V[ju, GU] * nx + V[ju, GV] * ny + V[ju, GOMEGA] * rn2[c]
+        pc = P[c]
+        p_new = max(pc + (target[c] - u) / wc, 0.0)
+        d = p_new - pc
+        if d == 0.0:
+            quiet[c] = tick
+            continue
+        quiet[c] = -1
+        changed = True
+        tick += 1
+        g2 += d * d
+        P[c] = p_new
+        V[i, GU] += d * nx * inv_m[i]
+        V[i, GV] += d * ny * inv_m[i]
+        V[i, GOMEGA] += d * r1 * inv_i[i]
+        seen[i] = tick
+        if j >= 0:
+            ju = np.uint64(j)
+            V[ju, GU] -= d * nx * inv_m[ju]
+            V[ju, GV] -= d * ny * inv_m[ju]
+            V[ju, GOMEGA] -= d * rn2[c] * inv_i[ju]
+            seen[ju] = tick
+    return changed, tick, g2
+
+
+@nb.njit(cache=True, _nrt=False, inline="always")
+def _snapshot(b0, b1, border, V, snap):
+    """The velocities of bodies border[b0:b1] into snap (3 rows)."""
+    for a in range(b0, b1):
+        b = border[a]
+        snap[0, b] = V[b, GU]
+        snap[1, b] = V[b, GV]
+        snap[2, b] = V[b, GOMEGA]
+
+
+@nb.njit(cache=True, _nrt=False, inline="always")
+def _moved(b0, b1, border, V, snap, inv_m, inv_i):
+    """The largest change of the bodies border[b0:b1]'s velocities since ``_snapshot``.
+
+    Each body's change is its speed change over its mass, sqrt(du^2 + dv^2 + (k domega)^2),
+    k = sqrt(I / m) its radius of gyration; fixed bodies (inv_i = 0) do not move.
+    """
+    r2 = 0.0
+    for a in range(b0, b1):
+        b = border[a]
+        if inv_i[b] == 0.0:
+            continue
+        du, dv, do = V[b, GU] - snap[0, b], V[b, GV] - snap[1, b], V[b, GOMEGA] - snap[2, b]
+        r2 = max(r2, du * du + dv * dv + do * do * (inv_m[b] / inv_i[b]))
+    return np.sqrt(r2)
 
 
 @nb.njit(cache=True, _nrt=False)
 def _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, n,
-              P, k, vtol, max_iterations, island_stop, active, seen, quiet):
+              P, k, vtol, max_iterations, island_stop, active, seen, quiet, border, bstart,
+              snap):
     """Projected Gauss-Seidel: P >= 0 _|_ u_n(V) - target >= 0; V changed in place.
 
     Island by island (contacts order[start[q]:start[q + 1]] of island q, in their given
-    order), in lockstep: an island whose sweep changes nothing is left (further sweeps would
-    not change it either), so the result is the sweep over all contacts bit for bit, at the
-    cost of the islands still moving.  ``island_stop``: an island is also left once its own
-    largest change is below vtol (each island converged to vtol on its own, not in lockstep).
+    order; its bodies border[bstart[q]:bstart[q + 1]]), in lockstep, until no body's
+    velocity changed by more than vtol in a sweep (``_moved``) or max_iterations sweeps.  An
+    island whose sweep changes nothing is left (further sweeps would not change it either),
+    so the result is the sweep over all contacts, at the cost of the islands still moving.
+    ``island_stop``: an island is also left once its own sweep moved no body by more than
+    vtol (each island converged to vtol on its own, not in lockstep).
 
-    Within an island, a contact whose last update changed nothing is skipped until one of its
-    two bodies' velocities changes: its update reads only P, target, w and those velocities,
-    so it would change nothing again (the same numbers bit for bit).  Speculative contacts of
-    a large island (pairs near each other but apart, P = 0) cost a few integer compares a
-    sweep, not a gather of both bodies and a division.  ``tick`` counts the velocity
-    changes; ``seen[b]`` is the tick of body b's last change, ``quiet[c]`` the tick at which
-    contact c last changed nothing (-1: it has to be evaluated).
+    The measure is the bodies' net change over the sweep, not each contact's update: near
+    duplicate contacts of a pile (a pair's closest points and its axis ends, a log pressed on
+    the deck and on its neighbour) trade impulse back and forth by updates of 1e-8 m/s sweep
+    after sweep while no velocity changes any more, and a per-update measure never fell below
+    vtol there (BENCHMARKS.md, "Gauss-Seidel on piles").
 
     ``count`` islands, n bodies and k contacts; ``active`` (>= count), ``seen`` (>= n) and
-    ``quiet`` (>= k) are work arrays: no allocation, no reference counting.
+    ``quiet`` (>= k) are work arrays, ``snap`` (3 rows of >= n): no allocation, no reference
+    counting.  Returns (sweeps, the last sweep's largest change).
     """
     for q in range(count):
         active[q] = start[q + 1] > start[q]
@@ -89,52 +182,137 @@ def _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m
         for q in range(count):
             if not active[q]:
                 continue
-            rq = 0.0
-            changed = False
-            for a in range(start[q], start[q + 1]):
-                # unsigned indices where they are >= 0: no negative-index wraparound (the
-                # sweep is the hot loop of a packed crowd; driftlog.solver.fluxes)
-                c = np.uint64(order[a])
-                wc = w[c]
-                if wc <= 0.0:
-                    continue
-                i, j = np.uint64(body1[c]), body2[c]
-                qc = quiet[c]
-                if qc >= seen[i] and (j < 0 or qc >= seen[np.uint64(j)]):
-                    continue
-                nx, ny = res[c, NX], res[c, NY]
-                r1 = rn1[c]
-                u = V[i, GU] * nx + V[i, GV] * ny + V[i, GOMEGA] * r1
-                if j >= 0:
-                    ju = np.uint64(j)
-                    u -= V[ju, GU] * nx + V[ju, GV] * ny + V[ju, GOMEGA] * rn2[c]
-                pc = P[c]
-                p_new = max(pc + (target[c] - u) / wc, 0.0)
-                d = p_new - pc
-                if d == 0.0:
-                    quiet[c] = tick
-                    continue
-                quiet[c] = -1
-                changed = True
-                tick += 1
-                P[c] = p_new
-                V[i, GU] += d * nx * inv_m[i]
-                V[i, GV] += d * ny * inv_m[i]
-                V[i, GOMEGA] += d * r1 * inv_i[i]
-                seen[i] = tick
-                if j >= 0:
-                    ju = np.uint64(j)
-                    V[ju, GU] -= d * nx * inv_m[ju]
-                    V[ju, GV] -= d * ny * inv_m[ju]
-                    V[ju, GOMEGA] -= d * rn2[c] * inv_i[ju]
-                    seen[ju] = tick
-                rq = max(rq, abs(d) * wc)
+            _snapshot(bstart[q], bstart[q + 1], border, V, snap)
+            changed, tick, _ = _sweep(start[q], start[q + 1], order, body1, body2, res, rn1, rn2,
+                                      w, target, inv_m, inv_i, V, P, seen, quiet, tick)
+            rq = _moved(bstart[q], bstart[q + 1], border, V, snap, inv_m, inv_i)
             residual = max(residual, rq)
             if not changed or (island_stop and rq <= vtol):
                 active[q] = False
         if residual <= vtol:
             break
     return it, residual
+
+
+@nb.njit(cache=True, _nrt=False)
+def _nncg_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, n,
+               P, k, vtol, max_iterations, island_stop, active, seen, quiet, border, bstart,
+               snap, cw, vdir):
+    """Nonsmooth nonlinear conjugate gradients: ``_pgs_into``'s problem, fewer sweeps on piles.
+
+    Silcowitz, Niebe and Erleben (2010, "A nonsmooth nonlinear conjugate gradient method for
+    interactive contact force problems", The Visual Computer 26) take the projected
+    Gauss-Seidel sweep as the gradient step of the contact problem's quadratic program
+    (min 1/2 P^T A P + P^T (u_free - target), P >= 0, A = H M^-1 H^T) and add to each sweep
+    a conjugate direction, Fletcher-Reeves: with d_k the sweep's change of P,
+
+        beta = |d_k|^2 / |d_{k-1}|^2,   p_k = beta p_{k-1} + d_k,   P += beta p_{k-1}
+
+    restarted (beta = 0) where beta > 1.  The velocities follow the impulses exactly (V
+    changes by M^-1 H^T of every change of P), island by island (each its own beta).  The
+    sweep after the added step projects P >= 0 again; no step is added after the last sweep,
+    nor once an island converged, so the result satisfies P >= 0 and is a fixed point of the
+    sweep to vtol, as ``_pgs_into``'s.  Order, skips, stops and the measure are
+    ``_pgs_into``'s.
+
+    ``cw`` (>= 2 rows of k, then 2 of count): per contact the direction p and the impulse
+    entering the sweep, per island |d|^2 of the last sweep and beta; ``vdir`` (3 rows of
+    >= n): the direction's velocities.
+    """
+    pd, p0 = cw[0], cw[1]
+    g_old, beta_q = cw[2], cw[3]
+    for q in range(count):
+        active[q] = start[q + 1] > start[q]
+        g_old[q] = 0.0
+    for b in range(n):
+        seen[b] = 0
+        vdir[0, b] = vdir[1, b] = vdir[2, b] = 0.0
+    for c in range(k):
+        quiet[c] = -1
+        pd[c] = 0.0
+        p0[c] = P[c]
+    tick = 0
+    it = 0
+    residual = 0.0
+    while it < max_iterations:
+        it += 1
+        residual = 0.0
+        for q in range(count):
+            if not active[q]:
+                continue
+            _snapshot(bstart[q], bstart[q + 1], border, V, snap)
+            changed, tick, g2 = _sweep(start[q], start[q + 1], order, body1, body2, res, rn1,
+                                       rn2, w, target, inv_m, inv_i, V, P, seen, quiet, tick)
+            rq = _moved(bstart[q], bstart[q + 1], border, V, snap, inv_m, inv_i)
+            residual = max(residual, rq)
+            if not changed or (island_stop and rq <= vtol):
+                active[q] = False
+            beta = g2 / g_old[q] if g_old[q] > 0.0 else 0.0
+            beta_q[q] = beta if beta <= 1.0 else 0.0  # > 1: restart, the sweep alone
+            g_old[q] = g2
+        if residual <= vtol or it == max_iterations:
+            break
+        # the conjugate step of each island still sweeping (none after the last sweep)
+        tick += 1
+        for q in range(count):
+            if not active[q]:
+                continue
+            beta = beta_q[q]
+            for a in range(start[q], start[q + 1]):
+                c = np.uint64(order[a])
+                step = beta * pd[c]
+                pd[c] = step + (P[c] - p0[c])
+                if step != 0.0:
+                    P[c] += step
+                    quiet[c] = -1
+                p0[c] = P[c]
+            for a in range(bstart[q], bstart[q + 1]):
+                b = border[a]
+                moved = False
+                for m in range(3):
+                    step = beta * vdir[m, b]
+                    vdir[m, b] = step + (V[b, GU + m] - snap[m, b])
+                    if step != 0.0:
+                        V[b, GU + m] += step
+                        moved = True
+                if moved:
+                    seen[b] = tick
+    return it, residual
+
+
+@nb.njit(cache=True, _nrt=False)
+def _sweeps_into(solver, order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m,
+                 inv_i, V, n, P, k, vtol, max_iterations, island_stop, active, seen, quiet, border,
+                 bstart, fw):
+    """The contact solve by ``solver`` (PGS: projected Gauss-Seidel, NNCG: with conjugate steps).
+
+    ``fw``: ``solve_workspace``'s float rows (the snapshot of the velocities, NNCG's rows).
+    """
+    snap = fw[NFW - 3:NFW]
+    if solver == NNCG:
+        return _nncg_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m,
+                          inv_i, V, n, P, k, vtol, max_iterations, island_stop, active, seen,
+                          quiet, border, bstart, snap, fw[NFW:NFW + 4], fw[NFW + 4:NFW + NCG])
+    return _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i,
+                     V, n, P, k, vtol, max_iterations, island_stop, active, seen, quiet, border,
+                     bstart, snap)
+
+
+@nb.njit(cache=True, _nrt=False)
+def _body_runs(labels, count, n, border, bstart, fill):
+    """The bodies of each island: border[bstart[q]:bstart[q + 1]] (ascending); work: fill."""
+    for q in range(count + 1):
+        bstart[q] = 0
+    for b in range(n):
+        bstart[labels[b] + 1] += 1
+    for q in range(count):
+        bstart[q + 1] += bstart[q]
+    for q in range(count):
+        fill[q] = bstart[q]
+    for b in range(n):
+        q = labels[b]
+        border[fill[q]] = b
+        fill[q] += 1
 
 
 @nb.njit(cache=True, _nrt=False)
@@ -160,7 +338,7 @@ def _gained_into(labels, count, n, S, V, inv_m, inv_i, e0, e1, floor, out):
 
 @nb.njit(cache=True)
 def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vtol,
-                 max_iterations, P, recovery=0.2, island_stop=False):
+                 max_iterations, P, recovery=0.2, island_stop=False, solver=PGS):
     """Solve the contact impulses of one step and apply them to S (free state, in place).
 
     Parameters
@@ -182,6 +360,8 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
         (False: the islands are swept in lockstep until all have converged, which is the
         sweep over all contacts bit for bit; islands that stopped changing are skipped either
         way).
+    solver : ``PGS`` (projected Gauss-Seidel) or ``NNCG`` (the same sweeps with conjugate
+        steps, ``_nncg_into``: far fewer sweeps on piles).
 
     Returns
     -------
@@ -189,30 +369,28 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
     """
     k = body1.size
     n = S.shape[0]
-    fw, iw, bw, V, Vp = solve_workspace(max(k, n + 1))
+    fw, iw, bw, V, Vp = solve_workspace(max(k, n + 1), solver)
     return moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol, slop,
-                             vtol, max_iterations, P, recovery, island_stop, fw, iw, bw, V, Vp)
+                             vtol, max_iterations, P, recovery, island_stop, solver, fw, iw, bw,
+                             V, Vp)
 
-
-# moreau_solve_into's work rows: floats (per contact, then per island), integers (per contact,
-# then per body or island), flags (per island)
-NFW, NIW, NBW = 11, 9, 2
 
 
 @nb.njit(cache=True)
-def solve_workspace(cap):
+def solve_workspace(cap, solver=PGS):
     """Work arrays for ``moreau_solve_into`` of up to cap - 1 bodies and cap contacts."""
     # every entry that moreau_solve_into reads it has written first
-    return (np.empty((NFW, cap)), np.empty((NIW, cap), np.int64), np.empty((NBW, cap), np.bool_),
+    return (np.empty((NFW + (NCG if solver == NNCG else 0), cap)),
+            np.empty((NIW, cap), np.int64), np.empty((NBW, cap), np.bool_),
             np.empty((cap, 3)), np.empty((cap, 3)))
 
 
 @nb.njit(cache=True, _nrt=False)
 def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol, slop, vtol,
-                      max_iterations, P, recovery, island_stop, fw, iw, bw, V, Vp):
+                      max_iterations, P, recovery, island_stop, solver, fw, iw, bw, V, Vp):
     """``moreau_solve`` of the first n bodies and k contacts, on work arrays.
 
-    ``fw``, ``iw``, ``bw``, ``V``, ``Vp``: ``solve_workspace(cap)`` with cap >= k and
+    ``fw``, ``iw``, ``bw``, ``V``, ``Vp``: ``solve_workspace(cap, solver)`` with cap >= k and
     cap > n.  No allocation and no reference counting (a crowd's island kernel solves
     millions of small islands; BENCHMARKS.md, "Islands of speculative contacts").  The same
     numbers as ``moreau_solve``, which calls it.
@@ -228,6 +406,7 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
     e0, e1, floor = fw[8], fw[9], fw[10]
     order, quiet, keep = iw[0], iw[1], iw[2]
     parent, labels, start, fill, seen, start2 = iw[3], iw[4], iw[5], iw[6], iw[7], iw[8]
+    border, bstart = iw[9], iw[10]
     active, redo = bw[0], bw[1]
     for c in range(k):
         rn2[c] = 0.0
@@ -261,12 +440,13 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
         P[c] = 0.0
     count = labels_into(n, body1, body2, k, parent, labels)
     runs_into(labels, count, body1, k, order, start, fill)
+    _body_runs(labels, count, n, border, bstart, fill)
     for b in range(n):
         for m in range(GOMEGA + 1):
             V[b, m] = S[b, UB + m]
-    it, residual = _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m,
-                             inv_i, V, n, P, k, vtol, max_iterations, island_stop, active, seen,
-                             quiet)
+    it, residual = _sweeps_into(solver, order, start, count, body1, body2, res, rn1, rn2, w,
+                                target, inv_m, inv_i, V, n, P, k, vtol, max_iterations,
+                                island_stop, active, seen, quiet, border, bstart, fw)
     if eps > 0.0:
         # Newton's law at simultaneous contacts can make energy (a log spinning between two
         # fixed bodies, both contacts approaching: eq. (87)); an island whose impulses raised
@@ -291,9 +471,10 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
                 if redo[labels[b]]:
                     for q in range(GOMEGA + 1):
                         V[b, q] = S[b, UB + q]
-            it2, residual = _pgs_into(keep, start2, count, body1, body2, res, rn1, rn2, w,
-                                      target, inv_m, inv_i, V, n, P, k, vtol, max_iterations,
-                                      island_stop, active, seen, quiet)
+            it2, residual = _sweeps_into(solver, keep, start2, count, body1, body2, res, rn1,
+                                         rn2, w, target, inv_m, inv_i, V, n, P, k, vtol,
+                                         max_iterations, island_stop, active, seen, quiet,
+                                         border, bstart, fw)
             it += it2
     # position pass: pseudo-velocities that remove a share of the remaining overlap
     for b in range(n):
@@ -318,8 +499,9 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
             # passed the push on through a whole pile (docs/model.md eq. (88))
             target[c] = -max(g_end, 0.0) / dt
     if deep:
-        _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, Vp,
-                  n, Pp, k, vtol, max_iterations, island_stop, active, seen, quiet)
+        _sweeps_into(solver, order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m,
+                     inv_i, Vp, n, Pp, k, vtol, max_iterations, island_stop, active, seen, quiet,
+                     border, bstart, fw)
     for b in range(n):  # q+ = q_free + dt (V+ - V_free) + dt Vp
         for m in range(GOMEGA + 1):  # position X + m has the rate UB + m (GU + m in V)
             S[b, X + m] += dt * (V[b, m] - S[b, UB + m] + Vp[b, m])
