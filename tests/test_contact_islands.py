@@ -330,15 +330,17 @@ def test_position_pass_pushes_no_pair_that_is_still_apart():
     np.testing.assert_array_equal(S[:, 1:3], S0[:, 1:3])
 
 
-def test_moreau_solve_on_a_reused_workspace_equals_fresh_solves(rng):
+@pytest.mark.parametrize("solver", ["pgs", "nncg"])
+def test_moreau_solve_on_a_reused_workspace_equals_fresh_solves(rng, solver):
     """The island kernel solves island after island on one workspace made once per call
     (``moreau_solve_into``, no allocation): solves of different sizes, one after another on
     a workspace poisoned with NaN and garbage first, give the fresh solves' numbers bit for bit
     (no work entry is read before it is written), restitution (its second solve) and deep
-    overlaps (the position pass) included."""
-    from driftlog.contact.moreau import moreau_solve_into, solve_workspace
+    overlaps (the position pass) included; by either solver."""
+    from driftlog.contact.moreau import SOLVERS, moreau_solve_into, solve_workspace
 
-    fw, iw, bw, V, Vp = solve_workspace(4000)
+    solver = SOLVERS.index(solver)
+    fw, iw, bw, V, Vp = solve_workspace(4000, solver)
     fw[:] = np.nan
     iw[:] = -7
     bw[:] = True
@@ -359,7 +361,7 @@ def test_moreau_solve_on_a_reused_workspace_equals_fresh_solves(rng):
         S1, S2 = S.copy(), S.copy()
         P1, P2 = np.zeros(len(C)), np.full(len(C) + 2, np.nan)
         r1 = moreau_solve(S0, S1, inv_m, inv_i, C.body1, C.body2, C.res, dt, eps, 5e-6, 5e-6,
-                          1e-9, 300, P1, 0.2, False)
+                          1e-9, 300, P1, 0.2, False, solver)
         # the rows past n and k hold other data, as an island kernel's local rows do
         pad = np.vstack([S0, np.full((5, 6), np.nan)])
         S2 = np.vstack([S2, np.full((5, 6), np.nan)])
@@ -367,7 +369,7 @@ def test_moreau_solve_on_a_reused_workspace_equals_fresh_solves(rng):
                                np.append(inv_i, np.ones(5)), len(S0),
                                np.append(C.body1, [0, 0]), np.append(C.body2, [1, 1]),
                                np.vstack([C.res, C.res[:2]]), len(C), dt, eps, 5e-6, 5e-6, 1e-9,
-                               300, P2, 0.2, False, fw, iw, bw, V, Vp)
+                               300, P2, 0.2, False, solver, fw, iw, bw, V, Vp)
         assert r1 == r2
         assert (P1 > 0).sum() >= 1
         assert S1.tobytes() == S2[:len(S0)].tobytes()
