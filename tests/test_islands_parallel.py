@@ -28,7 +28,7 @@ SIZES = (1, 1, 1, 2, 2, 2, 3, 3, 4, 5, 6, 8, 10, 13)
 HITS = ("time", "log_id", "other", "impulse", "x", "y")
 
 
-def island_field(T=10.0):
+def island_field(T=10.0, solver="pgs"):
     """Clusters of SIZES logs (1 m long, 0.1 m radius, side by side 0.19 m apart: each a
     pushing island from the start; each cluster its own density) at random places and angles
     on a current of 0.6 m/s down and 0.25 m/s across the channel, onto two piers and a wall;
@@ -55,7 +55,7 @@ def island_field(T=10.0):
     obs.add_circle([36.0, 7.0], 0.4, name="pier2")
     obs.add_segments([[0.0, 2.0], [50.0, 2.0]], name="south")
     obs.add_segments([[0.0, 10.0], [50.0, 10.0]], name="north")
-    model = ContactModel(obs, method="moreau", restitution=0.3)
+    model = ContactModel(obs, method="moreau", restitution=0.3, solver=solver)
     tr = Tracker(on_mesh(UniformFlow(0.6, 0.25, depth=1.0), Mesh.regular_grid(50, 12, 1.0)),
                  logs, PhysicsOptions(level="full"), "rk4", StepOptions(clock="per_log"),
                  contact=model, t_end=T, output_interval=4.0)
@@ -63,12 +63,12 @@ def island_field(T=10.0):
     return tr, logs
 
 
-def outcome(parallel, room=1.0):
+def outcome(parallel, room=1.0, solver="pgs"):
     """island_field with the serial or the parallel island kernel: what it computed."""
     saved = ck.ISLANDS_PARALLEL, ck.ISLAND_ROOM
     ck.ISLANDS_PARALLEL, ck.ISLAND_ROOM = parallel, room
     try:
-        tr, logs = island_field()
+        tr, logs = island_field(solver=solver)
     finally:
         ck.ISLANDS_PARALLEL, ck.ISLAND_ROOM = saved
     hits = tr.contact.drain_hits()
@@ -117,6 +117,17 @@ def test_islands_that_outgrow_their_range_run_again_with_the_same_results(serial
     par = outcome(True, room=0.0)
     assert par[3] >= 10
     assert_same(serial, par)
+
+
+def test_nncg_islands_in_parallel_give_the_serial_results_bit_for_bit(serial):
+    """``[contact] solver = "nncg"``: the same field, serial and parallel kernels bit for bit;
+    against the Gauss-Seidel run, fewer sweeps and the same hits on the obstacles (their
+    impulses within 1 %)."""
+    one = outcome(False, solver="nncg")
+    assert_same(one, outcome(True, solver="nncg"))
+    assert one[2]["pgs_iterations"] < serial[2]["pgs_iterations"]
+    np.testing.assert_allclose(one[0]["obstacle_impulse"], serial[0]["obstacle_impulse"],
+                               rtol=0.01, atol=0.01 * np.abs(serial[0]["obstacle_impulse"]).max())
 
 
 SCRIPT = """

@@ -57,12 +57,18 @@ NFW, NIW, NBW, NCG = 14, 11, 2, 7
 # the contact solvers (``[contact] solver``)
 PGS, NNCG = 0, 1
 SOLVERS = ("pgs", "nncg")
+# from this sweep on, a sweep that moved no body by more than vtol also ends the solve (each
+# body's net change; before it, only every contact's update below vtol does: ``_pgs_into``)
+NET_FROM = 8
 
 
 @nb.njit(cache=True, _nrt=False, inline="always")
 def _sweep(a0, a1, order, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, P, seen,
            quiet, tick):
-    """One Gauss-Seidel sweep of contacts order[a0:a1]: (changed, tick, sum of squared changes).
+    """One Gauss-Seidel sweep of contacts order[a0:a1].
+
+    Returns (changed, tick, the sum of the squared changes of P, the largest change of a
+    contact's normal velocity |dP| w).
 
     Each contact's impulse P[c] becomes max(P[c] + (target - u_n) / w, 0) and both bodies'
     velocities follow.  A contact whose last update changed nothing is skipped until one of
@@ -75,6 +81,7 @@ def _sweep(a0, a1, order, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, 
     """
     changed = False
     g2 = 0.0
+    rmax = 0.0
     for a in range(a0, a1):
         # unsigned indices where they are >= 0: no negative-index wraparound (the sweep is
         # the hot loop of a packed crowd; driftlog.solver.fluxes)
@@ -113,7 +120,8 @@ def _sweep(a0, a1, order, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, 
             V[ju, GV] -= d * ny * inv_m[ju]
             V[ju, GOMEGA] -= d * rn2[c] * inv_i[ju]
             seen[ju] = tick
-    return changed, tick, g2
+        rmax = max(rmax, abs(d) * wc)
+    return changed, tick, g2, rmax
 
 
 @nb.njit(cache=True, _nrt=False, inline="always")
@@ -150,18 +158,21 @@ def _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m
     """Projected Gauss-Seidel: P >= 0 _|_ u_n(V) - target >= 0; V changed in place.
 
     Island by island (contacts order[start[q]:start[q + 1]] of island q, in their given
-    order; its bodies border[bstart[q]:bstart[q + 1]]), in lockstep, until no body's
-    velocity changed by more than vtol in a sweep (``_moved``) or max_iterations sweeps.  An
-    island whose sweep changes nothing is left (further sweeps would not change it either),
-    so the result is the sweep over all contacts, at the cost of the islands still moving.
-    ``island_stop``: an island is also left once its own sweep moved no body by more than
+    order; its bodies border[bstart[q]:bstart[q + 1]]), in lockstep, until a sweep changed no
+    contact's normal velocity by more than vtol, or, from sweep NET_FROM + 1 on, moved no
+    body by more than vtol (its net change over the sweep, ``_moved``), or max_iterations
+    sweeps.  An island whose sweep changes nothing is left (further sweeps would not change
+    it either), so the result is the sweep over all contacts, at the cost of the islands
+    still moving.  ``island_stop``: an island is also left once its own measure is below
     vtol (each island converged to vtol on its own, not in lockstep).
 
-    The measure is the bodies' net change over the sweep, not each contact's update: near
-    duplicate contacts of a pile (a pair's closest points and its axis ends, a log pressed on
-    the deck and on its neighbour) trade impulse back and forth by updates of 1e-8 m/s sweep
-    after sweep while no velocity changes any more, and a per-update measure never fell below
-    vtol there (BENCHMARKS.md, "Gauss-Seidel on piles").
+    Why the bodies' net change: near duplicate contacts of a pile (a pair's closest points
+    and its axis ends, a log pressed on the deck and on its neighbour) trade impulse back and
+    forth by updates of 1e-8 m/s sweep after sweep while no velocity changes any more, and
+    the per-update measure alone never fell below vtol there (BENCHMARKS.md, "Gauss-Seidel
+    on piles").  It is measured from sweep NET_FROM + 1 only (a copy of the island's
+    velocities before each sweep): the many small islands that converge in a few sweeps pay
+    nothing for it, and give the numbers they gave before it bit for bit.
 
     ``count`` islands, n bodies and k contacts; ``active`` (>= count), ``seen`` (>= n) and
     ``quiet`` (>= k) are work arrays, ``snap`` (3 rows of >= n): no allocation, no reference
@@ -182,10 +193,13 @@ def _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m
         for q in range(count):
             if not active[q]:
                 continue
-            _snapshot(bstart[q], bstart[q + 1], border, V, snap)
-            changed, tick, _ = _sweep(start[q], start[q + 1], order, body1, body2, res, rn1, rn2,
-                                      w, target, inv_m, inv_i, V, P, seen, quiet, tick)
-            rq = _moved(bstart[q], bstart[q + 1], border, V, snap, inv_m, inv_i)
+            net = it > NET_FROM
+            if net:
+                _snapshot(bstart[q], bstart[q + 1], border, V, snap)
+            changed, tick, _, rq = _sweep(start[q], start[q + 1], order, body1, body2, res, rn1,
+                                          rn2, w, target, inv_m, inv_i, V, P, seen, quiet, tick)
+            if net:
+                rq = min(rq, _moved(bstart[q], bstart[q + 1], border, V, snap, inv_m, inv_i))
             residual = max(residual, rq)
             if not changed or (island_stop and rq <= vtol):
                 active[q] = False
@@ -241,9 +255,10 @@ def _nncg_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_
             if not active[q]:
                 continue
             _snapshot(bstart[q], bstart[q + 1], border, V, snap)
-            changed, tick, g2 = _sweep(start[q], start[q + 1], order, body1, body2, res, rn1,
-                                       rn2, w, target, inv_m, inv_i, V, P, seen, quiet, tick)
-            rq = _moved(bstart[q], bstart[q + 1], border, V, snap, inv_m, inv_i)
+            changed, tick, g2, rq = _sweep(start[q], start[q + 1], order, body1, body2, res, rn1,
+                                           rn2, w, target, inv_m, inv_i, V, P, seen, quiet, tick)
+            if it > NET_FROM:
+                rq = min(rq, _moved(bstart[q], bstart[q + 1], border, V, snap, inv_m, inv_i))
             residual = max(residual, rq)
             if not changed or (island_stop and rq <= vtol):
                 active[q] = False
