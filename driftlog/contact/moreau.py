@@ -58,7 +58,7 @@ NFW, NIW, NBW, NCG = 14, 11, 2, 7
 PGS, NNCG = 0, 1
 SOLVERS = ("pgs", "nncg")
 # from this sweep on, a sweep that moved no body by more than vtol also ends the solve (each
-# body's net change; before it, only every contact's update below vtol does: ``_pgs_into``)
+# body's net change; before it, only every contact's update below vtol does: ``_sweeps_into``)
 NET_FROM = 8
 
 
@@ -152,19 +152,20 @@ def _moved(b0, b1, border, V, snap, inv_m, inv_i):
 
 
 @nb.njit(cache=True, _nrt=False)
-def _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, n,
-              P, k, vtol, max_iterations, island_stop, active, seen, quiet, border, bstart,
-              snap):
-    """Projected Gauss-Seidel: P >= 0 _|_ u_n(V) - target >= 0; V changed in place.
+def _sweeps_into(solver, order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m,
+                 inv_i, V, n, P, k, vtol, max_iterations, island_stop, active, seen, quiet, border,
+                 bstart, fw):
+    """The contact solve: P >= 0 _|_ u_n(V) - target >= 0; V changed in place.
 
-    Island by island (contacts order[start[q]:start[q + 1]] of island q, in their given
-    order; its bodies border[bstart[q]:bstart[q + 1]]), in lockstep, until a sweep changed no
-    contact's normal velocity by more than vtol, or, from sweep NET_FROM + 1 on, moved no
-    body by more than vtol (its net change over the sweep, ``_moved``), or max_iterations
-    sweeps.  An island whose sweep changes nothing is left (further sweeps would not change
-    it either), so the result is the sweep over all contacts, at the cost of the islands
-    still moving.  ``island_stop``: an island is also left once its own measure is below
-    vtol (each island converged to vtol on its own, not in lockstep).
+    ``solver`` PGS: projected Gauss-Seidel.  Island by island (contacts
+    order[start[q]:start[q + 1]] of island q, in their given order; its bodies
+    border[bstart[q]:bstart[q + 1]]), in lockstep, until a sweep changed no contact's normal
+    velocity by more than vtol, or, from sweep NET_FROM + 1 on, moved no body by more than
+    vtol (its net change over the sweep, ``_moved``), or max_iterations sweeps.  An island
+    whose sweep changes nothing is left (further sweeps would not change it either), so the
+    result is the sweep over all contacts, at the cost of the islands still moving.
+    ``island_stop``: an island is also left once its own measure is below vtol (each island
+    converged to vtol on its own, not in lockstep).
 
     Why the bodies' net change: near duplicate contacts of a pile (a pair's closest points
     and its axis ends, a log pressed on the deck and on its neighbour) trade impulse back and
@@ -174,46 +175,7 @@ def _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m
     velocities before each sweep): the many small islands that converge in a few sweeps pay
     nothing for it, and give the numbers they gave before it bit for bit.
 
-    ``count`` islands, n bodies and k contacts; ``active`` (>= count), ``seen`` (>= n) and
-    ``quiet`` (>= k) are work arrays, ``snap`` (3 rows of >= n): no allocation, no reference
-    counting.  Returns (sweeps, the last sweep's largest change).
-    """
-    for q in range(count):
-        active[q] = start[q + 1] > start[q]
-    for b in range(n):
-        seen[b] = 0
-    for c in range(k):
-        quiet[c] = -1
-    tick = 0
-    it = 0
-    residual = 0.0
-    while it < max_iterations:
-        it += 1
-        residual = 0.0
-        for q in range(count):
-            if not active[q]:
-                continue
-            net = it > NET_FROM
-            if net:
-                _snapshot(bstart[q], bstart[q + 1], border, V, snap)
-            changed, tick, _, rq = _sweep(start[q], start[q + 1], order, body1, body2, res, rn1,
-                                          rn2, w, target, inv_m, inv_i, V, P, seen, quiet, tick)
-            if net:
-                rq = min(rq, _moved(bstart[q], bstart[q + 1], border, V, snap, inv_m, inv_i))
-            residual = max(residual, rq)
-            if not changed or (island_stop and rq <= vtol):
-                active[q] = False
-        if residual <= vtol:
-            break
-    return it, residual
-
-
-@nb.njit(cache=True, _nrt=False)
-def _nncg_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, n,
-               P, k, vtol, max_iterations, island_stop, active, seen, quiet, border, bstart,
-               snap, cw, vdir):
-    """Nonsmooth nonlinear conjugate gradients: ``_pgs_into``'s problem, fewer sweeps on piles.
-
+    ``solver`` NNCG: nonsmooth nonlinear conjugate gradients, fewer sweeps on piles.
     Silcowitz, Niebe and Erleben (2010, "A nonsmooth nonlinear conjugate gradient method for
     interactive contact force problems", The Visual Computer 26) take the projected
     Gauss-Seidel sweep as the gradient step of the contact problem's quadratic program
@@ -226,91 +188,99 @@ def _nncg_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_
     changes by M^-1 H^T of every change of P), island by island (each its own beta).  The
     sweep after the added step projects P >= 0 again; no step is added after the last sweep,
     nor once an island converged, so the result satisfies P >= 0 and is a fixed point of the
-    sweep to vtol, as ``_pgs_into``'s.  Order, skips, stops and the measure are
-    ``_pgs_into``'s.
+    sweep to the same measures.
 
-    ``cw`` (>= 2 rows of k, then 2 of count): per contact the direction p and the impulse
-    entering the sweep, per island |d|^2 of the last sweep and beta; ``vdir`` (3 rows of
-    >= n): the direction's velocities.
+    ``count`` islands, n bodies and k contacts; ``active`` (>= count), ``seen`` (>= n),
+    ``quiet`` (>= k) and ``fw`` (``solve_workspace``'s float rows: the copy of the
+    velocities, NNCG's per contact direction and start impulses, per island |d|^2 and beta,
+    and the direction's velocities) are work arrays: no allocation, no reference counting.
+    Returns (sweeps, the last sweep's largest change).
     """
-    pd, p0 = cw[0], cw[1]
-    g_old, beta_q = cw[2], cw[3]
+    conjugate = solver == NNCG
+    snap = fw[NFW - 3:NFW]
+    # NNCG's rows (PGS: its workspace has none; never read then)
+    cw = fw[NFW:NFW + 4] if conjugate else fw[NFW - 3:NFW - 3]
+    vdir = fw[NFW + 4:NFW + NCG] if conjugate else fw[NFW - 3:NFW - 3]
     for q in range(count):
         active[q] = start[q + 1] > start[q]
-        g_old[q] = 0.0
     for b in range(n):
         seen[b] = 0
-        vdir[0, b] = vdir[1, b] = vdir[2, b] = 0.0
     for c in range(k):
         quiet[c] = -1
-        pd[c] = 0.0
-        p0[c] = P[c]
+    if conjugate:
+        for q in range(count):
+            cw[2, q] = 0.0
+        for b in range(n):
+            vdir[0, b] = vdir[1, b] = vdir[2, b] = 0.0
+        for c in range(k):
+            cw[0, c] = 0.0
+            cw[1, c] = P[c]
     tick = 0
     it = 0
     residual = 0.0
     while it < max_iterations:
         it += 1
         residual = 0.0
+        net = it > NET_FROM
         for q in range(count):
             if not active[q]:
                 continue
-            _snapshot(bstart[q], bstart[q + 1], border, V, snap)
+            if net or conjugate:
+                _snapshot(bstart[q], bstart[q + 1], border, V, snap)
             changed, tick, g2, rq = _sweep(start[q], start[q + 1], order, body1, body2, res, rn1,
                                            rn2, w, target, inv_m, inv_i, V, P, seen, quiet, tick)
-            if it > NET_FROM:
+            if net:
                 rq = min(rq, _moved(bstart[q], bstart[q + 1], border, V, snap, inv_m, inv_i))
             residual = max(residual, rq)
             if not changed or (island_stop and rq <= vtol):
                 active[q] = False
-            beta = g2 / g_old[q] if g_old[q] > 0.0 else 0.0
-            beta_q[q] = beta if beta <= 1.0 else 0.0  # > 1: restart, the sweep alone
-            g_old[q] = g2
+            if conjugate:
+                beta = g2 / cw[2, q] if cw[2, q] > 0.0 else 0.0
+                cw[3, q] = beta if beta <= 1.0 else 0.0  # > 1: restart, the sweep alone
+                cw[2, q] = g2
         if residual <= vtol or it == max_iterations:
             break
-        # the conjugate step of each island still sweeping (none after the last sweep)
-        tick += 1
-        for q in range(count):
-            if not active[q]:
-                continue
-            beta = beta_q[q]
-            for a in range(start[q], start[q + 1]):
-                c = np.uint64(order[a])
-                step = beta * pd[c]
-                pd[c] = step + (P[c] - p0[c])
-                if step != 0.0:
-                    P[c] += step
-                    quiet[c] = -1
-                p0[c] = P[c]
-            for a in range(bstart[q], bstart[q + 1]):
-                b = border[a]
-                moved = False
-                for m in range(3):
-                    step = beta * vdir[m, b]
-                    vdir[m, b] = step + (V[b, GU + m] - snap[m, b])
-                    if step != 0.0:
-                        V[b, GU + m] += step
-                        moved = True
-                if moved:
-                    seen[b] = tick
+        if conjugate:  # the step of each island still sweeping (none after the last sweep)
+            tick = _conjugate_step(count, active, start, order, bstart, border, P, V, snap, cw,
+                                   vdir, quiet, seen, tick)
     return it, residual
 
 
-@nb.njit(cache=True, _nrt=False)
-def _sweeps_into(solver, order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m,
-                 inv_i, V, n, P, k, vtol, max_iterations, island_stop, active, seen, quiet, border,
-                 bstart, fw):
-    """The contact solve by ``solver`` (PGS: projected Gauss-Seidel, NNCG: with conjugate steps).
+@nb.njit(cache=True, _nrt=False, inline="always")
+def _conjugate_step(count, active, start, order, bstart, border, P, V, snap, cw, vdir, quiet,
+                    seen, tick):
+    """NNCG's step after a sweep, for each island still active: P and V along the direction.
 
-    ``fw``: ``solve_workspace``'s float rows (the snapshot of the velocities, NNCG's rows).
+    ``cw``: per contact the direction p and the impulse entering the sweep, per island beta
+    (row 3); ``snap``: the velocities entering the sweep; ``vdir``: the direction's
+    velocities.  Contacts whose impulse changed and bodies that moved are evaluated again by
+    the next sweep (``quiet``, ``seen``).  Returns the tick.
     """
-    snap = fw[NFW - 3:NFW]
-    if solver == NNCG:
-        return _nncg_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m,
-                          inv_i, V, n, P, k, vtol, max_iterations, island_stop, active, seen,
-                          quiet, border, bstart, snap, fw[NFW:NFW + 4], fw[NFW + 4:NFW + NCG])
-    return _pgs_into(order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i,
-                     V, n, P, k, vtol, max_iterations, island_stop, active, seen, quiet, border,
-                     bstart, snap)
+    tick += 1
+    for q in range(count):
+        if not active[q]:
+            continue
+        beta = cw[3, q]
+        for a in range(start[q], start[q + 1]):
+            c = np.uint64(order[a])
+            step = beta * cw[0, c]
+            cw[0, c] = step + (P[c] - cw[1, c])
+            if step != 0.0:
+                P[c] += step
+                quiet[c] = -1
+            cw[1, c] = P[c]
+        for a in range(bstart[q], bstart[q + 1]):
+            b = border[a]
+            moved = False
+            for m in range(3):
+                step = beta * vdir[m, b]
+                vdir[m, b] = step + (V[b, GU + m] - snap[m, b])
+                if step != 0.0:
+                    V[b, GU + m] += step
+                    moved = True
+            if moved:
+                seen[b] = tick
+    return tick
 
 
 @nb.njit(cache=True, _nrt=False)
@@ -376,7 +346,7 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
         sweep over all contacts bit for bit; islands that stopped changing are skipped either
         way).
     solver : ``PGS`` (projected Gauss-Seidel) or ``NNCG`` (the same sweeps with conjugate
-        steps, ``_nncg_into``: far fewer sweeps on piles).
+        steps, ``_sweeps_into``: far fewer sweeps on piles).
 
     Returns
     -------
