@@ -37,7 +37,8 @@ from driftlog._numba import kernel
 from driftlog.solver.boundaries import boundary_flux
 from driftlog.solver.riemann import riemann_flux
 
-__all__ = ["edge_fluxes", "edge_fluxes_1", "edge_fluxes_2", "face_residuals", "face_sides"]
+__all__ = ["boundary_volumes", "edge_fluxes", "edge_fluxes_1", "edge_fluxes_2",
+           "face_residuals", "face_sides", "gather_boundary_flux", "largest_rate"]
 
 
 def face_sides(face_edges, edge_faces):
@@ -233,3 +234,56 @@ def face_residuals(faces, face_edges, face_n, face_side, area, fmass, fx0, fy0, 
         dhv[f] = ry * inv
         rate[f] = rs * inv
 
+
+
+@nb.njit(cache=True, _nrt=False)
+def largest_rate(rate, faces):
+    """The largest ``rate`` of ``faces`` (the active set: every other face's rate is 0).
+
+    ``rate.max()`` over the whole mesh gives the same number (a NaN too: it is kept, so the
+    step fails as before), without a pass over every face at every stage (33 us a stage on
+    Malpasset's 46,691 faces, where the active set is a few thousand for most of the flood).
+    """
+    m = 0.0
+    for i in range(faces.shape[0]):
+        r = rate[np.uint64(faces[i])]
+        if r > m or r != r:
+            m = r
+        if m != m:
+            break
+    return m
+
+
+@nb.njit(cache=True, _nrt=False)
+def gather_boundary_flux(fmass, edges, share, out, add):
+    """out[i] (+)= share * fmass[edges[i]]: a stage's share of the boundary edges' mass fluxes.
+
+    ``add``: added to ``out``, else written (``share`` 1: the fluxes themselves, bit for bit).
+    """
+    for i in range(edges.shape[0]):
+        v = share * fmass[np.uint64(edges[i])]
+        out[i] = out[i] + v if add else v
+
+
+@nb.njit(cache=True, _nrt=False)
+def boundary_volumes(flux, dt, tag, out_volume, in_volume, work):
+    """Volumes through the boundary edges in a step, summed per boundary tag, added to the totals.
+
+    ``flux * dt`` per edge (m3, > 0 out), its outflows and inflows summed per tag in the
+    edges' order from 0 and then added to ``out_volume`` and ``in_volume``: the numbers of
+    ``np.bincount(tag, weights=np.maximum(+-flux * dt, 0))`` added, bit for bit, without six
+    temporary arrays a step.  ``work``: >= 2 x the number of tags.
+    """
+    n = out_volume.shape[0]
+    for t in range(2 * n):
+        work[t] = 0.0
+    for i in range(flux.shape[0]):
+        v = flux[i] * dt
+        t = np.uint64(tag[i])
+        a = -v
+        # np.maximum(v, 0): v where v >= 0 or v is NaN, else 0
+        work[t] += v if (v >= 0.0 or v != v) else 0.0
+        work[np.uint64(n) + t] += a if (a >= 0.0 or a != a) else 0.0
+    for t in range(n):
+        out_volume[t] += work[t]
+        in_volume[t] += work[n + t]

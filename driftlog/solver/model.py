@@ -20,7 +20,15 @@ from driftlog._numba import workers_spin, written_zeros
 from driftlog.errors import ScenarioError
 from driftlog.solver.boundaries import DEPTH, DISCHARGE, LEVEL, WALL, BoundarySet
 from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes, volume_sum
-from driftlog.solver.fluxes import edge_fluxes_1, edge_fluxes_2, face_residuals, face_sides
+from driftlog.solver.fluxes import (
+    boundary_volumes,
+    edge_fluxes_1,
+    edge_fluxes_2,
+    face_residuals,
+    face_sides,
+    gather_boundary_flux,
+    largest_rate,
+)
 from driftlog.solver.friction import corrector_stage, euler_stage, predictor_stage
 from driftlog.solver.layout import (
     BLOCK,
@@ -350,6 +358,7 @@ class ShallowWaterSolver:
         n_tags = len(mesh.tag_names)
         self.inflow_volume = np.zeros(n_tags)   # m3 entered through each tag so far
         self.outflow_volume = np.zeros(n_tags)  # m3 left through each tag so far
+        self._vol_work = np.zeros(2 * n_tags)  # a step's volumes per tag (boundary_volumes)
         self.initial_volume = 0.0
         self.extremes = Extremes(nf, parallel=self.parallel, order=self._order)
 
@@ -537,7 +546,7 @@ class ShallowWaterSolver:
                     sp, sp1)
         k_faces(faces, m._fe, m._fn, m._side, m._area, fm, fx0, fy0, fx1, fy1, sp, sp1, m.order,
                 dh, dhu, dhv, rate)
-        return float(rate.max())
+        return largest_rate(rate, faces)
 
     def step(self, dt_max=np.inf) -> float:
         """Advance one time step, at most ``dt_max`` s; returns the step taken."""
@@ -551,7 +560,7 @@ class ShallowWaterSolver:
         bedges = self.boundaries.edges
         dh, dhu, dhv, _ = self._res
         if self.order == 1:
-            self._bflux_sum[:] = fm[bedges]
+            gather_boundary_flux(fm, bedges, 1.0, self._bflux_sum, False)
             k_euler = self._k_serial[3] if self._small else self._k_euler
             runs = self._stage_runs()
             k_euler(self._h, self._hu, self._hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth,
@@ -564,7 +573,7 @@ class ShallowWaterSolver:
             h, hu, hv = self._h, self._hu, self._hv
             eps = self._thin_eps
             while True:
-                self._bflux_sum[:] = 0.5 * fm[bedges]
+                gather_boundary_flux(fm, bedges, 0.5, self._bflux_sum, False)
                 # Euler stage and thin layer (68)-(69) in one pass
                 k_pred = self._k_serial[4] if self._small else self._k_pred
                 k_pred(h, hu, hv, dh, dhu, dhv, dt, self._gn2, self.dry_depth, self._thin, eps,
@@ -577,17 +586,15 @@ class ShallowWaterSolver:
                 self.rejected_steps += 1
                 dt = self.cfl / rmax1
                 self._rates(h, hu, hv, self.t)
-            self._bflux_sum += 0.5 * fm[bedges]
+            gather_boundary_flux(fm, bedges, 0.5, self._bflux_sum, True)
             # Euler stage from U', Heun average with U^n and thin layer in one pass
             k_corr = self._k_serial[5] if self._small else self._k_corr
             runs = self._stage_runs(both=True)
             k_corr(h1, hu1, hv1, dh, dhu, dhv, dt, self._gn2, self.dry_depth, self._thin, eps,
                    h, hu, hv, runs)
-        vol = self._bflux_sum * dt  # m3 out (>0) or in (<0) per boundary edge
-        bs = self.boundaries
-        n = len(self.mesh.tag_names)
-        self.outflow_volume += np.bincount(bs.tag, weights=np.maximum(vol, 0.0), minlength=n)
-        self.inflow_volume += np.bincount(bs.tag, weights=np.maximum(-vol, 0.0), minlength=n)
+        # m3 out (> 0) or in (< 0) per boundary edge, summed per tag
+        boundary_volumes(self._bflux_sum, dt, self.boundaries.tag, self.outflow_volume,
+                         self.inflow_volume, self._vol_work)
         self.t += dt
         self.steps += 1
         self.extremes.update(self._h, self._hu, self._hv, self._z, self.t, self.dry_depth,
