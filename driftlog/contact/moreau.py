@@ -346,7 +346,8 @@ def moreau_solve(S0, S, inv_m, inv_i, body1, body2, res, dt, eps, tol, slop, vto
         sweep over all contacts bit for bit; islands that stopped changing are skipped either
         way).
     solver : ``PGS`` (projected Gauss-Seidel) or ``NNCG`` (the same sweeps with conjugate
-        steps, ``_sweeps_into``: far fewer sweeps on piles).
+        steps, ``_sweeps_into``: far fewer sweeps on piles) for the velocity solves; the
+        position pass is Gauss-Seidel's either way.
 
     Returns
     -------
@@ -461,7 +462,9 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
                                          max_iterations, island_stop, active, seen, quiet,
                                          border, bstart, fw)
             it += it2
-    # position pass: pseudo-velocities that remove a share of the remaining overlap
+    # position pass: pseudo-velocities that remove a share of the remaining overlap, always
+    # by Gauss-Seidel (NNCG's iterates are not monotone: at the 1e5-log flood's raft, capped,
+    # they left overlaps of 0.25 m against 0.19; BENCHMARKS.md, "Gauss-Seidel on piles")
     for b in range(n):
         for m in range(GOMEGA + 1):
             Vp[b, m] = 0.0
@@ -484,7 +487,7 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
             # passed the push on through a whole pile (docs/model.md eq. (88))
             target[c] = -max(g_end, 0.0) / dt
     if deep:
-        _sweeps_into(solver, order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m,
+        _sweeps_into(PGS, order, start, count, body1, body2, res, rn1, rn2, w, target, inv_m,
                      inv_i, Vp, n, Pp, k, vtol, max_iterations, island_stop, active, seen, quiet,
                      border, bstart, fw)
     for b in range(n):  # q+ = q_free + dt (V+ - V_free) + dt Vp
