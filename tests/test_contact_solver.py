@@ -103,12 +103,12 @@ def test_nncg_keeps_momentum_and_is_capped_like_gauss_seidel():
     C = ContactModel(method="moreau").detect_manifold(b, np.full(g * g, 0.2), S=S0)
     assert (C.body2 < 0).sum() == 0
     p0 = (b.mass[:, None] * S0[:, UB:VB + 1]).sum(0)
-    for cap in (3, 20000):
+    for solver, cap in ((NNCG, 3), (NNCG, 20000), (PGS, 3), (PGS, 20000)):
         S = S0.copy()
         S[:, X:Y + 1] += 0.02 * S0[:, UB:VB + 1]
         P = np.zeros(len(C))
         it, r = moreau_solve(S0, S, 1 / b.mass, 1 / b.inertia, C.body1, C.body2, C.res, 0.02,
-                             0.0, 5e-6, 5e-6, 1e-9, cap, P, 0.2, False, NNCG)
+                             0.0, 5e-6, 5e-6, 1e-9, cap, P, 0.2, False, solver)
         p1 = (b.mass[:, None] * S[:, UB:VB + 1]).sum(0)
         assert np.abs(p1 - p0).max() < 1e-12 * np.abs(b.mass[:, None] * S0[:, UB:VB + 1]).sum()
         assert P.min() >= 0.0
