@@ -162,8 +162,8 @@ def replay(a):
         RESULTS.mkdir(parents=True, exist_ok=True)
         (RESULTS / f"{a.name}.md").write_text(text)
         (RESULTS / f"{a.name}.json").write_text(json.dumps(
-            {"info": dict(machine=machine(), calls_file=str(a.replay), repeat=a.repeat),
-             "runs": [row]}, indent=1))
+            {"info": dict(machine=machine(), calls_file=str(a.replay), repeat=a.repeat,
+                          solver=a.solver or "as captured"), "runs": [row]}, indent=1))
 
 
 def replay_parallel(a):
@@ -218,7 +218,8 @@ def replay_parallel(a):
         (RESULTS / f"{a.name}.md").write_text(text)
         (RESULTS / f"{a.name}.json").write_text(json.dumps(
             {"info": dict(machine=machine(), calls_file=str(a.replay), repeat=a.repeat,
-                          threads=nt), "runs": rows}, indent=1))
+                          threads=nt, solver=a.solver or "as captured"), "runs": rows},
+            indent=1))
 
 
 def main():

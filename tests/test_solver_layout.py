@@ -333,3 +333,50 @@ def test_unsigned_index_casts_change_no_number(order, signed_kernels, monkeypatc
     s.advance_to(1.5)
     assert calls[0] > 0.9 * s.steps * order  # the signed block pass ran
     _same(s, plain)
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_the_largest_rate_of_the_active_set_is_the_whole_meshs(order, monkeypatch):
+    """Each stage's time-step bound is taken over the active set's faces only
+    (``fluxes.largest_rate``): on the channel the front wets, with the block pass, it equals
+    ``rate.max()`` over every face at every stage (the faces outside hold rate 0)."""
+    import driftlog.solver.model as model
+
+    mesh = channel_mesh(40.0, 0.5, 0.08)
+    checked = [0, 0]  # stages, stages with an active set smaller than the mesh
+    largest = model.largest_rate
+
+    def compared(rate, faces):
+        out = largest(rate, faces)
+        assert out == float(rate.max())
+        checked[0] += 1
+        checked[1] += faces.shape[0] < rate.shape[0]
+        return out
+
+    monkeypatch.setattr(model, "largest_rate", compared)
+    s = _dam_break(mesh, order)
+    s.advance_to(1.5)
+    assert checked[0] >= s.steps * order and checked[1] > 0.9 * checked[0]
+
+
+def test_boundary_volumes_are_numpys_bincounts_bit_for_bit():
+    """The step's volumes per boundary tag (``fluxes.boundary_volumes``) are the numbers of
+    ``np.bincount(tag, np.maximum(+-flux dt, 0))`` added to the totals, signed zeros included;
+    a NaN flux reaches the totals (the step is refused afterwards, not hidden)."""
+    from driftlog.solver.fluxes import boundary_volumes
+
+    rng = np.random.default_rng(4)
+    flux = rng.normal(0.0, 1.0, 500) * rng.choice([1e-12, 1.0, 1e3], 500)
+    flux[::37] = 0.0
+    flux[5::41] = -0.0
+    tag = rng.integers(0, 4, 500)
+    out0, in0 = rng.uniform(0, 10, 4), rng.uniform(0, 10, 4)
+    out1, in1 = out0.copy(), in0.copy()
+    boundary_volumes(flux, 0.37, tag, out1, in1, np.empty(8))
+    v = flux * 0.37
+    ref_out = out0 + np.bincount(tag, weights=np.maximum(v, 0.0), minlength=4)
+    ref_in = in0 + np.bincount(tag, weights=np.maximum(-v, 0.0), minlength=4)
+    assert out1.tobytes() == ref_out.tobytes() and in1.tobytes() == ref_in.tobytes()
+    flux[7] = np.nan
+    boundary_volumes(flux, 0.37, tag, out1, in1, np.empty(8))
+    assert np.isnan(out1[tag[7]]) and np.isnan(in1[tag[7]])

@@ -104,7 +104,8 @@ class ContactModel:
         Moreau: Gauss-Seidel sweeps at most per step.
     solver : {"pgs", "nncg"}
         Moreau: projected Gauss-Seidel (default), or the same sweeps with nonsmooth nonlinear
-        conjugate gradient steps (Silcowitz et al. 2010; far fewer sweeps on piles).
+        conjugate gradient steps (Silcowitz et al. 2010; about a third of the sweeps on a pile
+        of tens of logs, dearer on a raft of thousands).
     rest_speed : float
         Approach speeds below this do not bounce (resting contact; 0: the paper).  Without it a
         log pushed on a wall by the flow bounces ever less, ever more often (Zeno) and the
@@ -624,8 +625,9 @@ CONTACT_SECTION = Section("contact", [
     Key("iterations", "int", 200, "moreau: projected Gauss-Seidel sweeps at most per step",
         min=1),
     Key("solver", "str", "pgs", "moreau: the contact impulses by projected Gauss-Seidel, or by "
-        "the same sweeps with nonsmooth nonlinear conjugate gradient steps (far fewer sweeps "
-        "on piles and rafts; docs/model.md section 13)", choices=("pgs", "nncg")),
+        "the same sweeps with nonsmooth nonlinear conjugate gradient steps (about a third of "
+        "the sweeps on a pile of tens of logs, dearer on a raft of thousands; docs/model.md "
+        "(54b))", choices=SOLVERS),
     Key("grounded", "bool", False, "resting and stranded logs are fixed obstacles to the "
         "floating ones (held by the bed; docs/model.md 13, 16: not yet robust in dense "
         "floods); false: floating logs pass over them"),

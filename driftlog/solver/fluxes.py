@@ -235,7 +235,6 @@ def face_residuals(faces, face_edges, face_n, face_side, area, fmass, fx0, fy0, 
         rate[f] = rs * inv
 
 
-
 @nb.njit(cache=True, _nrt=False)
 def largest_rate(rate, faces):
     """The largest ``rate`` of ``faces`` (the active set: every other face's rate is 0).
