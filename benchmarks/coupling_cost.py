@@ -22,6 +22,10 @@ shorter ``--end`` (300 s by default) is labelled as a shortened run.
     python benchmarks/coupling_cost.py --end 4000 --logs 1000 --checkpoints 600,1800 \
         --repeat 2 --name coupling_cost_4000s
 
+``--clocks``: the coupled runs, one per entry: ``[integrator] clock``, optionally with ``@``
+and a ``[coupling] interval`` in seconds (``per_log@1``: per-log clocks, exchanges every
+second, docs/model.md 17.6); the first is the reference, ``global`` (every step).
+
 ``--checkpoints``: the cumulative CPU seconds of each run at these times of the same run
 (output times), so one run gives the ratios at several ends (written as
 ``<name>_evolution{.md,.csv}``).  The json also holds SHA-256 digests of the coupled run's
@@ -74,15 +78,22 @@ RESERVOIR = [[4350.0, 3850.0], [4550.0, 4000.0], [4450.0, 4250.0], [4250.0, 4100
 
 
 def scenario(end, n_logs, coupled, flow_path=None, clock="global"):
-    """The Malpasset case to ``end`` with ``n_logs`` logs in the reservoir."""
+    """The Malpasset case to ``end`` with ``n_logs`` logs in the reservoir.
+
+    ``clock``: ``[integrator] clock``, optionally with ``@`` and a ``[coupling] interval``
+    (s): "per_log@1" exchanges every second.
+    """
     from driftlog.api import as_scenario
+
+    clock, _, interval = clock.partition("@")
 
     over = {"time": {"start": 0.0, "end": end, "output_interval": 10.0},
             "logs": [{"name": "reservoir", "seeding": "random", "count": n_logs,
                       "polygon": RESERVOIR, "seed": 7, "theta": "random", "length": 8.0,
                       "radius": 0.2, "density": 700.0, "velocity": "rest"}],
             "solver": {"end": end, "output_interval": 10.0},
-            "coupling": {"enabled": coupled}, "integrator": {"clock": clock}}
+            "coupling": {"enabled": coupled, "interval": float(interval or 0.0)},
+            "integrator": {"clock": clock}}
     if flow_path is not None:
         over["flow"] = {"path": str(flow_path)}
     scen = as_scenario(str(CASE), overrides=over)
@@ -152,7 +163,8 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=1,
                     help="repetitions of the three runs; the fastest (CPU) of each is kept")
     ap.add_argument("--clocks", default="global,per_log",
-                    help="[integrator] clock of the coupled run, one run each (comma-separated)")
+                    help="[integrator] clock of the coupled run, one run each (comma-separated), "
+                    "optionally @ an exchange interval in s (per_log@1)")
     ap.add_argument("--checkpoints", default="",
                     help="comma-separated times (s, multiples of 10) at which the ratios are "
                     "also reported, from the same runs")
@@ -206,6 +218,7 @@ def main(argv=None):
         off, w_track, c_track = timed(lambda: track(scen, output=tmp / "offline.nc"))
         at = {t: (at_out[t][0] + check.log[t][0], None) for t in cps}
         keep("offline", c_out + c_track, w_out + w_track, (c_track, off.stats["substeps"]), at)
+        keep("solve_out", c_out, w_out)
         for clock, cscen in cscens.items():
             check.start()
             res, w, c = timed(lambda cscen=cscen: track(cscen, output=tmp / "coupled.nc"))
@@ -217,12 +230,14 @@ def main(argv=None):
                 region = float(ds.getncattr("coupling_region_nodes"))
                 widened = int(ds.getncattr("coupling_region_widenings"))
                 parts = {k: float(ds.getncattr(f"coupling_cpu_{k}_s")) for k in PARTS}
+            with netCDF4.Dataset(tmp / "coupled_flow.nc") as ds:  # the flood at the end
+                h_end = np.asarray(ds["water_depth"][-1], dtype=float)
             digests = dict(
                 trajectories=digest(tmp / "coupled.nc", TRAJ_VARS),
                 flow=digest(tmp / "coupled_flow.nc", FLOW_VARS))
             keep(f"coupled {clock}", c, w, dict(parts=parts, digests=digests, res=res,
                                                 steps=steps, given=given, region=region,
-                                                widened=widened), at)
+                                                widened=widened, h_end=h_end), at)
     c_solve, w_solve, _, at_solve = best["solve"]
     c_off, w_off, (c_track, substeps), at_off = best["offline"]
     c_c, w_c, ref, at_c = best["coupled global"]
@@ -231,13 +246,35 @@ def main(argv=None):
     per = {c: best[f"coupled {c}"] for c in clocks[1:]}  # (CPU s, wall s, extra, checkpoints)
     rows.append(dict(run="solve (solver alone, no output)", wall_s=w_solve, cpu_s=c_solve,
                      solver_steps=s.steps, cpu_ratio_to_solve=1.0))
+    c_so, w_so = best["solve_out"][:2]
+    rows.append(dict(run="solve with output (its flow file, snapshots every 10 s)",
+                     wall_s=w_so, cpu_s=c_so, solver_steps=s.steps,
+                     cpu_ratio_to_solve=c_so / c_solve))
     rows.append(dict(run="offline: solve with output + track", wall_s=w_off, cpu_s=c_off,
                      solver_steps=s.steps, cpu_ratio_to_solve=c_off / c_solve))
     rows.append(dict(run=f"coupled: {a.logs} logs acting on the flood", wall_s=w_c, cpu_s=c_c,
                      solver_steps=steps, cpu_ratio_to_solve=c_c / c_solve))
     for c, (cp_, wp, ex, _) in per.items():
-        rows.append(dict(run=f"coupled, {c} clocks (no contacts)", wall_s=wp, cpu_s=cp_,
-                         solver_steps=ex["steps"], cpu_ratio_to_solve=cp_ / c_solve))
+        clock, _, interval = c.partition("@")
+        what = (f"coupled, {clock} clock{'s' if clock == 'per_log' else ''}, exchanges every "
+                f"{interval} s" if interval else f"coupled, {c} clocks (no contacts)")
+        rows.append(dict(run=what, wall_s=wp, cpu_s=cp_, solver_steps=ex["steps"],
+                         cpu_ratio_to_solve=cp_ / c_solve))
+    for r in rows:
+        r["cpu_ratio_to_solve_with_output"] = r["cpu_s"] / c_so
+    # exchange intervals against every-step exchanges on the same clock: the flood at the end
+    # and the momentum the logs gave the water
+    every = {c: best[f"coupled {c}"][2] for c in clocks if "@" not in c}
+    diffs = []
+    for c in clocks:
+        base = c.partition("@")[0]
+        if "@" in c and base in every:
+            ex, ref_ = best[f"coupled {c}"][2], every[base]
+            dh = np.abs(ex["h_end"] - ref_["h_end"])
+            diffs.append(f"  {c} against {base} every step at {a.end:g} s: water depth "
+                         f"{dh.max():.2g} m apart at most ({dh.mean():.2g} m on average), "
+                         f"momentum given ({ex['given'][0]:.4g}, {ex['given'][1]:.4g}) against "
+                         f"({ref_['given'][0]:.4g}, {ref_['given'][1]:.4g}) kg m/s.")
     floating = int((res.logs.status == 1).sum())
     label = "" if a.end >= 4000.0 else f" (shortened run: {a.end:g} s of the 4000-s flood)"
     notes = (f"Malpasset, 46,691 triangles, order 1, {a.logs} logs released in the reservoir, no "
@@ -251,8 +288,9 @@ def main(argv=None):
                        f"log sub-steps {v[2]['res'].stats.get('log_substeps', 0):,} against "
                        f"{res.stats['substeps']:,} shared sub-steps of up to {a.logs} logs; "
                        f"momentum given ({v[2]['given'][0]:.4g}, {v[2]['given'][1]:.4g}) kg m/s"
-                       for c, v in per.items()))
-    write_table(a.name, rows, ["run", "wall_s", "cpu_s", "solver_steps", "cpu_ratio_to_solve"],
+                       for c, v in per.items()) + "".join(diffs))
+    write_table(a.name, rows, ["run", "wall_s", "cpu_s", "solver_steps", "cpu_ratio_to_solve",
+                               "cpu_ratio_to_solve_with_output"],
                 f"Cost of two-way coupling: Malpasset with {a.logs} logs{label}", notes)
     parts["rest"] = c_c - sum(parts.values())
     prow = [dict(part=PARTS.get(k, "rest: setup, spin-up, trajectory file, outputs"), cpu_s=v,
@@ -299,6 +337,7 @@ def main(argv=None):
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / f"{a.name}.json").write_text(json.dumps(dict(
         machine=machine(), end=a.end, logs=a.logs, solve_cpu_s=c_solve, solve_wall_s=w_solve,
+        solve_with_output_cpu_s=c_so,
         offline_cpu_s=c_off, offline_track_cpu_s=c_track, coupled_cpu_s=c_c,
         coupled_wall_s=w_c, coupled_over_solve=c_c / c_solve,
         coupled_over_offline=c_c / c_off, repeat=a.repeat, floating_at_end=floating,

@@ -17,6 +17,11 @@ obstacles, to round-off.  Logs held against obstacles or one another (a jam) ret
 they bear like any floating log: that is the jam's head loss, spread over its footprint
 (section 17.2).
 
+``[coupling] interval``: the solver takes several of its steps per exchange, the logs follow
+over the whole interval, and the reaction they received is given to the water over the next
+interval's steps at the rate it was received (docs/model.md 17.6): fewer landings, node
+values and hand-overs; first order in the interval.
+
 Spin-up: the solver runs alone from its ``[solver] start`` to ``[time] start``; the coupled
 run then goes to ``[time] end``.  The flow file of the coupled run (snapshots at the
 trajectory's output times, the volume balance, the momentum given by the logs) is written
@@ -36,11 +41,13 @@ from driftlog.coupling_kernels import (
     all_finite,
     contact_changes,
     gather_reaction,
+    give_share,
     keep_linearisation,
     node_rows,
     refocus,
     region_points,
     scatter_reaction,
+    spread_reaction,
 )
 from driftlog.errors import ScenarioError
 from driftlog.flow import InMemorySnapshots, MeshFlowField
@@ -428,6 +435,10 @@ class Coupling:
         The flow's dry depth for sampling (``[flow] dry_depth``).
     writer : callable, optional
         ``writer(solver)`` called at each output time (after the hand-over): the flow file.
+    interval : float
+        Exchange interval (s, ``[coupling] interval``): the solver takes as many whole steps
+        as fit in it (at least one) before the logs follow and hand their reaction over
+        (docs/model.md 17.6); 0: every step, the paper's Figure 3.
 
     Attributes
     ----------
@@ -438,8 +449,10 @@ class Coupling:
         unless a log's water dried up under it within a step.
     """
 
-    def __init__(self, solver, points=8, water_density=1000.0, dry_depth=1e-3, writer=None):
+    def __init__(self, solver, points=8, water_density=1000.0, dry_depth=1e-3, writer=None,
+                 interval=0.0):
         self.solver = solver
+        self.interval = float(interval)
         self.points = int(points)
         self.rho = float(water_density)
         self.flow = SolverFlow(solver, dry_depth)
@@ -458,6 +471,44 @@ class Coupling:
         self._xy = None  # the region's points (``focus``), one column per log
         self._length = 0.0  # the longest log (m)
         self._widenings = 0
+        # exchange intervals (``interval`` > 0): the reaction pending per face (in _sx, _sy,
+        # faces _touched[:_npend]), given over the next interval's steps at the rate it was
+        # received: _t_rem seconds of it are left to give
+        self._npend = 0
+        self._t_rem = 0.0
+        self._span = 0.0  # the last interval's length
+        self._step = 0.0  # the last solver step's length
+        self._seen = np.zeros(nf, np.int64)
+        self._shares = 0
+        self._out = np.zeros(4)
+
+    def _give(self, frac):
+        """Give the water the share ``frac`` of the pending reaction (``give_share``)."""
+        s = self.solver
+        h, hu, hv = _arrays(s)
+        out = self._out
+        out[:] = 0.0
+        self._shares += 1
+        self._npend = give_share(frac, self._sx, self._sy, self._touched, self._npend, h,
+                                 self.flow._state_face, s.mesh.face_area, self.rho,
+                                 s.dry_depth, hu, hv, out, self._seen, self._shares)
+        self.given[0] += out[0]
+        self.given[1] += out[1]
+        self.undelivered[0] += out[2]
+        self.undelivered[1] += out[3]
+
+    def _share_before_step(self):
+        """Interval mode: the pending reaction's share of the coming step, at a constant rate.
+
+        The step's length is not known before it is taken: the last step's stands for it;
+        what an interval leaves pending joins the next one's reaction.
+        """
+        if self._npend == 0:
+            return
+        dt = self._step if self._step > 0.0 else self.interval
+        frac = 1.0 if dt >= self._t_rem else dt / self._t_rem
+        self._give(frac)
+        self._t_rem = max(self._t_rem - dt, 0.0)
 
     def stops(self, tracker, fixed):
         """Yield the end of each hydrodynamic step; between two, hand the reaction over.
@@ -487,15 +538,31 @@ class Coupling:
                 self.writer(s)
             c3 = clock()
             cpu["flow file"] += c3 - c2
-            target = fixed[k]
-            t0 = s.t
-            s.step(target - s.t)
-            self.solver_steps += 1
+            # the solver's steps of one exchange interval: one step, or as many whole steps
+            # as fit in ``interval`` (at least one), ending early on a time to land on
+            t_start = s.t
+            spread = self.interval > 0.0
+            while True:
+                target = fixed[k]
+                if spread:  # the last interval's reaction, a share before each step
+                    c5 = clock()
+                    self._share_before_step()
+                    c6 = clock()
+                    cpu["hand-over"] += c6 - c5
+                    c3 += c6 - c5
+                t0 = s.t
+                s.step(target - s.t)
+                self._step = s.t - t0
+                self.solver_steps += 1
+                landed = target - s.t <= tol
+                if landed:
+                    s.t = float(target)  # land exactly, as the tracker does
+                    k += 1
+                if landed or (s.t - t_start) + (s.t - t0) > self.interval:
+                    break
             # a step cut short to land on a time does not shrink the margin at once
-            self._dt = max(s.t - t0, 0.9 * self._dt)
-            if target - s.t <= tol:
-                s.t = float(target)  # land exactly, as the tracker does
-                k += 1
+            self._dt = max(s.t - t_start, 0.9 * self._dt)
+            self._span = s.t - t_start
             c4 = clock()
             cpu["solver"] += c4 - c3
             self.flow.push(s)
@@ -506,6 +573,8 @@ class Coupling:
             cpu["tracker"] += c5 - c
             c = c5
         self.handover(tracker)
+        if self._npend:  # interval mode: what is pending goes now, at the end
+            self._give(1.0)
         if self.writer is not None:
             self.writer(s)
 
@@ -540,23 +609,40 @@ class Coupling:
         """
         tracker._contact_changes()
         L = tracker.logs
+        s = self.solver
         b = self._rows
         if b is None or b[0].shape[0] < len(L):
             n = len(L)
             b = self._rows = (np.empty((n, 2)), np.empty(n), np.empty(n), np.empty(n),
                               np.empty(n), np.empty(n, np.int64), np.full(n, -1, np.int64),
                               np.empty(n), np.empty(n))
-            self._touched = np.empty(n * self.points, np.int64)
+            if self.interval > 0.0:  # the pending faces (kept) and the new ones
+                kept = self._touched[:self._npend]
+                self._touched = np.empty(s.mesh.n_faces + n * self.points, np.int64)
+                self._touched[:kept.size] = kept
+            else:
+                self._touched = np.empty(n * self.points, np.int64)
         g, x, y, theta, length, hint, where, cos_t, sin_t = b
         m = gather_reaction(tracker.received, tracker.act, tracker.state, tracker.face,
                             L.state, L.face, L.length, where, g, x, y, theta, length, hint)
         if m == 0:
             return False
-        s = self.solver
         h, hu, hv = _arrays(s)
         th = theta[:m]
         # numpy's cos and sin (into buffers), as before: numba's may differ in the last bit
         c, sn = np.cos(th, out=cos_t[:m]), np.sin(th, out=sin_t[:m])
+        if self.interval > 0.0:
+            # pending: given over the coming interval's steps at the rate it was received
+            # over the last one (docs/model.md 17.6)
+            self._npend, ux, uy = spread_reaction(
+                g[:m], x[:m], y[:m], c, sn, length[:m], hint[:m], self.points,
+                s.mesh.locator(), h, self.flow._state_face, s.dry_depth, self._sx, self._sy,
+                self._touched, self._npend)
+            self._t_rem = self._span
+            self.undelivered[0] += ux
+            self.undelivered[1] += uy
+            self.handovers += 1
+            return False
         gx, gy, ux, uy = scatter_reaction(
             g[:m], x[:m], y[:m], c, sn, length[:m], hint[:m], self.points,
             s.mesh.locator(), h, self.flow._state_face, s.mesh.face_area, self.rho,
@@ -581,6 +667,8 @@ class Coupling:
                    momentum_undelivered_y=float(self.undelivered[1]),
                    region_nodes=self.flow.region_nodes / max(self.solver_steps, 1),
                    region_widenings=self.flow.widenings)
+        if self.interval > 0.0:
+            out["exchange_interval"] = self.interval
         out.update({f"cpu_{k.replace(' ', '_').replace('-', '')}_s": v
                     for k, v in self.cpu.items()})
         return out
@@ -641,7 +729,7 @@ def start_coupling(scenario, trajectory_path):
     out = FlowOutput(path, solver, attrs)
     c = scenario["coupling"]
     return Coupling(solver, points=c["points"], water_density=scenario["physics"]["water_density"],
-                    dry_depth=scenario["flow"]["dry_depth"], writer=out)
+                    dry_depth=scenario["flow"]["dry_depth"], writer=out, interval=c["interval"])
 
 
 def coupled_flow_path(scenario, trajectory_path) -> Path:
@@ -699,4 +787,8 @@ COUPLING_SECTION = Section("coupling", [
         "spread", min=1, max=1000),
     Key("flow_path", "str", "", "flow file of the coupled run (default: beside the "
         "trajectories, <name>_flow.nc)"),
+    Key("interval", "float", 0.0, "exchange interval: the solver takes as many whole steps "
+        "as fit in it before the logs follow on the flow between its two ends and hand their "
+        "reaction back (fewer exchanges, cheaper; 0 = every hydrodynamic step, the paper's "
+        "Figure 3; docs/model.md 17.6)", "s", min=0.0),
 ], doc="two-way coupling of logs and flow (docs/model.md section 17)", check=_check_coupling)

@@ -258,30 +258,25 @@ def _well_inside(px, py, f, loc):
 
 
 @nb.njit(cache=True)
-def scatter_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h, state_face,
-                     area, density, dry_depth, hu, hv, sx, sy, touched):
-    """Give the water the opposite of the momentum ``got`` (n, 2) of each log (kg m/s).
+def spread_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h, state_face,
+                    dry_depth, sx, sy, touched, nt):
+    """The opposite of the momentum ``got`` (n, 2) of each log, summed per face into sx, sy.
 
     Each log's share is spread evenly over ``points`` points along its axis (centre (x, y),
-    direction (cos_t, sin_t)) and added to the water of the face under each point; a point
-    outside the mesh or on a face not deeper than ``dry_depth`` gives its share to the log's
-    own face (located from ``hint``).  The sums per face are made in the order of the logs and
-    points (as ``np.bincount``), then each face's unit discharges change by P / (rho A)
-    (``driftlog.solver.momentum.add_face_momentum``); ``sx``, ``sy`` are zero on entry and on
-    return (buffers over the faces), ``touched`` a buffer of at least n x points faces.
-    ``h``, ``hu``, ``hv`` are the solver's state arrays, ``state_face`` the index there of each
-    mesh face.  Returns (given x, given y, undelivered x, undelivered y) (kg m/s): the
-    momentum the water received, and what found no wet face (a log outside the mesh, or all
-    its points' faces dry).
+    direction (cos_t, sin_t)) and added to the face under each point; a point outside the
+    mesh or on a face not deeper than ``dry_depth`` gives its share to the log's own face
+    (located from ``hint``).  The sums per face are made in the order of the logs and points
+    (as ``np.bincount``); a face whose sums are zero on entry is listed in ``touched`` from
+    ``nt`` on.  Returns (nt, undelivered x, undelivered y): the faces listed, and what found
+    no face (a log outside the mesh).
     """
-    nt = 0
     ux = uy = 0.0
     for i in range(got.shape[0]):
         gx, gy = got[i, 0], got[i, 1]
         if gx == 0.0 and gy == 0.0:
             continue
         hi = hint[i]
-        centre = locate_one(x[i], y[i], hi if 0 <= hi < area.shape[0] else -1, loc)
+        centre = locate_one(x[i], y[i], hi if 0 <= hi < sx.shape[0] else -1, loc)
         mx = -gx / points
         my = -gy / points
         # both ends well inside the log's face: every point is in it (no walk to make)
@@ -308,6 +303,24 @@ def scatter_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h, stat
                 nt += 1
             sx[f] += mx
             sy[f] += my
+    return nt, ux, uy
+
+
+@nb.njit(cache=True)
+def scatter_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h, state_face,
+                     area, density, dry_depth, hu, hv, sx, sy, touched):
+    """Give the water the opposite of the momentum ``got`` (n, 2) of each log (kg m/s).
+
+    ``spread_reaction``, then each face's unit discharges change by P / (rho A)
+    (``driftlog.solver.momentum.add_face_momentum``); ``sx``, ``sy`` are zero on entry and on
+    return (buffers over the faces), ``touched`` a buffer of at least n x points faces.
+    ``h``, ``hu``, ``hv`` are the solver's state arrays, ``state_face`` the index there of each
+    mesh face.  Returns (given x, given y, undelivered x, undelivered y) (kg m/s): the
+    momentum the water received, and what found no wet face (a log outside the mesh, or all
+    its points' faces dry).
+    """
+    nt, ux, uy = spread_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h,
+                                 state_face, dry_depth, sx, sy, touched, 0)
     gx = gy = 0.0
     for k in range(nt):
         f = touched[k]
@@ -327,6 +340,54 @@ def scatter_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h, stat
         gx += px
         gy += py
     return gx, gy, ux, uy
+
+
+@nb.njit(cache=True)
+def give_share(frac, sx, sy, touched, nt, h, state_face, area, density, dry_depth, hu, hv,
+               out, seen, stamp):
+    """Give the water the share ``frac`` of the momentum pending on faces touched[:nt].
+
+    The pending momentum (kg m/s) per face is (sx, sy) (``spread_reaction``); a wet face's
+    unit discharges change by frac P / (rho A) and its pending momentum falls by what it gave
+    (with frac = 1 it is then zero exactly); a face not deeper than ``dry_depth`` keeps its
+    share for later, unless ``frac`` is 1 (the last share: then it is undelivered).  The list
+    keeps the faces with momentum still pending, once each (a face listed twice is given
+    once: ``seen[f]`` is set to ``stamp``, a number not in ``seen`` before the call).
+    ``out``: (given x, given y, undelivered x, undelivered y) are added to it.  Returns the
+    faces still listed.
+    """
+    m = 0
+    for k in range(nt):
+        f = touched[k]
+        if seen[f] == stamp:
+            continue  # listed twice: given once
+        seen[f] = stamp
+        px, py = sx[f], sy[f]
+        if px == 0.0 and py == 0.0:
+            continue  # nothing pending
+        s = state_face[f]
+        if h[s] <= dry_depth:
+            if frac >= 1.0:
+                out[2] += px
+                out[3] += py
+                sx[f] = sy[f] = 0.0
+                continue
+            gx = gy = 0.0
+        else:
+            gx, gy = frac * px, frac * py
+            scale = 1.0 / (density * area[f])
+            hu[s] += gx * scale
+            hv[s] += gy * scale
+            out[0] += gx
+            out[1] += gy
+        sx[f] = px - gx
+        sy[f] = py - gy
+        if sx[f] != 0.0 or sy[f] != 0.0:
+            touched[m] = f
+            m += 1
+        else:
+            sx[f] = sy[f] = 0.0  # no negative zero left behind
+    return m
 
 
 @nb.njit(cache=True)
