@@ -16,6 +16,10 @@ across a 4 m channel and by one another through Moreau-Jean contacts) on meshes 
 their changes from mesh to mesh and observed orders (the test runs the three coarsest,
 tests/test_coupling.py).  Writes coupling_convergence{.md,.csv,.json}.
 
+Exchange intervals (``--only intervals``): (a) on the 0.5 m mesh with the reaction exchanged
+every 0.25, 0.5 and 1 s (docs/model.md 17.6), event-driven and Moreau-Jean contacts.  Writes
+coupling_intervals{.md,.csv,.json}.
+
 (d) cases/river_piers/coupled.toml: a raft of 9 logs of 44 m held at the deck of the first
 bridge (its pier group) of the river; the level upstream of it against the same flow without
 logs.  Writes
@@ -64,6 +68,32 @@ def fixed_array(cells):
                          error_pct=100 * (measured / predicted - 1), force_N=force, drag_N=drag,
                          wall_s=time.perf_counter() - t0))
         print(rows[-1], flush=True)
+    return rows
+
+
+def exchange_intervals(intervals, cell=0.5):
+    """(a) on one mesh with exchange intervals (docs/model.md 17.6), both contact methods.
+
+    Event-driven and Moreau-Jean contacts hold the logs on their posts; with Moreau-Jean also
+    with the logs' sub-steps bounded by 0.03 s (``[integrator] max_step``, about the solver's
+    step), as 17.6 advises for coupled Moreau-Jean jams.
+    """
+    from test_coupling import array_backwater
+
+    from driftlog.stepping import StepOptions
+
+    rows = []
+    for method, max_step in (("event", None), ("moreau", None), ("moreau", 0.03)):
+        for interval in intervals:
+            t0 = time.perf_counter()
+            step = StepOptions(max_step=max_step) if max_step else None
+            measured, predicted, force, drag = array_backwater(cell, method=method,
+                                                               interval=interval, step=step)
+            rows.append(dict(contacts=method, max_step_s=max_step or "-", interval_s=interval,
+                             cell_m=cell, measured_mm=1e3 * measured,
+                             predicted_mm=1e3 * predicted, ratio=measured / predicted,
+                             force_N=force, drag_N=drag, wall_s=time.perf_counter() - t0))
+            print(rows[-1], flush=True)
     return rows
 
 
@@ -316,10 +346,18 @@ def _merge(name, rows, parts):
     return sorted(rows, key=lambda r: r["case"][:3])
 
 
+def _write(name, rows, cols, title, note):
+    """RESULTS/name{.md,.csv} (``write_table``) and name.json (the rows and the machine)."""
+    write_table(name, rows, cols, title, note)
+    (RESULTS / f"{name}.json").write_text(json.dumps(
+        dict(machine=machine(), rows=rows), indent=1, default=float))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--skip-fine", action="store_true", help="no 0.25 m mesh")
-    ap.add_argument("--only", choices=("array", "jam", "converge", "piers"), default=None)
+    ap.add_argument("--only", choices=("array", "intervals", "jam", "converge", "piers"),
+                    default=None)
     ap.add_argument("--out", type=Path, default=None,
                     help="folder kept for the coupled run's files (default: a temporary one)")
     ap.add_argument("--reuse", action="store_true",
@@ -343,41 +381,44 @@ def main(argv=None):
                 "drag_N", "logs_at_deck", "momentum_given_x", "force_from_levels_N", "h0_m",
                 "F0", "dh_over_h0", "logs_held", "wood_volume_m3", "accumulation_length_m",
                 "porosity", "compactness", "wall_s"]
-        write_table("coupling_validation", rows, cols, "Two-way coupling: backwater (issue 16)",
-                    "Backwater = level with logs minus level without, 3-8 m (a) or 2-12 m (b) "
-                    "upstream; predicted by the 1D momentum balance docs/model.md (76); "
-                    "(b): approach flow h0, F0 (77) and the accumulation (78) as flume "
-                    "relations take them.")
-        (RESULTS / "coupling_validation.json").write_text(json.dumps(
-            dict(machine=machine(), rows=rows), indent=1, default=float))
+        _write("coupling_validation", rows, cols, "Two-way coupling: backwater (issue 16)",
+               "Backwater = level with logs minus level without, 3-8 m (a) or 2-12 m (b) "
+               "upstream; predicted by the 1D momentum balance docs/model.md (76); "
+               "(b): approach flow h0, F0 (77) and the accumulation (78) as flume "
+               "relations take them.")
+    if a.only in (None, "intervals"):
+        rows_i = exchange_intervals([0.0, 0.25, 0.5, 1.0])
+        _write("coupling_intervals", rows_i, list(rows_i[0]),
+               "Two-way coupling (a) with exchange intervals (issue 16)",
+               "The fixed array of (a) on 0.5 m cells (solver steps of about 0.03 s), "
+               "its reaction exchanged every solver step (interval 0) or every 0.25, 0.5 "
+               "and 1 s (docs/model.md 17.6); ratio: the backwater over the 1D momentum "
+               "balance's (76); force: the mean force on the posts, drag: the logs' drag "
+               "at the approach velocity; max_step: the logs' sub-steps bounded.")
     if a.only in (None, "converge"):
         conv = packed_jam([1.0, 0.5 ** 0.5, 0.5] + ([] if a.skip_fine else [0.5 ** 1.5, 0.25]),
                           half_step=0.5 ** 0.5)
         cols = ["case", "cell_m", "cfl", "measured_mm", "change_measured_mm", "order_measured_mm",
                 "deck_force_N", "mm_per_kN", "change_mm_per_kN", "order_mm_per_kN",
                 "from_force_mm", "from_drag_mm", "log_speed_ms", "max_log_shift_m", "wall_s"]
-        write_table("coupling_convergence", conv, cols,
-                    "Two-way coupling (c): a packed jam on five meshes (issue 16)",
-                    "Backwater 3-8 m upstream of the deck, mean over the last 30 s of 90 s "
-                    "coupled; the deck's mean force over the same 30 s; change from the next "
-                    "coarser mesh and observed order (79); from_force / from_drag: the rise "
-                    "(76) gives for the deck's force / for every log's drag at the approach "
-                    "velocity; log_speed: the held logs' mean speed; the last row: the 0.71 m mesh "
-                    "at half the step (CFL 0.45).")
-        (RESULTS / "coupling_convergence.json").write_text(json.dumps(
-            dict(machine=machine(), rows=conv), indent=1, default=float))
+        _write("coupling_convergence", conv, cols,
+               "Two-way coupling (c): a packed jam on five meshes (issue 16)",
+               "Backwater 3-8 m upstream of the deck, mean over the last 30 s of 90 s "
+               "coupled; the deck's mean force over the same 30 s; change from the next "
+               "coarser mesh and observed order (79); from_force / from_drag: the rise "
+               "(76) gives for the deck's force / for every log's drag at the approach "
+               "velocity; log_speed: the held logs' mean speed; the last row: the 0.71 m mesh "
+               "at half the step (CFL 0.45).")
     if a.only in (None, "piers"):
         out = a.out or Path(tempfile.mkdtemp(prefix="driftlog-piers-"))
         out.mkdir(parents=True, exist_ok=True)
         row = river_piers(out, reuse=a.reuse)
         cols = list(row)
-        write_table("coupling_river_piers", [row], cols,
-                    "Two-way coupling: the backwater of a raft at a pier group (issue 16)",
-                    "Level change (coupled minus the same flow without logs) at the end, mean "
-                    "over the faces 450-580 m (upstream of bridge A), 100-300 m and 620-880 m; "
-                    "discharge through x = 300 m.")
-        (RESULTS / "coupling_river_piers.json").write_text(json.dumps(
-            dict(machine=machine(), rows=[row]), indent=1, default=float))
+        _write("coupling_river_piers", [row], cols,
+               "Two-way coupling: the backwater of a raft at a pier group (issue 16)",
+               "Level change (coupled minus the same flow without logs) at the end, mean "
+               "over the faces 450-580 m (upstream of bridge A), 100-300 m and 620-880 m; "
+               "discharge through x = 300 m.")
 
 
 if __name__ == "__main__":

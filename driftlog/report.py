@@ -38,6 +38,8 @@ ITEMS = [
     ("interfoam_channel", "interfoam_channel.py", ["--quick"],
      "the 3D route: interFoam depth-averaged against driftlog's solver"),
     ("contact", "contact_benchmark.py", ["--quick"], "contact detection and contact times"),
+    ("coupling", "coupling_validation.py", ["--only", "intervals"],
+     "two-way coupling: backwater against the momentum balance, jams, exchange intervals"),
     ("ensemble", "ensemble_benchmark.py", ["--quick"], "ensembles on Dask: members per minute"),
     ("import", "import_benchmark.py", ["--snapshots", "10", "--skip-openfoam"],
      "importing flows from other models"),

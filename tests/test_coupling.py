@@ -161,7 +161,7 @@ def _array_scenario(cell, t0, t1, method="event", interval=0.0):
     })
 
 
-def array_backwater(cell, t0=60.0, t1=150.0, method="event", interval=0.0):
+def array_backwater(cell, t0=60.0, t1=150.0, method="event", interval=0.0, step=None):
     """(measured, predicted) rise of the level 3-8 m upstream of a fixed array of two logs.
 
     Measured: the coupled run minus the same flow without logs, at t1.  Predicted: the
@@ -175,7 +175,7 @@ def array_backwater(cell, t0=60.0, t1=150.0, method="event", interval=0.0):
     the same balance on the run without logs.  Also returns the mean force on the posts.
     """
     scen = _array_scenario(cell, t0, t1, method, interval)
-    s, ref, cp, cm, tr = _parts(scen, t0, t1)
+    s, ref, cp, cm, tr = _parts(scen, t0, t1, step)
     tr.run()
     ref.advance_to(t1)
     fx = s.mesh.face_x
