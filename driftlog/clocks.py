@@ -518,7 +518,9 @@ def contact_window(tr, stop, max_tries=3):
     length = np.ascontiguousarray(tr.length, dtype=float)
     radius = np.ascontiguousarray(tr.radius, dtype=float)
     mass = np.ascontiguousarray(tr.mass, dtype=float)
-    inertia = np.ascontiguousarray(tr.inertia, dtype=float)
+    # rotation off: an infinite inertia, no contact turns a log (ContactModel._inverse_masses)
+    inertia = (np.ascontiguousarray(tr.inertia, dtype=float) if tr.physics.rotation
+               else np.full(tr.inertia.shape, np.inf))
     ids = np.ascontiguousarray(tr.ids, dtype=np.int64)
     method = 1 if tr.integrator.name == "rk4" else 0
     tracer = tr.physics.level == "tracer"

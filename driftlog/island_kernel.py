@@ -669,6 +669,15 @@ def island_advance(S, F, flag, face, D0, lin0, P, opt, length, radius, mass, ine
                     for a in range(na):
                         for k in range(6):
                             S[mem[a], k] = Sl[a, k]
+            if events:
+                # the impulses changed velocities: the bound of the new ones (as
+                # ContactModel._event: a log stopped dead at a pier stepped on past it)
+                _first_stage(S, F, D0, lin0, P, opt, mem, na)
+                for a in range(na):
+                    i = mem[a]
+                    ln = (lin0[i, 0], lin0[i, 1], lin0[i, 2], lin0[i, 3], lin0[i, 4])
+                    dt = min(dt, _own_bound(row(S, i), length[i], ln, lf, ang, drag_fraction,
+                                            explicit, np.inf))
             npv = nc
             for c in range(nc):
                 prev[c] = ckey[c]

@@ -542,3 +542,37 @@ def test_window_end_first_stage_is_what_the_next_window_would_evaluate(monkeypat
     cradle("per_log")
     assert n_moreau >= 5 and len(seen) > n_moreau  # both scenes used kept stages
     assert all(ok for _, ok in seen)
+
+
+@pytest.mark.parametrize("method", ["event", "moreau"])
+@pytest.mark.parametrize("clock,kernel", [("global", True), ("per_log", True),
+                                          ("per_log", False)])
+def test_contacts_do_not_turn_logs_tracked_without_rotation(method, clock, kernel):
+    # physics.rotation = "off" freezes theta and omega (docs/model.md 9): the contacts treat
+    # such a log as of infinite inertia.  Before, an off-centre hit gave it an omega that the
+    # water never damped (no torque without rotation) and that the contacts kept seeing: a
+    # log held broadside on posts chattered (0.3 m/s) and passed them 549 N of a 505-N drag
+    # with sub-steps of 0.01 s (docs/model.md 17.6).  Here a broadside log carried onto a
+    # post 0.4 m off its centre: turned with rotation on, not turned with it off
+    from driftlog.contact import ContactModel
+    from driftlog.contact.obstacles import Obstacles
+
+    def carried(rotation):
+        logs = Logs([3.0], [5.0], [np.pi / 2], 1.5, 0.1, 700.0)
+        posts = Obstacles()
+        posts.add_circle([4.5, 5.4], 0.1, "post")
+        model = ContactModel(posts, method=method, restitution=0.0)
+        model.island_kernel = kernel
+        tr = Tracker(on_mesh(UniformFlow(1.0, 0.0, depth=1.0), Mesh.regular_grid(12, 10, 1.0)),
+                     logs, PhysicsOptions(level="full", rotation=rotation), "rk4",
+                     StepOptions(clock=clock), contact=model, t_end=6.0, output_interval=2.0)
+        tr.run()
+        return logs.state[0], model
+
+    S, model = carried(True)
+    assert np.abs(model.obstacle_impulse).max() > 1.0  # the post held the log
+    assert abs(S[2] - np.pi / 2) > 0.05  # and turned it
+    S, model = carried(False)
+    assert np.abs(model.obstacle_impulse).max() > 1.0
+    assert S[2] == np.pi / 2 and S[5] == 0.0
+    assert S[0] < 4.5  # held upstream of the post

@@ -65,6 +65,12 @@ class Contacts:
                         self.key[mask])
 
 
+def rotates(bodies):
+    """Whether contacts may turn these bodies: False for logs tracked with rotation off."""
+    physics = getattr(bodies, "physics", None)
+    return physics is None or bool(physics.rotation)
+
+
 def _body_pairs(bodies, C):
     """One integer per (log, other body) by log id, stable when the floating set changes."""
     ids = bodies.ids
@@ -413,7 +419,14 @@ class ContactModel:
         return h
 
     def _inverse_masses(self, bodies):
-        return 1.0 / bodies.mass, 1.0 / bodies.inertia
+        """Inverse masses and inertias of the bodies.
+
+        Logs that do not rotate (``physics.rotation = "off"``, theta and omega frozen,
+        docs/model.md 9) have an infinite inertia: no contact turns them.
+        """
+        if rotates(bodies):
+            return 1.0 / bodies.mass, 1.0 / bodies.inertia
+        return 1.0 / bodies.mass, np.zeros_like(bodies.mass)
 
     def _jam(self, bodies, C, why):
         logs = np.concatenate([C.body1, C.body2[C.body2 >= 0]]) if len(C) else np.empty(0, int)
@@ -465,6 +478,11 @@ class ContactModel:
                 st["separations"] += 1
                 bodies.invalidate_flow()
         self._active = _body_pairs(bodies, C)
+        if events and hasattr(bodies, "max_step"):
+            # the impulses changed velocities: the sub-step bound (44) of the new ones (a log
+            # stopped dead at a pier relaxes to the flow faster than it moved with it; the
+            # bound from before let it step on past the pier)
+            dt = min(dt, bodies.max_step())
         self._count(bodies, dt, events, C)
         h = dt
         if self.time_of_impact == "conservative":

@@ -139,15 +139,17 @@ def _moved(b0, b1, border, V, snap, inv_m, inv_i):
     """The largest change of the bodies border[b0:b1]'s velocities since ``_snapshot``.
 
     Each body's change is its speed change over its mass, sqrt(du^2 + dv^2 + (k domega)^2),
-    k = sqrt(I / m) its radius of gyration; fixed bodies (inv_i = 0) do not move.
+    k = sqrt(I / m) its radius of gyration; fixed bodies (inv_m = 0) do not move, logs that
+    do not rotate (inv_i = 0: ``physics.rotation = "off"``) do not turn.
     """
     r2 = 0.0
     for a in range(b0, b1):
         b = border[a]
-        if inv_i[b] == 0.0:
+        if inv_m[b] == 0.0:
             continue
         du, dv, do = V[b, GU] - snap[0, b], V[b, GV] - snap[1, b], V[b, GOMEGA] - snap[2, b]
-        r2 = max(r2, du * du + dv * dv + do * do * (inv_m[b] / inv_i[b]))
+        turn = do * do * (inv_m[b] / inv_i[b]) if inv_i[b] > 0.0 else 0.0
+        r2 = max(r2, du * du + dv * dv + turn)
     return np.sqrt(r2)
 
 
@@ -313,7 +315,8 @@ def _gained_into(labels, count, n, S, V, inv_m, inv_i, e0, e1, floor, out):
         if inv_m[b] == 0.0:  # a fixed body (a log stopped in its window) gains nothing
             continue
         q = labels[b]
-        m, i = 1.0 / inv_m[b], 1.0 / inv_i[b]
+        m = 1.0 / inv_m[b]
+        i = 1.0 / inv_i[b] if inv_i[b] > 0.0 else 0.0  # a log that does not rotate
         e0[q] += 0.5 * (m * (S[b, UB] ** 2 + S[b, VB] ** 2) + i * S[b, OMEGA] ** 2)
         e1[q] += 0.5 * (m * (V[b, GU] ** 2 + V[b, GV] ** 2) + i * V[b, GOMEGA] ** 2)
         floor[q] += 0.5 * m * 1e-18
