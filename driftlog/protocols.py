@@ -80,6 +80,11 @@ class ContactBodies(Protocol):
         Log ids (stable across changes of the moving set) and properties.
     min_step : float
         Shortest step (s) the bodies accept; a contact step below it is a jam.
+
+    Optional: ``max_step()``, the sub-step bound at the current state (event-driven contacts
+    take it again after impulses change velocities); ``keeps_first_stage`` true when
+    ``advance(dt, have_d0=True)`` reuses the first stage ``max_step`` computed at the same
+    state (the tracker).
     """
 
     state: np.ndarray

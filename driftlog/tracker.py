@@ -137,6 +137,10 @@ class Tracker:
     ``save``/``restore``, ``invalidate_flow``.
     """
 
+    # ``advance(dt, have_d0=True)`` takes the first stage ``max_step`` just computed at the
+    # same state (``ContactModel._event`` reuses it; ``driftlog.protocols.ContactBodies``)
+    keeps_first_stage = True
+
     def __init__(self, flow, logs, physics=None, method="rk4", step=None, contact=None,
                  t_start=0.0, t_end=None, output_interval=1.0, hydro_step=1.0, writer=None,
                  progress=False, initial_velocity="flow", fused=True):

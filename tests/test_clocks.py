@@ -576,3 +576,34 @@ def test_contacts_do_not_turn_logs_tracked_without_rotation(method, clock, kerne
     assert np.abs(model.obstacle_impulse).max() > 1.0
     assert S[2] == np.pi / 2 and S[5] == 0.0
     assert S[0] < 4.5  # held upstream of the post
+
+
+def test_event_substeps_reuse_the_first_stage_bit_for_bit(monkeypatch):
+    # ContactModel._event: the first stage Tracker.max_step computed at the sub-step's state
+    # (or again after impulses changed it) is the step's (Tracker.advance's have_d0): the same
+    # trajectories bit for bit as recomputing it, one right-hand side fewer per sub-step
+    from driftlog.contact import ContactModel
+    from driftlog.contact.obstacles import Obstacles
+
+    def crowd_on_posts():
+        rng = np.random.default_rng(3)
+        x, y = np.meshgrid([2.0, 3.5], 1.5 + 1.2 * np.arange(6))
+        logs = Logs(x.ravel(), y.ravel(), rng.uniform(-0.3, 0.3, 12), 1.0, 0.1, 700.0)
+        posts = Obstacles()
+        for y in (2.5, 5.0, 7.5):
+            posts.add_circle([6.0, y], 0.3, f"post{y}")
+        tr = Tracker(on_mesh(UniformFlow(1.0, 0.0, depth=1.0), Mesh.regular_grid(12, 10, 1.0)),
+                     logs, PhysicsOptions(level="full"), "rk4", StepOptions(),
+                     contact=ContactModel(posts, method="event", restitution=1.0),
+                     t_end=4.0, output_interval=2.0)
+        tr.run()
+        return tr, logs
+
+    tr, logs = crowd_on_posts()
+    assert tr.contact.stats["events"] > 10
+    advance = Tracker.advance
+    monkeypatch.setattr(Tracker, "advance", lambda self, dt, have_d0=False: advance(self, dt))
+    tr2, logs2 = crowd_on_posts()
+    np.testing.assert_array_equal(logs.state, logs2.state)
+    assert tr.stats["substeps"] == tr2.stats["substeps"]
+    assert tr.stats["rhs_evaluations"] <= tr2.stats["rhs_evaluations"] - tr.stats["substeps"] + 5

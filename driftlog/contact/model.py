@@ -455,6 +455,7 @@ class ContactModel:
         S = bodies.state
         C = self._touching(bodies, tol)
         events = 0
+        moved = False  # a resting pair set apart: positions changed
         if len(C):
             inv_m, inv_i = self._inverse_masses(bodies)
             imp = np.zeros(len(C))
@@ -477,12 +478,19 @@ class ContactModel:
                                                           self.rest_speed):
                 st["separations"] += 1
                 bodies.invalidate_flow()
+                moved = True
         self._active = _body_pairs(bodies, C)
-        if events and hasattr(bodies, "max_step"):
+        # the tracker's first stage, computed by its max_step at this state, holds unless the
+        # contacts changed the state (``Tracker.advance``'s have_d0: ``keeps_first_stage``)
+        bound = getattr(bodies, "max_step", None)
+        kept = getattr(bodies, "keeps_first_stage", False)
+        have_d0 = kept and not moved and not events
+        if (events or moved) and bound is not None:
             # the impulses changed velocities: the sub-step bound (44) of the new ones (a log
             # stopped dead at a pier relaxes to the flow faster than it moved with it; the
-            # bound from before let it step on past the pier)
-            dt = min(dt, bodies.max_step())
+            # bound from before let it step on past the pier); its first stage is the step's
+            dt = min(dt, bound())
+            have_d0 = kept
         self._count(bodies, dt, events, C)
         h = dt
         if self.time_of_impact == "conservative":
@@ -503,7 +511,11 @@ class ContactModel:
                 self._jam(bodies, C, f"the contact sub-step fell to {h:.3g} s (below "
                           f"min_step = {min_step:.3g} s)")
             saved = bodies.save()
-            bodies.advance(h)
+            if have_d0:  # the first try only: a try overwrites the first stage
+                bodies.advance(h, have_d0=True)
+                have_d0 = False
+            else:
+                bodies.advance(h)
             st["advances"] += 1
             E = self.detect(bodies, np.full(bodies.state.shape[0], tol))
             gmin = float(E.gap.min()) if len(E) else np.inf
