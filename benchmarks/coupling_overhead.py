@@ -28,7 +28,7 @@ KERNELS = {
     "tracker": [("driftlog.clocks", ("per_log_mesh_advance",)),
                 ("driftlog.tracker", ("rk4_mesh_step", "euler_mesh_step"))],
     "flow_nodes": [("driftlog.coupling", ("refocus", "node_rows", "region_points"))],
-    "handover": [("driftlog.coupling", ("scatter_reaction", "gather_reaction"))],
+    "handover": [("driftlog.coupling", ("spread_reaction", "give_share", "gather_reaction"))],
 }
 
 

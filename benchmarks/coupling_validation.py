@@ -76,14 +76,15 @@ def exchange_intervals(intervals, cell=0.5):
 
     Event-driven and Moreau-Jean contacts hold the logs on their posts; with Moreau-Jean also
     with the logs' sub-steps bounded by 0.03 s (``[integrator] max_step``, about the solver's
-    step), as 17.6 advises for coupled Moreau-Jean jams.
+    step), as 17.6 advises for coupled Moreau-Jean jams, and by 0.01 s.
     """
     from test_coupling import array_backwater
 
     from driftlog.stepping import StepOptions
 
     rows = []
-    for method, max_step in (("event", None), ("moreau", None), ("moreau", 0.03)):
+    for method, max_step in (("event", None), ("moreau", None), ("moreau", 0.03),
+                             ("moreau", 0.01)):
         for interval in intervals:
             t0 = time.perf_counter()
             step = StepOptions(max_step=max_step) if max_step else None

@@ -478,7 +478,7 @@ def contact_window(tr, stop, max_tries=3):
     """
     import driftlog.island_kernel as ik
     import driftlog.moreau_kernel as mk
-    from driftlog.contact.model import ContactJamError
+    from driftlog.contact.model import ContactJamError, rotates
     from driftlog.stepping import IntegrationError, StepTooSmallError
 
     C, so, kern = tr.contact, tr.step_options, tr._kernel
@@ -519,7 +519,7 @@ def contact_window(tr, stop, max_tries=3):
     radius = np.ascontiguousarray(tr.radius, dtype=float)
     mass = np.ascontiguousarray(tr.mass, dtype=float)
     # rotation off: an infinite inertia, no contact turns a log (ContactModel._inverse_masses)
-    inertia = (np.ascontiguousarray(tr.inertia, dtype=float) if tr.physics.rotation
+    inertia = (np.ascontiguousarray(tr.inertia, dtype=float) if rotates(tr)
                else np.full(tr.inertia.shape, np.inf))
     ids = np.ascontiguousarray(tr.ids, dtype=np.int64)
     method = 1 if tr.integrator.name == "rk4" else 0

@@ -46,7 +46,6 @@ from driftlog.coupling_kernels import (
     node_rows,
     refocus,
     region_points,
-    scatter_reaction,
     spread_reaction,
 )
 from driftlog.errors import ScenarioError
@@ -482,12 +481,17 @@ class Coupling:
         self._shares = 0
         self._out = np.zeros(4)
 
-    def _give(self, frac):
-        """Give the water the share ``frac`` of the pending reaction (``give_share``)."""
+    def _give(self, frac, ux=0.0, uy=0.0):
+        """Give the water the share ``frac`` of the pending reaction (``give_share``).
+
+        ``ux``, ``uy``: momentum already found undelivered, summed with what this share
+        finds (kg m/s).
+        """
         s = self.solver
         h, hu, hv = _arrays(s)
         out = self._out
-        out[:] = 0.0
+        out[0] = out[1] = 0.0
+        out[2], out[3] = ux, uy
         self._shares += 1
         self._npend = give_share(frac, self._sx, self._sy, self._touched, self._npend, h,
                                  self.flow._state_face, s.mesh.face_area, self.rho,
@@ -616,43 +620,32 @@ class Coupling:
             b = self._rows = (np.empty((n, 2)), np.empty(n), np.empty(n), np.empty(n),
                               np.empty(n), np.empty(n, np.int64), np.full(n, -1, np.int64),
                               np.empty(n), np.empty(n))
-            if self.interval > 0.0:  # the pending faces (kept) and the new ones
-                kept = self._touched[:self._npend]
-                self._touched = np.empty(s.mesh.n_faces + n * self.points, np.int64)
-                self._touched[:kept.size] = kept
-            else:
-                self._touched = np.empty(n * self.points, np.int64)
+            # the faces of the reaction pending (kept) and of the new one
+            kept = self._touched[:self._npend]
+            self._touched = np.empty(s.mesh.n_faces + n * self.points, np.int64)
+            self._touched[:kept.size] = kept
         g, x, y, theta, length, hint, where, cos_t, sin_t = b
         m = gather_reaction(tracker.received, tracker.act, tracker.state, tracker.face,
                             L.state, L.face, L.length, where, g, x, y, theta, length, hint)
         if m == 0:
             return False
-        h, hu, hv = _arrays(s)
+        h = _arrays(s)[0]
         th = theta[:m]
         # numpy's cos and sin (into buffers), as before: numba's may differ in the last bit
         c, sn = np.cos(th, out=cos_t[:m]), np.sin(th, out=sin_t[:m])
+        self._npend, ux, uy = spread_reaction(
+            g[:m], x[:m], y[:m], c, sn, length[:m], hint[:m], self.points, s.mesh.locator(),
+            h, self.flow._state_face, s.dry_depth, self._sx, self._sy, self._touched,
+            self._npend)
+        self.handovers += 1
         if self.interval > 0.0:
             # pending: given over the coming interval's steps at the rate it was received
             # over the last one (docs/model.md 17.6)
-            self._npend, ux, uy = spread_reaction(
-                g[:m], x[:m], y[:m], c, sn, length[:m], hint[:m], self.points,
-                s.mesh.locator(), h, self.flow._state_face, s.dry_depth, self._sx, self._sy,
-                self._touched, self._npend)
             self._t_rem = self._span
             self.undelivered[0] += ux
             self.undelivered[1] += uy
-            self.handovers += 1
             return False
-        gx, gy, ux, uy = scatter_reaction(
-            g[:m], x[:m], y[:m], c, sn, length[:m], hint[:m], self.points,
-            s.mesh.locator(), h, self.flow._state_face, s.mesh.face_area, self.rho,
-            s.dry_depth, hu, hv, self._sx, self._sy, self._touched)
-        given, undelivered = self.given, self.undelivered
-        given[0] += gx
-        given[1] += gy
-        undelivered[0] += ux
-        undelivered[1] += uy
-        self.handovers += 1
+        self._give(1.0, ux, uy)  # every step: all of it, now
         return True
 
     def summary(self) -> dict:

@@ -11,10 +11,10 @@
   change of region before a step in one call (the kernels above and the copy of the state);
 - ``gather_reaction``: the logs with a reaction to hand over and their rows, from the
   tracker's compact arrays (floating logs) or the full ones (the others), without scattering;
-- ``scatter_reaction``: the logs' reaction spread over points along their axes and added to
-  the water of the faces under them (``driftlog.solver.momentum.add_face_momentum``'s
-  arithmetic); a log whose two ends lie well inside its centre's face has every point there,
-  without locating them;
+- ``spread_reaction`` and ``give_share``: the logs' reaction spread over points along their
+  axes into the faces under them (a log whose two ends lie well inside its centre's face has
+  every point there, without locating them), then given to their water, all of it or a share
+  (``driftlog.solver.momentum.add_face_momentum``'s arithmetic);
 - ``account_advance`` and ``account_contacts``: the momentum the water gave each floating log
   over a free sub-step, and the entrained water's share of the contacts' velocity changes;
 - ``keep_linearisation`` and ``held_drag``: the drag a contact-held log bears beyond what its
@@ -47,7 +47,8 @@ from driftlog.columns import (
 )
 from driftlog.locate import _edge_side, locate_one
 
-__all__ = ["mark_region", "node_rows", "shift_rows", "poison_rows", "scatter_reaction",
+__all__ = ["mark_region", "node_rows", "shift_rows", "poison_rows", "spread_reaction",
+           "give_share",
            "region_points", "refocus",
            "gather_reaction",
            "account_advance", "account_contacts", "keep_linearisation", "held_drag",
@@ -307,48 +308,14 @@ def spread_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h, state
 
 
 @nb.njit(cache=True)
-def scatter_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h, state_face,
-                     area, density, dry_depth, hu, hv, sx, sy, touched):
-    """Give the water the opposite of the momentum ``got`` (n, 2) of each log (kg m/s).
-
-    ``spread_reaction``, then each face's unit discharges change by P / (rho A)
-    (``driftlog.solver.momentum.add_face_momentum``); ``sx``, ``sy`` are zero on entry and on
-    return (buffers over the faces), ``touched`` a buffer of at least n x points faces.
-    ``h``, ``hu``, ``hv`` are the solver's state arrays, ``state_face`` the index there of each
-    mesh face.  Returns (given x, given y, undelivered x, undelivered y) (kg m/s): the
-    momentum the water received, and what found no wet face (a log outside the mesh, or all
-    its points' faces dry).
-    """
-    nt, ux, uy = spread_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h,
-                                 state_face, dry_depth, sx, sy, touched, 0)
-    gx = gy = 0.0
-    for k in range(nt):
-        f = touched[k]
-        px, py = sx[f], sy[f]
-        sx[f] = 0.0
-        sy[f] = 0.0
-        if px == 0.0 and py == 0.0:
-            continue  # the shares cancelled (or a face listed twice): nothing to give
-        s = state_face[f]
-        if h[s] <= dry_depth:
-            ux += px
-            uy += py
-            continue
-        scale = 1.0 / (density * area[f])
-        hu[s] += px * scale
-        hv[s] += py * scale
-        gx += px
-        gy += py
-    return gx, gy, ux, uy
-
-
-@nb.njit(cache=True)
 def give_share(frac, sx, sy, touched, nt, h, state_face, area, density, dry_depth, hu, hv,
                out, seen, stamp):
     """Give the water the share ``frac`` of the momentum pending on faces touched[:nt].
 
     The pending momentum (kg m/s) per face is (sx, sy) (``spread_reaction``); a wet face's
-    unit discharges change by frac P / (rho A) and its pending momentum falls by what it gave
+    unit discharges change by frac P / (rho A) (``driftlog.solver.momentum.add_face_momentum``;
+    ``h``, ``hu``, ``hv`` the solver's state arrays, ``state_face`` the index there of each
+    mesh face) and its pending momentum falls by what it gave
     (with frac = 1 it is then zero exactly); a face not deeper than ``dry_depth`` keeps its
     share for later, unless ``frac`` is 1 (the last share: then it is undelivered).  The list
     keeps the faces with momentum still pending, once each (a face listed twice is given
