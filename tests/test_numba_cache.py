@@ -63,14 +63,28 @@ def test_first_run_announces_the_multi_threaded_kernels(tmp_path, monkeypatch):
     out = io.StringIO()
     assert _numba.announce_compile(["tracking"], out) == 20
     assert "multi-threaded" not in out.getvalue()
-    # the kernels cached (numba's index files, in the cache folder's tree)
-    sub = tmp_path / "driftlog_abc"
+    # another checkout of the same sources (the same NUMBA_CACHE_DIR, keyed on their hash)
+    # compiled its own kernels: numba keys them on each source folder's path, so this one
+    # still compiles and says so
+    from numba.core.caching import _CacheLocator
+
+    here = Path(_numba.__file__).resolve().parent
+    other = tmp_path / _CacheLocator.get_suitable_cache_subpath("/elsewhere/driftlog/x.py")
+    other.mkdir()
+    (other / "physics.rhs_kernel-497.py311.nbi").touch()
+    out = io.StringIO()
+    assert _numba.announce_compile(["tracking"], out) == 20
+    # the kernels cached (numba's index files, in numba's folders for these sources)
+    sub = tmp_path / _CacheLocator.get_suitable_cache_subpath(str(here / "x.py"))
     sub.mkdir()
-    for name in ("physics.rhs_kernel-497.py311.nbi", "geometry.capsule_gap-12.py311.nbi"):
-        (sub / name).touch()
+    (sub / "physics.rhs_kernel-497.py311.nbi").touch()
+    sub = tmp_path / _CacheLocator.get_suitable_cache_subpath(str(here / "contact" / "x.py"))
+    sub.mkdir()
+    (sub / "geometry.capsule_gap-12.py311.nbi").touch()
     out = io.StringIO()
     assert _numba.announce_compile(["tracking", "contacts"], out, many=True) == 0
     assert " s (" not in out.getvalue() and "multi-threaded" in out.getvalue()
+    sub = tmp_path / _CacheLocator.get_suitable_cache_subpath(str(here / "x.py"))
     (sub / "clock_kernel.per_log_mesh_advance_parallel-146.py311.nbi").touch()
     out = io.StringIO()
     assert _numba.announce_compile(["tracking", "contacts"], out, many=True) == 0
