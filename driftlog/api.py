@@ -295,15 +295,22 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     try:
         tracker.run()
     except BaseException as exc:
-        if coupling is not None:
-            coupling.writer.close()
+        kept_flow = None
+        if coupling is not None:  # the coupled flow so far, left at its .partial name
+            kept_flow = coupling.writer.close(finalize=False)
         writer.flush()
         kept = writer.close(finalize=False)  # keep the partial file: nothing computed is lost
+        end = f"{t_end + origin:g} s" if t_end is not None else "the flow's end"
         if isinstance(kept, Path) and kept.exists():
+            how = (f"driftlog track SCENARIO -o {out} --resume continues it" if coupling is None
+                   else "a coupled run cannot be resumed (the flow is not stored to the last "
+                   "bit): rerun it from the start")
             exc.add_note(f"kept {kept}: {getattr(writer, 'nobs', '?')} observations and "
                          f"{getattr(writer, 'nhit', '?')} contact hits up to t = "
-                         f"{tracker.t + origin:.6g} s of {tm['end']:g} s; driftlog track "
-                         f"SCENARIO -o {out} --resume continues it")
+                         f"{tracker.t + origin:.6g} s of {end}; {how}")
+        if kept_flow is not None and kept_flow.exists():
+            exc.add_note(f"kept {kept_flow}: the coupled flow's {coupling.writer.snapshots} "
+                         f"snapshots up to t = {coupling.solver.t:.6g} s (incomplete)")
         raise
     if coupling is not None:
         stats = coupling.summary()

@@ -30,6 +30,7 @@ beside the trajectories (``coupling.flow_path``).
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
@@ -672,14 +673,22 @@ class Coupling:
 
 
 class FlowOutput:
-    """The coupled run's flow file: a snapshot (and the volume balance) per call."""
+    """The coupled run's flow file: a snapshot (and the volume balance) per call.
+
+    Written as ``<path>.partial`` (each snapshot flushed) and renamed to ``path`` when the run
+    completes, as the solver's own flow files: a run that stops leaves no file at ``path``
+    that a later run could take for the whole coupled flood.
+    """
 
     def __init__(self, path, solver, attrs):
         from driftlog.solver.run import _create
 
         self.path = Path(path)
+        self.partial = self.path.with_name(self.path.name + ".partial")
         self.snapshots = 0
-        self._w = _create(self.path, solver, attrs)
+        self._last = None
+        self._closed = None  # the path once closed
+        self._w = _create(self.partial, solver, attrs)
 
     def __call__(self, solver):
         """Write the solver's state as the next snapshot (once per time)."""
@@ -691,11 +700,22 @@ class FlowOutput:
         self._last = solver.t
         self.snapshots += 1
 
-    def close(self, **attrs):
-        """Add global attributes and close the file."""
+    def close(self, finalize=True, **attrs):
+        """Add global attributes and close the file; returns its path.
+
+        ``finalize``: the run completed, the file is renamed to ``path``; otherwise it stays
+        at ``partial`` (the snapshots up to where the run stopped).
+        """
+        if self._closed is not None:
+            return self._closed
         if attrs:
             self._w.ds.setncatts(attrs)
         self._w.close()
+        self._closed = self.partial
+        if finalize:
+            os.replace(self.partial, self.path)
+            self._closed = self.path
+        return self._closed
 
 
 def start_coupling(scenario, trajectory_path):

@@ -351,6 +351,31 @@ def test_coupled_track_writes_its_flow_and_balance(tmp_path):
         np.testing.assert_allclose(ds.variables["time"][:], [1.0, 2.0, 3.0])
         assert abs(ds.variables["volume_error"][-1]) < 1e-9 * ds.variables["volume"][-1]
     assert res.logs.state[0, 0] > 4.0
+    assert not flow.with_name(flow.name + ".partial").exists()
+    # a coupled run that stops leaves its flow at the temporary name (nothing at the final
+    # one that a later run could take for the whole coupled flood), and says it cannot resume
+    from driftlog.coupling import Coupling
+
+    flow.unlink()
+    real = Coupling.handover
+
+    def stop(self, tracker):
+        if self.solver.t > 2.2:
+            raise KeyboardInterrupt
+        return real(self, tracker)
+
+    Coupling.handover = stop
+    try:
+        with pytest.raises(KeyboardInterrupt) as exc:
+            track(scen)
+    finally:
+        Coupling.handover = real
+    note = " ".join(exc.value.__notes__)
+    kept = flow.with_name(flow.name + ".partial")
+    assert not flow.exists() and kept.exists()
+    assert f"kept {kept}" in note and "cannot be resumed" in note and "--resume" not in note
+    with netCDF4.Dataset(kept) as ds:
+        np.testing.assert_allclose(ds.variables["time"][:], [1.0, 2.0])
 
 
 @pytest.mark.parametrize("change, key", [

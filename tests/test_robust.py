@@ -576,7 +576,25 @@ def test_outputs_are_complete_or_absent(files, tmp_path, capsys):
         track(UNIFORM, flow=broken, output=tmp_path / "t.nc")
     note = " ".join(exc.value.__notes__)
     assert f"kept {tmp_path / 't.nc.partial'}" in note and "--resume" in note
-    assert "up to t = 2" in note
+    assert "up to t = 2" in note and "of 4 s" in note
+    # a run that ends with its flow ([time] end unset) says so, not a formatting error raised
+    # inside the handler in place of the interruption
+    from driftlog.flowfile import open_flow
+
+    ff = open_flow(files["flow"])
+
+    class StopsToo(type(ff)):
+        def sample_into(self, x, y, t, face, out, flag):
+            if t > 1.5:
+                raise KeyboardInterrupt
+            super().sample_into(x, y, t, face, out, flag)
+
+    broken = StopsToo.__new__(StopsToo)
+    broken.__dict__.update(ff.__dict__)
+    no_end = UNIFORM.replace("end = 4.0", "")
+    with pytest.raises(KeyboardInterrupt) as exc:
+        track(no_end, flow=broken, output=tmp_path / "t.nc.noend" / "u.nc")
+    assert "of the flow's end" in " ".join(exc.value.__notes__)
     # a figure and a flow import are renamed when complete
     plots.plot_trajectories(files["traj"], out=tmp_path / "f.png", background="none")
     from driftlog.adapters import import_flow
