@@ -31,8 +31,13 @@ def _mpl():
     return plt
 
 
-def flow_of_trajectories(ds):
-    """The flow a trajectory file was computed on, rebuilt from its stored scenario."""
+def flow_of_trajectories(ds, path=None):
+    """The flow a trajectory file was computed on, rebuilt from its stored scenario.
+
+    A coupled run's is its own flow file (the ``coupled_flow`` attribute, or the file of that
+    name beside the trajectories ``path`` when the run was made from another folder), not
+    the scenario's uncoupled flow (which would be solved for nothing).
+    """
     from driftlog.scenario import load_scenario
     from driftlog.sources import flow_from_scenario
 
@@ -44,7 +49,21 @@ def flow_of_trajectories(ds):
     from driftlog.errors import DriftlogError, DriftlogWarning
 
     try:
-        return flow_from_scenario(load_scenario(json.loads(resolved)))
+        scen = load_scenario(json.loads(resolved))
+        coupled = ds.attrs.get("coupled_flow")
+        if coupled or scen["coupling"]["enabled"]:
+            from driftlog.errors import FlowFileError
+            from driftlog.flowfile import open_flow
+
+            here = [Path(coupled)] if coupled else []
+            if path is not None and coupled:
+                here.append(Path(path).parent / Path(coupled).name)
+            for f in here:
+                if f.is_file():
+                    return open_flow(f, dry_depth=scen["flow"]["dry_depth"])
+            raise FlowFileError(f"{coupled or 'the coupled flow file'}: not found (the coupled "
+                                "run's flow)")
+        return flow_from_scenario(scen)
     except (DriftlogError, OSError) as exc:  # the flow file may have moved: no background
         warnings.warn(f"drawn without the flow in the background: {exc}", DriftlogWarning,
                       stacklevel=2)
@@ -148,7 +167,7 @@ def plot_trajectories(path, flow=None, background="speed", show_mesh=False, out=
 
         check_output(out, "figure", inputs=[path], suffixes=FIGURE_SUFFIXES)
     if flow is None and background not in (None, "none"):
-        flow = flow_of_trajectories(ds)
+        flow = flow_of_trajectories(ds, path)
     t = ds["time"].values
     t_show = float(t.max()) if time is None else float(time)
     bounds = _bounds(ds, flow)
@@ -233,7 +252,7 @@ def animate(path, out, flow=None, background="speed", fps=20, max_frames=300, dp
         raise ArgumentError(f"animate(fps={fps!r}): must be a number of frames per second > 0")
     check_output(out, "animation", inputs=[path], suffixes=(".mp4", ".gif"))
     if flow is None and background not in (None, "none"):
-        flow = flow_of_trajectories(ds)
+        flow = flow_of_trajectories(ds, path)
     out = Path(out)
     use_mp4 = shutil.which("ffmpeg") is not None and out.suffix.lower() != ".gif"
     if not use_mp4:

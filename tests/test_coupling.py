@@ -495,3 +495,66 @@ def test_per_log_clocks_keep_the_momentum_balance_and_the_global_clocks_logs():
     np.testing.assert_allclose(tr_p.logs.state[:, :2], tr_g.logs.state[:, :2], atol=3e-3)
     np.testing.assert_allclose(tr_p.logs.state[:, 3:5], tr_g.logs.state[:, 3:5], atol=5e-4)
     np.testing.assert_allclose(s_p.hu, s_g.hu, atol=1e-5)
+
+
+COUPLED_CHANNEL = """
+title = "coupled channel"
+[flow]
+source = "solver"
+[solver]
+mesh = "channel"
+channel = [0.0, 0.0, 12.0, 3.0]
+cell_size = 0.5
+end = 3.0
+[solver.boundaries.inflow]
+type = "discharge"
+value = 1.2
+[solver.boundaries.outflow]
+type = "level"
+value = 0.8
+[solver.initial]
+type = "level"
+value = 0.8
+velocity = [0.5, 0.0]
+[time]
+start = 1.0
+end = 3.0
+output_interval = 1.0
+[[logs]]
+seeding = "list"
+x = [4.0]
+y = [1.5]
+length = 1.0
+radius = 0.1
+velocity = "rest"
+[coupling]
+enabled = true
+"""
+
+
+def test_run_of_a_coupled_scenario_shows_and_draws_the_coupled_flow(tmp_path, capsys):
+    # the figure's background and the printed flow are the coupled run's own flow file; the
+    # scenario's uncoupled flow is neither solved nor named (before: the figure solved it and
+    # drew the flood without the logs' reaction)
+    from driftlog.cli import main
+    from driftlog.plots import flow_of_trajectories
+    from driftlog.trajectory import open_trajectories
+
+    scen = tmp_path / "c.toml"
+    scen.write_text(COUPLED_CHANNEL)
+    out = tmp_path / "run"
+    assert main(["run", str(scen), "--out", str(out), "--quiet", "--no-animation"]) == 0
+    printed = capsys.readouterr().out
+    coupled = out / "trajectories_flow.nc"
+    assert f"flow: {coupled}" in printed and (out / "trajectories.png").is_file()
+    made = sorted(p.name for p in tmp_path.rglob("*.nc*"))
+    assert made == ["trajectories.nc", "trajectories_flow.nc"], made
+    ds = open_trajectories(out / "trajectories.nc")
+    flow = flow_of_trajectories(ds, out / "trajectories.nc")
+    with netCDF4.Dataset(coupled) as f:
+        np.testing.assert_array_equal(flow.face_values(3.0)["h"], f["water_depth"][-1])
+    # the run made from another folder: the file of that name beside the trajectories
+    moved = tmp_path / "moved"
+    out.rename(moved)
+    ds = open_trajectories(moved / "trajectories.nc")
+    assert flow_of_trajectories(ds, moved / "trajectories.nc") is not None

@@ -140,8 +140,15 @@ def case_overrides(path, name, over=None, run_dir=None):
     return over
 
 
-def flow_file(scen):
-    """The flow file a scenario reads or computes (None for an analytic flow)."""
+def flow_file(scen, trajectories=None):
+    """The flow file a scenario reads or computes (None for an analytic flow).
+
+    A coupled run's own flow file when ``trajectories`` (its trajectory file) is given.
+    """
+    if trajectories is not None and scen["coupling"]["enabled"]:
+        from driftlog.coupling import coupled_flow_path
+
+        return coupled_flow_path(scen, trajectories)
     sec = scen["flow"]
     if sec["source"] == "solver":
         from driftlog.solving import default_flow_path

@@ -132,7 +132,7 @@ def cmd_run(args):
     scen = as_scenario(path, case_overrides(path, name, overrides(args.set), run_dir=out))
     print(f"driftlog: running {path}")
     res = track(scen, output=out / "trajectories.nc", progress=not args.quiet)
-    flow = flow_file(scen)
+    flow = flow_file(scen, res.path)
     if flow is not None and flow.exists():
         print(f"  flow: {flow}")
     print(f"  trajectories: {res.path}")
@@ -176,7 +176,7 @@ def cmd_track(args):
     if output is None and in_cases(path):
         output = Path("driftlog-runs") / name / Path(scen["output"]["path"]).name
     res = track(scen, output=output, progress=not args.quiet, resume=args.resume)
-    flow = flow_file(scen)
+    flow = flow_file(scen, res.path)
     if flow is not None and flow.exists():
         print(f"flow: {flow}")
     print(f"trajectories: {res.path}")
