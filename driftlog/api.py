@@ -208,6 +208,10 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         if flow is not None:
             raise ScenarioError("coupling.enabled", True, "a coupled run computes its own flow: "
                                 "no flow can be given")
+        if resume and writer is None and out.with_name(out.name + ".partial").is_file():
+            # refused before the solver's spin-up rewrites the coupled flow file
+            raise ScenarioError("coupling.enabled", True, "a coupled run cannot be resumed "
+                                f"(--resume, {out}.partial): rerun it from the start")
         coupling = start_coupling(scen, out)
         flow = coupling.flow
     if flow is None:

@@ -748,10 +748,20 @@ def start_coupling(scenario, trajectory_path):
 def coupled_flow_path(scenario, trajectory_path) -> Path:
     """Where a coupled run writes its flow: ``coupling.flow_path`` or ``<trajectories>_flow.nc``."""
     p = scenario["coupling"]["flow_path"]
-    if p:
-        return Path(p)
     t = Path(trajectory_path)
-    return t.with_name(t.stem + "_flow.nc")
+    if not p:
+        return t.with_name(t.stem + "_flow.nc")
+    from driftlog.solving import default_flow_path
+
+    path = Path(p)
+    for other, what in ((t, "the trajectory file"),
+                        (default_flow_path(scenario), "the uncoupled flow file ([flow] path)")):
+        if path.resolve() == Path(other).resolve():
+            raise ScenarioError("coupling.flow_path", p, f"is {what}: the coupled run's flow "
+                                "needs a file of its own (or leave flow_path out: "
+                                "<trajectories>_flow.nc)",
+                                str(scenario.path) if getattr(scenario, "path", None) else None)
+    return path
 
 
 # --------------------------------------------------------------------- the scenario section
@@ -791,6 +801,18 @@ def _check_coupling(t, prefix, scen):
     if flow.get("steady_at") is not None:
         raise ScenarioError("flow.steady_at", flow.get("steady_at"), "a coupled flow cannot be "
                             "frozen: remove steady_at or [coupling]")
+    if not (scen.get("integrator") or {}).get("land_on_snapshots", True):
+        raise ScenarioError("integrator.land_on_snapshots", False, "[coupling] lands every "
+                            "log on each hydrodynamic step: set it to true")
+    tm = scen.get("time") or {}
+    s0, s1 = solver.get("start", 0.0), solver.get("end")
+    if tm.get("start") is not None and s0 is not None and tm["start"] < s0:
+        raise ScenarioError("time.start", tm["start"], f"a coupled run starts at or after the "
+                            f"solver's start ({s0:g} s, [solver] start)")
+    if tm.get("end") is not None and s1 is not None and tm["end"] > s1:
+        raise ScenarioError("time.end", tm["end"], f"a coupled run ends at or before the "
+                            f"solver's end ({s1:g} s, [solver] end): raise [solver] end or "
+                            f"lower [time] end")
 
 
 COUPLING_SECTION = Section("coupling", [
@@ -798,8 +820,8 @@ COUPLING_SECTION = Section("coupling", [
         "solver's flow (needs [flow] source = 'solver')"),
     Key("points", "int", 8, "points along a log over which its reaction on the water is "
         "spread", min=1, max=1000),
-    Key("flow_path", "str", "", "flow file of the coupled run (default: beside the "
-        "trajectories, <name>_flow.nc)"),
+    Key("flow_path", "path", "", "flow file of the coupled run, relative to the scenario's "
+        "folder (default: beside the trajectories, <name>_flow.nc)"),
     Key("interval", "float", 0.0, "exchange interval: the solver takes as many whole steps "
         "as fit in it before the logs follow on the flow between its two ends and hand their "
         "reaction back (fewer exchanges, cheaper; 0 = every hydrodynamic step, the paper's "

@@ -211,6 +211,11 @@ def check_scenario(scen, logs, output=None, read_flow=True):
     n, nobs, mem = estimate_run(scen, out)
     done.append(f"output {out} writable; {n} logs, {nobs:.3g} observations, about "
                 f"{mem / 2**20:.3g} MiB")
+    if scen["coupling"]["enabled"]:
+        from driftlog.coupling import coupled_flow_path
+
+        cflow = check_output(coupled_flow_path(scen, out), "flow file", create=False)
+        done.append(f"coupled flow file {cflow} writable")
     src = scen["flow"]["source"]
     flow = mesh = None
     if src == "solver":

@@ -385,6 +385,12 @@ def test_coupled_track_writes_its_flow_and_balance(tmp_path):
     ({"physics": {"fluid_volume": "submerged"}}, "physics.fluid_volume"),
     ({"physics": {"motion": "friction"}}, "physics.motion"),
     ({"integrator": {"clock": "per_log"}, "contact": {"enabled": True}}, "integrator.clock"),
+    # refused by the scenario check, not after the solver's spin-up
+    ({"integrator": {"land_on_snapshots": False}}, "integrator.land_on_snapshots"),
+    ({"time": {"start": -5.0}}, "[time.start] = -5.0"),
+    # ran the solver on past its [solver] end without a word
+    ({"time": {"end": 50.0}}, "[time.end] = 50.0: a coupled run ends at or before the "
+                              "solver's end (10 s"),
 ])
 def test_coupling_refuses_what_it_cannot_couple(change, key):
     base = {"flow": {"source": "solver"},
@@ -396,6 +402,62 @@ def test_coupling_refuses_what_it_cannot_couple(change, key):
     with pytest.raises(ScenarioError) as e:
         as_scenario(base)
     assert key in str(e.value)
+
+
+def _small_coupled(tmp_path, **coupling):
+    return {
+        "flow": {"source": "solver"},
+        "solver": {"mesh": "channel", "channel": [0.0, 0.0, 12.0, 3.0], "cell_size": 0.5,
+                   "end": 20.0},
+        "time": {"start": 1.0, "end": 3.0},
+        "logs": [{"x": [4.0], "y": [1.5]}],
+        "coupling": {"enabled": True, **coupling},
+        "output": {"path": str(tmp_path / "logs.nc")},
+    }
+
+
+def test_coupled_flow_path_is_refused_where_it_would_overwrite_a_file(tmp_path, monkeypatch):
+    from driftlog.coupling import coupled_flow_path
+
+    # the coupled flow written to the trajectory file, then overwritten by it
+    scen = as_scenario(_small_coupled(tmp_path, flow_path=str(tmp_path / "logs.nc")))
+    with pytest.raises(ScenarioError, match=r"\[coupling.flow_path\] = .*logs.nc.*: is the "
+                                            r"trajectory file"):
+        track(scen)
+    assert not (tmp_path / "logs.nc").exists()
+    scen = as_scenario(merge_into(_small_coupled(tmp_path, flow_path=str(tmp_path / "f.nc")),
+                                  {"flow": {"path": str(tmp_path / "f.nc")}}))
+    with pytest.raises(ScenarioError, match="is the uncoupled flow file"):
+        coupled_flow_path(scen, tmp_path / "logs.nc")
+    # relative to the scenario's folder, as every other path of the file
+    d = tmp_path / "case"
+    d.mkdir()
+    f = d / "s.toml"
+    f.write_text('[flow]\nsource = "solver"\n[solver]\nmesh = "channel"\n'
+                 'channel = [0.0, 0.0, 12.0, 3.0]\ncell_size = 0.5\nend = 20.0\n'
+                 '[[logs]]\nx = [4.0]\ny = [1.5]\n'
+                 '[coupling]\nenabled = true\nflow_path = "coupled.nc"\n')
+    monkeypatch.chdir(tmp_path)
+    assert coupled_flow_path(as_scenario(f), tmp_path / "logs.nc") == d / "coupled.nc"
+
+
+def merge_into(a, b):
+    from driftlog.schema import merge
+
+    return merge(a, b)
+
+
+def test_coupled_resume_is_refused_before_the_flow_file_is_touched(tmp_path):
+    # --resume of a coupled run rewrote its flow file (the spin-up) and only then refused
+    partial = tmp_path / "logs.nc.partial"
+    partial.write_bytes(b"partial")
+    flow = tmp_path / "logs_flow.nc"
+    flow.write_bytes(b"the coupled flow of the stopped run")
+    with pytest.raises(ScenarioError, match=r"\[coupling.enabled\] = True: a coupled run "
+                                            r"cannot be resumed"):
+        track(_small_coupled(tmp_path), resume=True)
+    assert flow.read_bytes() == b"the coupled flow of the stopped run"
+    assert partial.read_bytes() == b"partial"
 
 
 def test_coupling_is_off_by_default():
