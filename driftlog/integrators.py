@@ -372,6 +372,23 @@ def make_integrator(method: str) -> Integrator:
 
 
 # --------------------------------------------------------------------- the scenario section
+def _check_integrator(t, prefix, scen):
+    from driftlog.errors import ScenarioError
+    from driftlog.fused import FUSED_METHODS
+
+    if t["max_step"] is not None and t["max_step"] < t["min_step"]:
+        raise ScenarioError(f"{prefix}.max_step", t["max_step"], f"must be >= min_step "
+                            f"({t['min_step']:g} s): every sub-step would be below min_step")
+    if t["clock"] == "per_log" and t["method"] not in FUSED_METHODS:
+        raise ScenarioError(f"{prefix}.clock", "per_log", "per-log clocks run in the fused "
+                            f"mesh kernels: they need method {' or '.join(FUSED_METHODS)} "
+                            f"(here {t['method']!r}); use clock = 'global' or another method")
+    if not t["land_on_snapshots"] and t["clock"] != "global":
+        raise ScenarioError(f"{prefix}.land_on_snapshots", False, "needs clock = 'global' "
+                            "(per-log clocks meet at every snapshot); set land_on_snapshots = "
+                            "true or clock = 'global'")
+
+
 INTEGRATOR_SECTION = Section("integrator", [
     Key("method", "str", "rk4", "time integrator: explicit Euler, RK4 (the paper), or "
         "exponential (RK4 with drag integrated exactly over the step: stable on stiff drag)",
@@ -394,4 +411,4 @@ INTEGRATOR_SECTION = Section("integrator", [
         "flow (the paper: logs advance inside a hydrodynamic step); false: sub-steps run "
         "across snapshots, each stage reading the flow at its own time (linear between "
         "snapshots, as OceanTracker and Parcels step); global clock, not coupled"),
-], doc="time integration (docs/model.md sections 11-12)")
+], doc="time integration (docs/model.md sections 11-12)", check=_check_integrator)

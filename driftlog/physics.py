@@ -547,6 +547,13 @@ def _check_physics(t, prefix, scen):
         raise ScenarioError(f"{prefix}.waterlogging_time", None,
                             f"is required for waterlogging = {t['waterlogging']!r} (the time "
                             "constant of the density's approach, s > 0)")
+    if t["waterlogging"] != "off":
+        for i, g in enumerate(scen.get("logs") or []):
+            if g.get("density") is not None and g["density"] > t["saturated_density"]:
+                raise ScenarioError(f"{prefix}.saturated_density", t["saturated_density"],
+                                    f"is below logs[{i}].density = {g['density']:g} kg/m3: "
+                                    "waterlogging raises a log's density towards it; give a "
+                                    "saturated density >= the logs' densities")
 
 PHYSICS_SECTION = Section("physics", [
     Key("level", "str", "full", "tracer (U_b = U_w), drag only, the full reference model, or "

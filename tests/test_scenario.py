@@ -53,6 +53,15 @@ def _bad(text, key, match):
     ("[[obstacles]]\ntype = 'mesh'\npath = 'nowhere.stl'\n", "obstacles[0].path", "file not found"),
     ("[output]\nflush_interval = 1.5\n", "output.flush_interval", "an integer"),
     ("[phsyics]\nx = 1\n", "phsyics", "did you mean 'physics'"),
+    ("[integrator]\nmin_step = 1.0\nmax_step = 0.1\n", "integrator.max_step",
+     "must be >= min_step"),
+    ("[integrator]\nclock = 'per_log'\nmethod = 'exponential'\n", "integrator.clock",
+     "euler or rk4 (here 'exponential')"),
+    ("[integrator]\nclock = 'per_log'\nland_on_snapshots = false\n",
+     "integrator.land_on_snapshots", "needs clock = 'global'"),
+    ("[physics]\nwaterlogging = 'exponential'\nwaterlogging_time = 10.0\n"
+     "saturated_density = 500.0\n", "physics.saturated_density",
+     "below logs[0].density = 720 kg/m3"),
 ])
 def test_bad_values_name_key_value_and_rule(text, key, match):
     err = _bad(text, key, match)
