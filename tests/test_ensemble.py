@@ -206,6 +206,26 @@ def test_bad_ensemble_section_values(tmp_path, flow_file):
     assert main(["scenario", "check", str(f)]) == 2
 
 
+def test_bad_ensemble_value_names_the_ensemble_file_and_grid_size_is_positive(tmp_path,
+                                                                              flow_file,
+                                                                              capsys):
+    from driftlog.cli import main
+
+    text = ensemble_text(flow_file, tmp_path)
+    f = tmp_path / "bad.toml"
+    f.write_text(text.replace("members = 6", "members = 0"))
+    with pytest.raises(ScenarioError) as err:
+        load_ensemble(f)
+    assert str(err.value).startswith(f"{f}: [ensemble.members] = 0: must be >= 1")
+    # a negative extent gave a one-cell grid, the maps silently cut to it
+    f.write_text(text.replace("seed = 11", "seed = 11\ngrid_cell = 1.0\n"
+                              "grid_origin = [0.0, 0.0]\ngrid_size = [-20.0, 10.0]"))
+    with pytest.raises(ScenarioError, match=r"\[ensemble.grid_size\[0\]\] = -20.0: must be > 0"):
+        load_ensemble(f)
+    assert main(["scenario", "check", str(f)]) == 2
+    assert f"{f}: [ensemble.grid_size[0]] = -20.0" in capsys.readouterr().err
+
+
 def test_base_scenario_and_place(tmp_path, flow_file):
     base = tmp_path / "base.toml"
     base.write_text(ensemble_text(flow_file, tmp_path).split("[ensemble]")[0])

@@ -279,9 +279,16 @@ def load_ensemble(source, overrides: dict | None = None) -> Ensemble:
         raw = merge(data, raw)
     if not ens.get("output"):  # the default folder sits beside the ensemble file
         raw["ensemble"] = dict(ens, output=str(base_dir / "ensemble"))
-    scen = load_scenario(raw)
-    scen.path = file_path
-    check_ensemble_section(scen["ensemble"], "ensemble", scen)  # also when nothing varies
+    try:
+        scen = load_scenario(raw)
+        scen.path = file_path
+        check_ensemble_section(scen["ensemble"], "ensemble", scen)  # also when nothing varies
+    except ScenarioError as exc:
+        if exc.source is not None or where is None:
+            raise
+        # name the ensemble file (and its base) that the merged value came from
+        base = f" (over its base {ens['base']})" if ens.get("base") else ""
+        raise ScenarioError(exc.key, exc.value, exc.allowed, where + base) from None
     ensemble = Ensemble(scen, parse_vary(scen["ensemble"]["vary"]))
     ensemble.member_scenario(0)  # cross-key errors of the members show now, not on a worker
     return ensemble

@@ -364,7 +364,8 @@ ENSEMBLE_SECTION = Section("ensemble", [
         "the flow mesh (required for analytic flows, which have no mesh)", "m", min=0.0,
         exclusive_min=True),
     Key("grid_origin", "point", None, "lower-left corner of the aggregation grid", "m"),
-    Key("grid_size", "point", None, "extent of the aggregation grid", "m"),
+    Key("grid_size", "point", None, "extent of the aggregation grid (width, height)", "m",
+        min=0.0, exclusive_min=True),
     Key("blocked_after", "float", 60.0, "an obstacle is blocked in a member when a log is in "
         "contact with it (within blocked_gap) at every record for at least this long (the "
         "clogging table; driftlog.ensemble.summary)", "s", min=0.0, exclusive_min=True),
