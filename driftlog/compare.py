@@ -15,6 +15,7 @@ flow against the first (the reference):
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -71,7 +72,16 @@ def parse_line_spec(spec: str):
         vals = ()
     if not sep or not name or len(vals) != 4:
         raise DriftlogError(f"--gate {spec!r}: must be NAME=X0,Y0,X1,Y1 (a named line, m)")
+    check_line(vals, f"--gate {spec!r}")
     return name, vals
+
+
+def check_line(vals, what="--line"):
+    """Refuse a line with a non-finite coordinate or of zero length (nothing crosses it)."""
+    x0, y0, x1, y1 = vals
+    if not all(math.isfinite(v) for v in vals) or (x0 == x1 and y0 == y1):
+        raise DriftlogError(f"{what}: {' '.join(f'{v:g}' for v in vals)}: must be a line of "
+                            "finite coordinates (m) with two different ends")
 
 
 def per_log(ref_path, other_path, lines=None):
@@ -222,6 +232,14 @@ def compare_trajectories(ref_path, other_path, line=None):
     ka = a["trajectory_index"].values.astype(np.int64) * ut.size + np.searchsorted(ut, ta)
     kb = b["trajectory_index"].values.astype(np.int64) * ut.size + np.searchsorted(ut, tb)
     _, pa, pb = np.intersect1d(ka, kb, assume_unique=True, return_indices=True)
+    if pa.size == 0:
+        def span(ds):
+            t = ds["time"].values
+            return f"{t.min():g} to {t.max():g} s" if t.size else "no records"
+
+        raise DriftlogError(f"{other_path}: no record at the same time as the reference "
+                            f"{ref_path} (times {span(b)} against {span(a)}): not runs of the "
+                            "same scenario and output times")
     dist = np.hypot(a["x"].values[pa] - b["x"].values[pb], a["y"].values[pa] - b["y"].values[pb])
     times = a["time"].values[pa]
     ut = np.unique(times)

@@ -85,3 +85,26 @@ def test_cli_compare(tmp_path, flows, capsys):
     assert main(["compare", str(tmp_path / "c" / "trajectories_slow.nc"),
                  str(tmp_path / "c" / "trajectories_fast.nc")]) == 0
     assert main(["compare", str(scen)]) == 2
+
+
+def test_cli_compare_refuses_mismatched_files_and_unused_options(tmp_path, flows, capsys):
+    from driftlog.api import track
+
+    scen, a, _ = flows
+    early = track(scen, output=tmp_path / "early.nc", overrides={"time": {"end": 5.0}}).path
+    late = track(scen, output=tmp_path / "late.nc",
+                 overrides={"time": {"start": 10.0, "end": 15.0}}).path
+    capsys.readouterr()
+    # no record at a common time: was an IndexError traceback
+    assert main(["compare", str(early), str(late)]) == 2
+    err = capsys.readouterr().err
+    assert "late.nc: no record at the same time" in err and "10 to 15 s" in err
+    # --gate was silently ignored with two trajectory files
+    assert main(["compare", str(early), str(early), "--gate", "g=1,0,1,4"]) == 2
+    assert "--gate g=1,0,1,4: not used" in capsys.readouterr().err
+    # a line of zero length: nothing crosses it, every arrival silently NaN
+    assert main(["compare", str(early), str(early), "--line", "3", "1", "3", "1"]) == 2
+    assert "--line: 3 1 3 1: must be a line" in capsys.readouterr().err
+    assert main(["compare", str(scen), "--flow", f"a={a}", "--flow", f"b={a}",
+                 "--gate", "g=1,1,1,1"]) == 2
+    assert "--gate 'g=1,1,1,1'" in capsys.readouterr().err

@@ -188,6 +188,7 @@ def cmd_compare(args):
     import json
 
     from driftlog.compare import (
+        check_line,
         compare_runs,
         compare_trajectories,
         engine_flows,
@@ -195,7 +196,16 @@ def cmd_compare(args):
         parse_line_spec,
     )
 
+    if args.line is not None:
+        check_line(args.line)
+
     if len(args.inputs) == 2 and all(i.endswith(".nc") for i in args.inputs) and not args.flow:
+        for opt, given in (("--gate", ", ".join(args.gate or ())), ("--engines", args.engines)):
+            if given:
+                raise DriftlogError(f"driftlog compare: {opt} {given}: not used when two "
+                                    "trajectory files are compared (--gate and --engines go "
+                                    "with a scenario; two trajectory files take --line and "
+                                    "--out)")
         r = compare_trajectories(args.inputs[0], args.inputs[1], args.line)
         print(f"mean distance at the end: {r['mean_distance'][-1]:.4g} m, max over the run: "
               f"{r['max_distance'].max():.4g} m")
