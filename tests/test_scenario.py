@@ -114,3 +114,18 @@ def test_resolved_scenario_round_trips():
     s = load_scenario(BASE)
     again = load_scenario(json.loads(s.to_json()))
     assert again.data == s.data
+
+
+def test_debris_run_past_the_solvers_end_is_refused():
+    # the solver's flow ends at [solver] end: a run past it failed there ("outside the flow's
+    # span") after all the work before it
+    solved = BASE.replace('source = "analytic"\nkind = "solid_body_rotation"',
+                          'source = "solver"') + (
+        '[solver]\nmesh = "channel"\nchannel = [0.0, 0.0, 10.0, 2.0]\ncell_size = 0.5\n'
+        'end = 8.0\n')
+    with pytest.raises(ScenarioError, match=r"\[time.end\] = 10.0: is after the solver's end "
+                       r"\(8 s"):
+        load_scenario(solved)
+    assert load_scenario(solved.replace("end = 10.0", "end = 8.0"))["time"]["end"] == 8.0
+    held = solved.replace('source = "solver"', 'source = "solver"\nsteady_at = 8.0')
+    assert load_scenario(held)["flow"]["steady_at"] == 8.0
