@@ -67,6 +67,7 @@ from driftlog.columns import (
 )
 from driftlog.flow import _triangle_weights, sample_point, sample_point_columns
 from driftlog.integrators import (
+    FUSED_METHODS,
     RK4_C,
     add_row,
     euler_row,
@@ -84,8 +85,6 @@ __all__ = ["euler_mesh_step", "rk4_mesh_step", "rk4_tracer_step", "euler_tracer_
            "pack_tracer_nodes", "aligned_rows", "settle_summary", "FUSED_METHODS", "NCTL",
            "take_rows", "drop_rows", "drop_items", "subset_positions", "skip_hole",
            "HOLE", "PK_N", "PR_N"]
-
-FUSED_METHODS = ("euler", "rk4")
 
 # the step control a settling step reads (``ctl``): length fraction, angle step, drag
 # fraction, and 1.0 where the drag relaxation bound applies (explicit integrator, not tracer)

@@ -46,7 +46,7 @@ from driftlog.schema import Key, Section
 
 __all__ = ["Integrator", "make_integrator", "phi_functions", "METHODS", "RK4_C", "row",
            "put_row", "euler_row", "rk4_stage_row", "rk4_final_row", "rk4_sum_row",
-           "add_row"]
+           "add_row", "FUSED_METHODS"]
 
 METHODS = ("euler", "rk4", "exponential")
 # classical RK4 nodes: stage k (0 to 3) at t0 + RK4_C[k] dt
@@ -372,9 +372,12 @@ def make_integrator(method: str) -> Integrator:
 
 
 # --------------------------------------------------------------------- the scenario section
+# the methods of the fused mesh kernels (``driftlog.fused``; per-log clocks run only in them)
+FUSED_METHODS = ("euler", "rk4")
+
+
 def _check_integrator(t, prefix, scen):
     from driftlog.errors import ScenarioError
-    from driftlog.fused import FUSED_METHODS
 
     if t["max_step"] is not None and t["max_step"] < t["min_step"]:
         raise ScenarioError(f"{prefix}.max_step", t["max_step"], f"must be >= min_step "
