@@ -256,11 +256,26 @@ def compare_trajectories(ref_path, other_path, line=None):
 
     return {
         "times": ut, "mean_distance": mean_d, "max_distance": max_d,
+        "end_reference": float(a["time"].values.max()),
+        "end_other": float(b["time"].values.max()),
         "arrival_reference": arr_a, "arrival_other": arr_b,
         "arrival_difference": arr_b - arr_a,
         "final_status_reference": finals(a), "final_status_other": finals(b),
         "hits_reference": _hits_per_obstacle(a), "hits_other": _hits_per_obstacle(b),
     }
+
+
+def final_time_text(result):
+    """When ``compare_trajectories``' final distance is taken: the last time both files record.
+
+    "at the end", or, when one file runs on longer than the other, that time and both ends.
+    """
+    t = float(result["times"][-1])
+    ea, eb = result["end_reference"], result["end_other"]
+    if ea == eb == t:
+        return "at the end"
+    return (f"at t = {t:g} s, the last time both record (the reference ends at {ea:g} s, the "
+            f"other at {eb:g} s)")
 
 
 def compare_runs(scenario, flows: list[tuple[str, str]], out_dir, line=None, progress=False,
@@ -344,8 +359,9 @@ def write_trajectory_comparison(result, ref_path, other_path, out_dir):
             "series": {k: result[k] for k in ("times", "mean_distance", "max_distance")}}
     md = "\n".join(["# Comparison of two trajectory files", "",
                     f"- reference: {ref_path}", f"- other: {other_path}",
-                    f"- mean distance at the end: {data['mean_distance_final']:.4g} m, max over "
-                    f"the run: {data['max_distance']:.4g} m",
+                    f"- mean distance {final_time_text(result)}: "
+                    f"{data['mean_distance_final']:.4g} m, max over the run: "
+                    f"{data['max_distance']:.4g} m",
                     f"- final statuses: {data['final_status']['reference']} vs "
                     f"{data['final_status']['other']}",
                     f"- hits: {data['hits']['reference']} vs {data['hits']['other']}", ""])

@@ -108,3 +108,13 @@ def test_cli_compare_refuses_mismatched_files_and_unused_options(tmp_path, flows
     assert main(["compare", str(scen), "--flow", f"a={a}", "--flow", f"b={a}",
                  "--gate", "g=1,1,1,1"]) == 2
     assert "--gate 'g=1,1,1,1'" in capsys.readouterr().err
+    # runs of different lengths: the final distance is at the last time both record, said so
+    # (it read "at the end")
+    longer = track(scen, output=tmp_path / "longer.nc", overrides={"time": {"end": 8.0}}).path
+    capsys.readouterr()
+    assert main(["compare", str(early), str(longer)]) == 0
+    said = capsys.readouterr().out
+    assert "mean distance at t = 5 s, the last time both record (the reference ends at 5 s, " \
+        "the other at 8 s): 0 m" in said
+    assert main(["compare", str(early), str(early)]) == 0
+    assert "mean distance at the end: 0 m" in capsys.readouterr().out

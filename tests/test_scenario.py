@@ -62,6 +62,12 @@ def _bad(text, key, match):
     ("[physics]\nwaterlogging = 'exponential'\nwaterlogging_time = 10.0\n"
      "saturated_density = 500.0\n", "physics.saturated_density",
      "below logs[0].density = 720 kg/m3"),
+    ("[[obstacles]]\nname = 'A'\ncenter = [5.0, 0.0]\nradius = 0.5\n"
+     "[[obstacles]]\nname = 'A'\ncenter = [8.0, 0.0]\nradius = 0.5\n", "obstacles[1].name",
+     "is also obstacles[0]'s name"),
+    ("[[obstacles]]\nname = 'bridge'\ncenter = [5.0, 0.0]\nradius = 0.5\n"
+     "[[obstacles]]\nname = 'pier'\ngroup = 'bridge'\ncenter = [8.0, 0.0]\nradius = 0.5\n",
+     "obstacles[0].name", "is also a group's name"),
 ])
 def test_bad_values_name_key_value_and_rule(text, key, match):
     err = _bad(text, key, match)

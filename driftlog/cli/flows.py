@@ -192,6 +192,7 @@ def cmd_compare(args):
         compare_runs,
         compare_trajectories,
         engine_flows,
+        final_time_text,
         parse_flow_spec,
         parse_line_spec,
     )
@@ -207,8 +208,8 @@ def cmd_compare(args):
                                     "with a scenario; two trajectory files take --line and "
                                     "--out)")
         r = compare_trajectories(args.inputs[0], args.inputs[1], args.line)
-        print(f"mean distance at the end: {r['mean_distance'][-1]:.4g} m, max over the run: "
-              f"{r['max_distance'].max():.4g} m")
+        print(f"mean distance {final_time_text(r)}: {r['mean_distance'][-1]:.4g} m, max over "
+              f"the run: {r['max_distance'].max():.4g} m")
         print(f"final statuses: {r['final_status_reference']} vs {r['final_status_other']}")
         print(f"hits: {json.dumps(r['hits_reference'])} vs {json.dumps(r['hits_other'])}")
         if args.out is not None:

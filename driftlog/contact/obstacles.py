@@ -169,6 +169,24 @@ class Obstacles:
 
 
 # --------------------------------------------------------------------- the scenario section
+def _check_obstacle(t, prefix, scen):
+    """A name labels one obstacle: the hit counts and the clogging table report by name."""
+    name = t["name"]
+    if not name:
+        return
+    i = int(prefix[prefix.index("[") + 1:-1])
+    earlier = [o.get("name") for o in (scen["obstacles"] or [])[:i]]
+    if name in earlier:
+        raise ScenarioError(f"{prefix}.name", name, f"is also obstacles[{earlier.index(name)}]"
+                            "'s name: each obstacle needs its own (hits and the clogging table "
+                            "report by name; a bridge's piers share a group, not a name)")
+    groups = {o.get("group") for o in (scen["obstacles"] or [])} - {"", None}
+    if name in groups:
+        raise ScenarioError(f"{prefix}.name", name, "is also a group's name: the clogging "
+                            "table reports obstacles and groups together, give them different "
+                            "names")
+
+
 OBSTACLES_SECTION = Section("obstacles", [
     Key("name", "str", "", "label used in hit counts"),
     Key("group", "str", "", "obstacles of the same group (the piers of one bridge) are also "
@@ -184,4 +202,4 @@ OBSTACLES_SECTION = Section("obstacles", [
         when="type = mesh"),
     Key("z", "float", 0.0, "elevation of the plane that cuts 3D obstacle meshes", "m",
         when="type = mesh"),
-], doc="bridge piers, walls and other obstacles", repeated=True)
+], doc="bridge piers, walls and other obstacles", repeated=True, check=_check_obstacle)
