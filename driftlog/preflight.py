@@ -96,6 +96,32 @@ def _inside_obstacle(scen, x, y):
     return where
 
 
+def _check_span(scen, flow):
+    """``[time] end`` within the flow's span: a run past the flow's end stops there with an
+    error, after all the work before it.
+
+    The flow's last time when it is open (a held flow, ``[flow] steady_at``, has none), the
+    solver's ``[solver] end`` before the solver's flow is computed; a coupled run computes its
+    flow as it goes (its own check: ``coupling``).
+    """
+    end = scen["time"]["end"]
+    if end is None or scen["coupling"]["enabled"] or scen["flow"]["steady_at"] is not None:
+        return
+    last, what = None, None
+    if flow is not None:
+        span = getattr(flow, "time_span", None)
+        if span is not None and np.isfinite(span[1]):
+            last, what = float(span[1]), f"the flow's last time ({float(span[1]):g} s)"
+    elif scen["flow"]["source"] == "solver":
+        s1 = scen["solver"]["end"]
+        if s1 is not None:
+            last, what = float(s1), f"the solver's end ({float(s1):g} s, [solver] end)"
+    if last is not None and end > last + 1e-9 * max(abs(last), 1.0):
+        raise ScenarioError("time.end", end, f"is after {what}, where the flow stops: lower "
+                            "[time] end, compute or import a longer flow, or hold the flow "
+                            "after a time ([flow] steady_at)")
+
+
 def check_start(scen, flow, logs, mesh=None, warn=True):
     """Logs against the flow's mesh and the obstacles at the start (the module's rule).
 
@@ -117,6 +143,7 @@ def check_start(scen, flow, logs, mesh=None, warn=True):
     """
     from driftlog.tracker import outside_error
 
+    _check_span(scen, flow)
     mesh = mesh if mesh is not None else getattr(flow, "mesh", None)
     if mesh is not None:
         face = mesh.locate(logs.state[:, X], logs.state[:, Y])

@@ -1010,18 +1010,6 @@ def _check_time(t, prefix, scen):
     if t["end"] is not None and not t["end"] > t["start"]:
         raise ScenarioError(f"{prefix}.end", t["end"],
                             f"must be after time.start = {t['start']} s (time span reversed)")
-    # a flow the solver computes ends at [solver] end: a debris run past it would stop there
-    # with an error after all the work before (a coupled run's own check says it for coupling)
-    flow = scen.get("flow") or {}
-    if (t["end"] is not None and flow.get("source") == "solver"
-            and flow.get("steady_at") is None
-            and not (scen.get("coupling") or {}).get("enabled", False)):
-        s1 = (scen.get("solver") or {}).get("end")
-        if s1 is not None and t["end"] > s1:
-            raise ScenarioError(f"{prefix}.end", t["end"], f"is after the solver's end "
-                                f"({s1:g} s, [solver] end), where the flow stops: raise "
-                                "[solver] end, lower [time] end, or hold the flow after a time "
-                                "([flow] steady_at)")
 
 
 TIME_SECTION = Section("time", [

@@ -122,16 +122,28 @@ def test_resolved_scenario_round_trips():
     assert again.data == s.data
 
 
-def test_debris_run_past_the_solvers_end_is_refused():
-    # the solver's flow ends at [solver] end: a run past it failed there ("outside the flow's
-    # span") after all the work before it
+def test_debris_run_past_the_flows_end_is_refused(tmp_path, capsys):
+    # a run past the flow's end ran until the flow ended and stopped there with an error, after
+    # all the work before it; the flow itself may be solved shorter (a quick look at its start)
+    from driftlog.api import track
+    from driftlog.cli import main
+    from driftlog.solving import solve_scenario
+
     solved = BASE.replace('source = "analytic"\nkind = "solid_body_rotation"',
-                          'source = "solver"') + (
+                          f'source = "solver"\npath = "{tmp_path / "f.nc"}"') + (
         '[solver]\nmesh = "channel"\nchannel = [0.0, 0.0, 10.0, 2.0]\ncell_size = 0.5\n'
-        'end = 8.0\n')
-    with pytest.raises(ScenarioError, match=r"\[time.end\] = 10.0: is after the solver's end "
-                       r"\(8 s"):
-        load_scenario(solved)
-    assert load_scenario(solved.replace("end = 10.0", "end = 8.0"))["time"]["end"] == 8.0
-    held = solved.replace('source = "solver"', 'source = "solver"\nsteady_at = 8.0')
-    assert load_scenario(held)["flow"]["steady_at"] == 8.0
+        'end = 8.0\noutput_interval = 2.0\n')
+    f = tmp_path / "s.toml"
+    f.write_text(solved)
+    assert main(["scenario", "check", str(f)]) == 2
+    assert "[time.end] = 10.0: is after the solver's end (8 s" in capsys.readouterr().err
+    solve_scenario(load_scenario(f))  # solving alone is fine
+    on_file = solved.split("[solver]")[0].replace('source = "solver"', 'source = "file"')
+    with pytest.raises(ScenarioError, match=r"\[time.end\] = 10.0: is after the flow's last "
+                       r"time \(8 s\)"):
+        track(on_file, output=tmp_path / "t.nc")
+    assert not (tmp_path / "t.nc.partial").exists()
+    assert track(on_file.replace("end = 10.0", "end = 8.0"),
+                 output=tmp_path / "t.nc").dataset()["time"].values.max() == 8.0
+    held = on_file.replace('source = "file"', 'source = "file"\nsteady_at = 8.0')
+    assert track(held, output=tmp_path / "h.nc").dataset()["time"].values.max() == 10.0
