@@ -97,8 +97,7 @@ def _inside_obstacle(scen, x, y):
 
 
 def _check_span(scen, flow):
-    """``[time] end`` within the flow's span: a run past the flow's end stops there with an
-    error, after all the work before it.
+    """``[time] end`` within the flow's span (a run past it stops there, after the work before).
 
     The flow's last time when it is open (a held flow, ``[flow] steady_at``, has none), the
     solver's ``[solver] end`` before the solver's flow is computed; a coupled run computes its
