@@ -579,18 +579,11 @@ def test_outputs_are_complete_or_absent(files, tmp_path, capsys):
     assert "up to t = 2" in note and "of 4 s" in note
     # a run that ends with its flow ([time] end unset) says so, not a formatting error raised
     # inside the handler in place of the interruption
+    from conftest import breaking_after
+
     from driftlog.flowfile import open_flow
 
-    ff = open_flow(files["flow"])
-
-    class StopsToo(type(ff)):
-        def sample_into(self, x, y, t, face, out, flag):
-            if t > 1.5:
-                raise KeyboardInterrupt
-            super().sample_into(x, y, t, face, out, flag)
-
-    broken = StopsToo.__new__(StopsToo)
-    broken.__dict__.update(ff.__dict__)
+    broken = breaking_after(open_flow(files["flow"]), 1.5)
     no_end = UNIFORM.replace("end = 4.0", "")
     with pytest.raises(KeyboardInterrupt) as exc:
         track(no_end, flow=broken, output=tmp_path / "t.nc.noend" / "u.nc")
