@@ -784,6 +784,12 @@ blocked_after = 10.0
     t = res.aggregate.clogging_table()
     np.testing.assert_array_equal(t["members_hit"], [2, 2, 2])
     np.testing.assert_array_equal(t["members_blocked"], [0, 0, 0])
+    # longer than the 40-s run: no obstacle could count as blocked, said beside the table
+    said = res.aggregate.format_clogging()
+    assert "note: blocked_after = 1000 s is longer than the run (40 s)" in said
+    assert "note:" not in run_ensemble(f, resume=True, progress=False, figures=False,
+                                       overrides={"ensemble": {"blocked_after": 30.0}}
+                                       ).aggregate.format_clogging()
 
 
 def test_flow_file_whose_title_says_ensemble_is_a_flow(tmp_path, flow_file):

@@ -126,15 +126,20 @@ class Aggregate:
     confidence : float
     blocked_after : float
         Held span (s) from which an obstacle counts as blocked in a member.
+    run_span : float, optional
+        The members' run (s, [time] start to end), when known: a ``blocked_after`` longer than
+        it is said beside the clogging table (no obstacle could count as blocked).
     """
 
-    def __init__(self, mesh, members, parameters=(), confidence=0.95, blocked_after=60.0):
+    def __init__(self, mesh, members, parameters=(), confidence=0.95, blocked_after=60.0,
+                 run_span=None):
         nf = mesh.n_faces
         self.mesh = mesh
         self.n_members = int(members)
         self.parameters = list(parameters)
         self.confidence = float(confidence)
         self.blocked_after = float(blocked_after)
+        self.run_span = None if run_span is None else float(run_span)
         self.geometry = None  # Obstacles of the base scenario (set_obstacles)
         self.members_passing = np.zeros(nf, np.int64)
         self.logs_passing = np.zeros(nf, np.int64)
@@ -411,6 +416,11 @@ class Aggregate:
             pb = _pci(t["blocked_probability"][j], t["blocked_lower"][j], t["blocked_upper"][j])
             lines.append(f"  {name:<{w}}  {t['members_hit'][j]:>4}  {ph:<22}  "
                          f"{t['members_blocked'][j]:>7}  {pb:<22}  {t['longest_held'][j]:.1f}")
+        if self.run_span is not None and self.blocked_after > self.run_span:
+            lines.append(f"  note: blocked_after = {self.blocked_after:g} s is longer than the "
+                         f"run ({self.run_span:g} s): no obstacle can count as blocked; lower "
+                         "[ensemble] blocked_after (--resume --set ensemble.blocked_after=... "
+                         "recomputes the table without running the members again)")
         return "\n".join(lines)
 
     # ----------------------------------------------------------------- output

@@ -393,8 +393,10 @@ def run_ensemble(ensemble, workers=None, scheduler=None, client=None, resume=Fal
         manifest["created"] = json.loads(manifest_path.read_text()).get("created")
     _write_json(manifest_path, manifest)
 
+    tm = base["time"]
     agg = Aggregate(mesh, n, ens.parameters, sec["confidence"],
-                    blocked_after=sec["blocked_after"])
+                    blocked_after=sec["blocked_after"],
+                    run_span=None if tm["end"] is None else tm["end"] - tm["start"])
     agg.set_obstacles(scenario_obstacles(load_scenario(base)))
     for i in done_before:  # read back: memory stays bounded, one member at a time
         agg.add(MemberSummary.from_npz(members_dir / f"member_{i:06d}.npz"))
