@@ -198,20 +198,24 @@ def kernels_cached(part: str) -> bool:
     here = Path(__file__).resolve().parent
     src = here / sub if sub else here
     env = os.environ.get("NUMBA_CACHE_DIR")
+    pattern = "{}-*.nbi"
     if env:
         # numba's folder for this source folder, named from its absolute path (numba's own
         # rule): another checkout of the same sources shares NUMBA_CACHE_DIR (driftlog keys
         # it on the sources' hash, ``_cache``) but not its kernels, so its index files do not
-        # count
-        from numba.core.caching import _CacheLocator
+        # count.  A numba whose private locator moved: any folder under it, as before
+        try:
+            from numba.core.caching import _CacheLocator
 
-        d = Path(env) / _CacheLocator.get_suitable_cache_subpath(str(src / "x.py"))
+            d = Path(env) / _CacheLocator.get_suitable_cache_subpath(str(src / "x.py"))
+        except (ImportError, AttributeError):
+            d, pattern = Path(env), "**/{}-*.nbi"
     else:
         d = src / "__pycache__"
     # an index there means compiled
     if not d.is_dir():
         return False
-    return any(any(d.glob(f"{p}-*.nbi")) for p in probes)
+    return any(any(d.glob(pattern.format(p))) for p in probes)
 
 
 def announce_compile(parts, stream=None, many=False) -> int:

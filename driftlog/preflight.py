@@ -103,19 +103,25 @@ def _check_span(scen, flow):
     solver's ``[solver] end`` before the solver's flow is computed; a coupled run computes its
     flow as it goes (its own check: ``coupling``).
     """
+    from driftlog.errors import FlowDomainError
+
     end = scen["time"]["end"]
     if end is None or scen["coupling"]["enabled"] or scen["flow"]["steady_at"] is not None:
         return
-    last, what = None, None
+    what = None
     if flow is not None:
-        span = getattr(flow, "time_span", None)
-        if span is not None and np.isfinite(span[1]):
-            last, what = float(span[1]), f"the flow's last time ({float(span[1]):g} s)"
-    elif scen["flow"]["source"] == "solver":
-        s1 = scen["solver"]["end"]
-        if s1 is not None:
-            last, what = float(s1), f"the solver's end ({float(s1):g} s, [solver] end)"
-    if last is not None and end > last + 1e-9 * max(abs(last), 1.0):
+        t1 = flow.time_span[1]
+        try:
+            if end > t1:  # the flow's own test, with its round-off tolerance
+                flow.check_time(end)
+        except FlowDomainError:
+            what = f"the flow's last time ({t1:g} s)"
+    elif scen["flow"]["source"] == "solver" and scen["solver"]["end"] is not None:
+        # the solver's flow will span [solver] start to end: the same test on that span
+        s0, s1 = scen["solver"].get("start") or 0.0, float(scen["solver"]["end"])
+        if end > s1 + 1e-9 * max(s1 - s0, 1.0):
+            what = f"the solver's end ({s1:g} s, [solver] end)"
+    if what is not None:
         raise ScenarioError("time.end", end, f"is after {what}, where the flow stops: lower "
                             "[time] end, compute or import a longer flow, or hold the flow "
                             "after a time ([flow] steady_at)")

@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import copy
+import tomllib
 
 import netCDF4
 import numpy as np
@@ -325,21 +326,44 @@ def test_contact_held_jam_force_does_not_depend_on_the_step():
     # is not yet steady: 30.7 mm against the force's 28.0 mm at CFL 0.9)
 
 
+COUPLED_CHANNEL = """
+title = "coupled channel"
+[flow]
+source = "solver"
+[solver]
+mesh = "channel"
+channel = [0.0, 0.0, 12.0, 3.0]
+cell_size = 0.5
+end = 3.0
+[solver.boundaries.inflow]
+type = "discharge"
+value = 1.2
+[solver.boundaries.outflow]
+type = "level"
+value = 0.8
+[solver.initial]
+type = "level"
+value = 0.8
+velocity = [0.5, 0.0]
+[time]
+start = 1.0
+end = 3.0
+output_interval = 1.0
+[[logs]]
+seeding = "list"
+x = [4.0]
+y = [1.5]
+length = 1.0
+radius = 0.1
+velocity = "rest"
+[coupling]
+enabled = true
+"""
+
+
 def test_coupled_track_writes_its_flow_and_balance(tmp_path):
     out = tmp_path / "logs.nc"
-    scen = {
-        "flow": {"source": "solver"},
-        "solver": {"mesh": "channel", "channel": [0.0, 0.0, 12.0, 3.0], "cell_size": 0.5,
-                   "end": 20.0,
-                   "boundaries": {"inflow": {"type": "discharge", "value": 1.2},
-                                  "outflow": {"type": "level", "value": 0.8}},
-                   "initial": {"type": "level", "value": 0.8, "velocity": [0.5, 0.0]}},
-        "time": {"start": 1.0, "end": 3.0, "output_interval": 1.0},
-        "logs": [{"seeding": "list", "x": [4.0], "y": [1.5], "length": 1.0, "radius": 0.1,
-                  "velocity": "rest"}],
-        "coupling": {"enabled": True},
-        "output": {"path": str(out)},
-    }
+    scen = dict(tomllib.loads(COUPLED_CHANNEL), output={"path": str(out)})
     res = track(scen)
     flow = tmp_path / "logs_flow.nc"
     with netCDF4.Dataset(out) as ds:
@@ -557,41 +581,6 @@ def test_per_log_clocks_keep_the_momentum_balance_and_the_global_clocks_logs():
     np.testing.assert_allclose(tr_p.logs.state[:, :2], tr_g.logs.state[:, :2], atol=3e-3)
     np.testing.assert_allclose(tr_p.logs.state[:, 3:5], tr_g.logs.state[:, 3:5], atol=5e-4)
     np.testing.assert_allclose(s_p.hu, s_g.hu, atol=1e-5)
-
-
-COUPLED_CHANNEL = """
-title = "coupled channel"
-[flow]
-source = "solver"
-[solver]
-mesh = "channel"
-channel = [0.0, 0.0, 12.0, 3.0]
-cell_size = 0.5
-end = 3.0
-[solver.boundaries.inflow]
-type = "discharge"
-value = 1.2
-[solver.boundaries.outflow]
-type = "level"
-value = 0.8
-[solver.initial]
-type = "level"
-value = 0.8
-velocity = [0.5, 0.0]
-[time]
-start = 1.0
-end = 3.0
-output_interval = 1.0
-[[logs]]
-seeding = "list"
-x = [4.0]
-y = [1.5]
-length = 1.0
-radius = 0.1
-velocity = "rest"
-[coupling]
-enabled = true
-"""
 
 
 def test_run_of_a_coupled_scenario_shows_and_draws_the_coupled_flow(tmp_path, capsys):
