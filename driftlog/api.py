@@ -328,6 +328,8 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     path = writer.close()
     if contact is not None:
         warn_unconverged_contacts(contact, float(np.min(logs.radius)) if len(logs) else 0.0)
+    if coupling is not None:
+        warn_long_exchange(coupling)
     if order is not None:  # the logs' final states, in the scenario's order
         logs = tracked.take(back)
     extra = []
@@ -369,6 +371,30 @@ def warn_unconverged_contacts(contact, radius):
         f"steps (up to {int(st['max_contacts']):,} contacts in one step); the deepest overlap "
         f"was {deep}: piles of many logs need more sweeps ([contact] iterations) or their logs "
         "overlap"), stacklevel=2)
+
+
+def warn_long_exchange(coupling):
+    """A ``DriftlogWarning`` when the water under the logs crossed over a cell per exchange.
+
+    The reaction lags by one exchange interval (docs/model.md 17.6): on the validation array
+    the backwater is 0.98-0.99 / 1.00 / 1.06-1.11 of the momentum balance's at exchange
+    Courant numbers |u| interval / dx of 0.5 / 1 / 2 (event-driven and Moreau-Jean contacts);
+    ``coupling.EXCHANGE_COURANT_MAX`` is 1, the advice of 17.6.
+    """
+    import warnings
+
+    from driftlog.coupling import EXCHANGE_COURANT_MAX
+    from driftlog.errors import DriftlogWarning
+
+    c = coupling.exchange_courant
+    if not c > EXCHANGE_COURANT_MAX:
+        return
+    fit = coupling.interval * EXCHANGE_COURANT_MAX / c
+    warnings.warn(DriftlogWarning(
+        f"[coupling] interval = {coupling.interval:g} s: the water under the logs crossed up "
+        f"to {c:.3g} cells in one exchange (|u| interval / cell size); the exchange's lag is "
+        f"validated up to {EXCHANGE_COURANT_MAX:g} (docs/model.md 17.6): an interval of "
+        f"{fit:.3g} s or less keeps it there"), stacklevel=2)
 
 
 def cases_dir() -> Path:

@@ -417,6 +417,10 @@ class CoupledTracker(Tracker):
 # the region of the flow's node values: margin = REGION_MARGIN x (distance the fastest log or
 # water covers in a solver step) + half the longest log; doubled after a step that strayed out
 REGION_MARGIN = 3.0
+# the exchange Courant number |u| interval / dx under the logs beyond which a run warns
+# (docs/model.md 17.6: the fixed array's backwater within 2.4 % of the balance at 1, 6-11 %
+# off at 2)
+EXCHANGE_COURANT_MAX = 1.0
 CPU_PARTS = ("solver", "flow nodes", "tracker", "hand-over", "flow file")
 
 
@@ -481,6 +485,9 @@ class Coupling:
         self._seen = np.zeros(nf, np.int64)
         self._shares = 0
         self._out = np.zeros(4)
+        # the largest exchange Courant number |u| span / sqrt(area) met at a face under the
+        # logs (interval mode; docs/model.md 17.6: validated up to EXCHANGE_COURANT_MAX)
+        self.exchange_courant = 0.0
 
     def _give(self, frac, ux=0.0, uy=0.0):
         """Give the water the share ``frac`` of the pending reaction (``give_share``).
@@ -643,11 +650,31 @@ class Coupling:
             # pending: given over the coming interval's steps at the rate it was received
             # over the last one (docs/model.md 17.6)
             self._t_rem = self._span
+            self._courant(h)
             self.undelivered[0] += ux
             self.undelivered[1] += uy
             return False
         self._give(1.0, ux, uy)  # every step: all of it, now
         return True
+
+    def _courant(self, h):
+        """Track the exchange Courant number at the faces the pending reaction goes to.
+
+        |u| span / sqrt(A) of the water there: how many cells it crosses in an exchange
+        interval (one pass over the few faces under the logs, once per interval).
+        """
+        f = self._touched[:self._npend]
+        if f.size == 0 or self._span <= 0.0:
+            return
+        s = self.solver
+        _, hu, hv = _arrays(s)
+        hf = h[f]
+        wet = hf > s.dry_depth
+        if not wet.any():
+            return
+        f, hf = f[wet], hf[wet]
+        c = np.hypot(hu[f], hv[f]) / hf * self._span / np.sqrt(s.mesh.face_area[f])
+        self.exchange_courant = max(self.exchange_courant, float(c.max()))
 
     def summary(self) -> dict:
         """Numbers of the run: solver steps, hand-overs, momentum given and not delivered.
@@ -663,6 +690,7 @@ class Coupling:
                    region_widenings=self.flow.widenings)
         if self.interval > 0.0:
             out["exchange_interval"] = self.interval
+            out["exchange_courant"] = self.exchange_courant
         out.update({f"cpu_{k.replace(' ', '_').replace('-', '')}_s": v
                     for k, v in self.cpu.items()})
         return out

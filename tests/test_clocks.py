@@ -299,7 +299,7 @@ def test_moreau_cradle_keeps_momentum_and_energy_in_the_island_kernel():
     np.testing.assert_allclose(logs.state, glob.state, atol=1e-9)
 
 
-def moreau_pile(kernel, T=20.0, relative=True):
+def moreau_pile(kernel, T=20.0, relative=True, iterations=200):
     """14 logs (some seeded overlapping) drift on a current onto two piers between two walls,
     Moreau-Jean with eps = 0.3: islands that merge, split, touch walls and piers."""
     from driftlog.contact import ContactModel
@@ -317,6 +317,7 @@ def moreau_pile(kernel, T=20.0, relative=True):
     model = ContactModel(obs, method="moreau", restitution=0.3)
     model.island_kernel = kernel
     model.relative_motion = relative
+    model.iterations = iterations
     tr = Tracker(on_mesh(UniformFlow(0.6, 0.05, depth=1.0), MESH), logs,
                  PhysicsOptions(level="full"), "rk4", StepOptions(clock="per_log"),
                  contact=model, t_end=T, output_interval=5.0)
@@ -329,14 +330,16 @@ def test_moreau_island_kernel_equals_the_contact_model_island_by_island():
     # steps; ContactModel.island_kernel = False runs the very same islands through the
     # Python model.  Same arithmetic, same contact order here (islands of a few logs): the
     # same states, hits, obstacle impulses and statistics.  Bit for bit on the step bound by
-    # each log's own motion, whose steps keep at most two contacts of a step apart in order
-    k, a = moreau_pile(True, relative=False)
-    p, b = moreau_pile(False, relative=False)
+    # each log's own motion, whose steps keep at most two contacts of a step apart in order.
+    # Sweeps capped at 20, so that some steps stop at the cap (none did at 200 since the
+    # velocity pass, docs/model.md eq. (90))
+    k, a = moreau_pile(True, relative=False, iterations=20)
+    p, b = moreau_pile(False, relative=False, iterations=20)
     np.testing.assert_array_equal(a.state, b.state)
     np.testing.assert_array_equal(a.status, b.status)
     hk, hp = k.contact.drain_hits(), p.contact.drain_hits()
     ok, op = (np.lexsort((h["other"], h["log_id"], h["time"])) for h in (hk, hp))
-    assert hk["time"].size == hp["time"].size >= 50
+    assert hk["time"].size == hp["time"].size >= 40
     assert np.sum(hk["other"] < 0) >= 5  # piers and walls hit too
     for key in ("time", "log_id", "other", "impulse", "x", "y"):
         np.testing.assert_allclose(hk[key][ok], hp[key][op], rtol=1e-12, atol=1e-12)

@@ -38,13 +38,14 @@ def _normal_speeds(S0, V, res, b1, b2):
 
 
 def _targets(S0, S, res, b1, b2, dt, tol, slop):
-    """eps = 0: the end gap stays above -slop; contacts touching or closing do not approach."""
+    """The first solve's targets at eps = 0: the end gap stays above -slop, contacts touching
+    at the start do not approach (those that close within the step: the velocity pass's)."""
     u_free, _ = _normal_speeds(S0, S[:, UB:], res, b1, b2)
     dg, _ = _normal_speeds(S0, S[:, X:] - S0[:, X:], res, b1, b2)
     gap = res[:, 0]
     target = u_free - (np.maximum(gap, -slop) + dg + slop) / dt
     u0, _ = _normal_speeds(S0, S0[:, UB:], res, b1, b2)
-    active = ((gap <= tol) | (gap + dg <= 0.0)) & (u0 < 0.0)
+    active = (gap <= tol) & (u0 < 0.0)
     return np.where(active, np.maximum(target, 0.0), target)
 
 
@@ -58,18 +59,22 @@ def _solve(p, solver, cap, eps=0.0):
 
 @pytest.mark.parametrize("solver", [PGS, NNCG])
 def test_the_deck_pile_converges_and_solves_the_complementarity_problem(solver):
-    """Both solvers stop below the tolerance well before the cap, and their impulses solve
-    0 <= P _|_ u_n(V+) - target >= 0 at every contact (to 1e-7 m/s; the pile moves at 1 m/s)."""
+    """Both solvers stop below the tolerance well before the cap, with impulses P >= 0; no
+    overlap deepens past the slop (linearised end gaps from the end positions); and every
+    contact touching at the step's start or end does not approach at its end (the velocity
+    pass, docs/model.md eq. (90), to 1e-8 m/s; the pile moves at 1 m/s).  Before the pass,
+    touching contacts ended this step approaching at up to 0.24 m/s."""
     p = _pile()
     it, r, S, P = _solve(p, solver, 3000)
-    assert r <= p["vtol"] and it < (300 if solver == PGS else 150)
-    target = _targets(p["S0"], p["S"], p["res"], p["body1"], p["body2"], p["dt"], p["tol"],
-                      p["slop"])
-    u, _ = _normal_speeds(p["S0"], S[:, UB:], p["res"], p["body1"], p["body2"])
+    assert r <= p["vtol"] and it < (450 if solver == PGS else 250)
+    b1, b2, res = p["body1"], p["body2"], p["res"]
+    u, _ = _normal_speeds(p["S0"], S[:, UB:], res, b1, b2)
+    dg, _ = _normal_speeds(p["S0"], S[:, X:] - p["S0"][:, X:], res, b1, b2)
+    gap = res[:, 0]
     assert P.min() >= 0.0 and (P > 0).sum() >= 10
-    assert (u - target).min() > -1e-7  # no contact approaches faster than its target
-    push = P > 1e-9 * P.max()
-    assert np.abs(u - target)[push].max() < 1e-7  # a contact that pushes holds its target
+    assert (gap + dg - np.minimum(gap, -p["slop"])).min() > -1e-9
+    touching = (gap <= p["tol"]) | (gap + dg <= p["tol"])
+    assert touching.sum() >= 20 and u[touching].min() > -1e-8
 
 
 @pytest.mark.parametrize("eps", [0.0, 0.3])
@@ -112,7 +117,8 @@ def test_nncg_keeps_momentum_and_is_capped_like_gauss_seidel():
         p1 = (b.mass[:, None] * S[:, UB:VB + 1]).sum(0)
         assert np.abs(p1 - p0).max() < 1e-12 * np.abs(b.mass[:, None] * S0[:, UB:VB + 1]).sum()
         assert P.min() >= 0.0
-        assert (it == cap and r > 1e-9) if cap == 3 else (it < cap and r <= 1e-9)
+        # capped: the velocity solve's sweeps and the velocity pass's (a tenth as many, >= 1)
+        assert (cap <= it <= cap + 1 and r > 1e-9) if cap == 3 else (it < cap and r <= 1e-9)
 
 
 def test_the_solver_key_is_checked():

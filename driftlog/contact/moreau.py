@@ -11,8 +11,7 @@ with u_n = H V the relative normal velocity of each contact (H from the geometry
 of the step), V_free and q_free the free motion over the step (flow forces, the integrator).
 The target keeps the linearised gap at the end of the step above -slop (speculative for
 contacts still apart, a position correction for those overlapping) and applies Newton's
-restitution to active contacts (touching at the start, or closing within the step by the free
-motion: Moreau-Jean's index set) that approach:
+restitution to contacts touching at the start that approach:
 
     target = max(u_n_free - (max(g_start, -slop) + dg_free + slop) / dt,  -eps u_n_start)
 
@@ -23,7 +22,12 @@ raised its kinetic energy is solved again with eps = 0 (docs/model.md eq. (87)).
 P >= 0, until no velocity changes by more than ``vtol`` or ``max_iterations`` sweeps: bounded
 cost whatever the number of contacts.  Overlaps deeper than the slop (left by an unconverged
 solve or by the linearisation) are removed a share per step by moving positions only (split
-impulse), never by a velocity that would throw the logs apart.
+impulse), never by a velocity that would throw the logs apart.  Last, contacts touching at
+the step's start or end hold at the velocity level too (u_n+ >= 0, or Newton's law for one
+that closed within the step; positions kept: docs/model.md eq. (90)).  The targets above hold
+a gap: a log pressed on a post by the flow would otherwise end every step moving into it at
+its free acceleration times dt / 2, and Newton's law applied at the step's start to a log
+that reaches a post within the step would put it back where it started.
 """
 
 from __future__ import annotations
@@ -53,7 +57,7 @@ __all__ = ["NNCG", "PGS", "SOLVERS", "moreau_solve", "moreau_solve_into", "solve
 
 # moreau_solve_into's work rows: floats (per contact, then per island), integers (per contact,
 # then per body or island), flags (per island); NNCG's own float rows after the NFW
-NFW, NIW, NBW, NCG = 14, 11, 2, 7
+NFW, NIW, NBW, NCG = 15, 11, 2, 7
 # the contact solvers (``[contact] solver``)
 PGS, NNCG = 0, 1
 SOLVERS = ("pgs", "nncg")
@@ -393,6 +397,7 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
     u_free = fw[6]
     Pp = fw[7]
     e0, e1, floor = fw[8], fw[9], fw[10]
+    bounce = fw[11]  # the velocity pass's target of a contact that closes within the step
     order, quiet, keep = iw[0], iw[1], iw[2]
     parent, labels, start, fill, seen, start2 = iw[3], iw[4], iw[5], iw[6], iw[7], iw[8]
     border, bstart = iw[9], iw[10]
@@ -422,8 +427,10 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
         u_free[c] = uf
         target[c] = uf - (g0 + dg + slop) / dt
         plain[c] = target[c]
-        if (res[c, GAP] <= tol or res[c, GAP] + dg <= 0.0) and u0 < 0.0:
-            # active (touching, or closing within the step): Newton's impact law
+        bounce[c] = -eps * u0 if u0 < 0.0 else 0.0
+        if res[c, GAP] <= tol and u0 < 0.0:
+            # an impact at the step's start: Newton's law, the impulse given then (a contact
+            # that closes within the step ends touching: its law is the velocity pass's)
             target[c] = max(target[c], -eps * u0)
             plain[c] = max(plain[c], 0.0)
         P[c] = 0.0
@@ -475,12 +482,9 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
         Pp[c] = 0.0
     deep = 0
     for c in range(k):
-        i, j = body1[c], body2[c]
-        nx, ny = res[c, NX], res[c, NY]
-        u = V[i, GU] * nx + V[i, GV] * ny + V[i, GOMEGA] * rn1[c]
-        if j >= 0:
-            u -= V[j, GU] * nx + V[j, GV] * ny + V[j, GOMEGA] * rn2[c]
+        u = _normal_velocity(c, body1, body2, res, rn1, rn2, V)
         g_end = g_free[c] + dt * (u - u_free[c])
+        g_free[c] = g_end  # for the velocity pass
         if -g_end - slop > 0.0:
             target[c] = recovery * (-g_end - slop) / dt
             deep += 1
@@ -496,5 +500,113 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
     for b in range(n):  # q+ = q_free + dt (V+ - V_free) + dt Vp
         for m in range(GOMEGA + 1):  # position X + m has the rate UB + m (GU + m in V)
             S[b, X + m] += dt * (V[b, m] - S[b, UB + m] + Vp[b, m])
+    # velocity pass (eq. (90)): a contact touching at the step's start or end holds at the
+    # velocity level too, positions kept.  The solve above holds gaps, and moves positions as
+    # if its impulses were given at the step's start: a log pressed on a post by the flow
+    # would end every step moving into it at its free acceleration times dt / 2 (its position
+    # pinned by the gap), and one that reaches a post within the step would be put back
+    # behind where it started, at rest.  The end velocities are projected on u_n+ >= 0 at
+    # those contacts (u_n+ >= -eps u_n,0 where a contact closed within the step: Newton's
+    # law); its impulses are added to P (the force held).  Started from what would bring each
+    # contact alone to its target, at most the first solve's impulse there (a log held at
+    # rest on one contact needs exactly that again: one sweep), solved as the first solve is,
+    # in at most a tenth of its sweeps (a pile's first solve stops at its cap anyway)
+    m = 0
+    start2[0] = 0
+    for q in range(count):
+        need = False
+        for a in range(start[q], start[q + 1]):
+            c = order[a]
+            if res[c, GAP] <= tol or g_free[c] <= tol:
+                t = 0.0 if res[c, GAP] <= tol else bounce[c]
+                u = _normal_velocity(c, body1, body2, res, rn1, rn2, V)
+                if u < t - vtol:
+                    need = True
+        if need:
+            for a in range(start[q], start[q + 1]):
+                c = order[a]
+                if res[c, GAP] <= tol or g_free[c] <= tol:
+                    keep[m] = c
+                    m += 1
+                    target[c] = 0.0 if res[c, GAP] <= tol else bounce[c]
+        start2[q + 1] = m
+    if m:
+        if eps > 0.0:  # the end velocities before the pass, to solve it again (eq. (87))
+            for b in range(n):
+                for mm in range(GOMEGA + 1):
+                    Vp[b, mm] = V[b, mm]
+        pcap = max(max_iterations // 10, 1)
+        _pass_start(keep, m, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, P, Pp)
+        it2, _ = _sweeps_into(solver, keep, start2, count, body1, body2, res, rn1, rn2, w,
+                              target, inv_m, inv_i, V, n, Pp, k, vtol, pcap, island_stop,
+                              active, seen, quiet, border, bstart, fw)
+        it += it2
+        if eps > 0.0:
+            # Newton's law at contacts that closed within the step, several at once, can make
+            # energy as at the start (eq. (87)): such an island's pass again, all targets 0
+            _gained_into(labels, count, n, S, V, inv_m, inv_i, e0, e1, floor, redo)
+            m3 = 0
+            fill[0] = 0
+            for q in range(count):
+                if redo[q]:
+                    for a in range(start2[q], start2[q + 1]):
+                        c = keep[a]
+                        parent[m3] = c
+                        m3 += 1
+                        target[c] = 0.0
+                fill[q + 1] = m3
+            if m3:
+                for b in range(n):
+                    if redo[labels[b]]:
+                        for mm in range(GOMEGA + 1):
+                            V[b, mm] = Vp[b, mm]
+                _pass_start(parent, m3, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i,
+                            V, P, Pp)
+                it3, _ = _sweeps_into(solver, parent, fill, count, body1, body2, res, rn1, rn2,
+                                      w, target, inv_m, inv_i, V, n, Pp, k, vtol, pcap,
+                                      island_stop, active, seen, quiet, border, bstart, fw)
+                it += it3
+        for a in range(m):
+            c = keep[a]
+            P[c] += Pp[c]
+    for b in range(n):
+        for m in range(GOMEGA + 1):
             S[b, UB + m] = V[b, m]
     return it, residual
+
+
+@nb.njit(cache=True, _nrt=False, inline="always")
+def _pass_start(keep, m, body1, body2, res, rn1, rn2, w, target, inv_m, inv_i, V, P, Pp):
+    """The velocity pass's first impulses, applied to V.
+
+    For each contact keep[:m], what would bring it alone to its target, at most the first
+    solve's impulse there.
+    """
+    for a in range(m):
+        c = keep[a]
+        u = _normal_velocity(c, body1, body2, res, rn1, rn2, V)
+        Pp[c] = min(P[c], max(target[c] - u, 0.0) / w[c]) if w[c] > 0.0 else 0.0
+    for a in range(m):
+        c = keep[a]
+        d = Pp[c]
+        if d == 0.0:
+            continue
+        i, j = body1[c], body2[c]
+        V[i, GU] += d * res[c, NX] * inv_m[i]
+        V[i, GV] += d * res[c, NY] * inv_m[i]
+        V[i, GOMEGA] += d * rn1[c] * inv_i[i]
+        if j >= 0:
+            V[j, GU] -= d * res[c, NX] * inv_m[j]
+            V[j, GV] -= d * res[c, NY] * inv_m[j]
+            V[j, GOMEGA] -= d * rn2[c] * inv_i[j]
+
+
+@nb.njit(cache=True, _nrt=False, inline="always")
+def _normal_velocity(c, body1, body2, res, rn1, rn2, V):
+    """Contact c's relative normal velocity u_n = H V (positive: separating)."""
+    i, j = body1[c], body2[c]
+    nx, ny = res[c, NX], res[c, NY]
+    u = V[i, GU] * nx + V[i, GV] * ny + V[i, GOMEGA] * rn1[c]
+    if j >= 0:
+        u -= V[j, GU] * nx + V[j, GV] * ny + V[j, GOMEGA] * rn2[c]
+    return u
