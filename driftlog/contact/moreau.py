@@ -452,17 +452,11 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
         for q in range(count):
             anyredo = anyredo or redo[q]
         if anyredo:
-            m = 0
-            start2[0] = 0
-            for q in range(count):
-                if redo[q]:
-                    for a in range(start[q], start[q + 1]):
-                        c = order[a]
-                        keep[m] = c
-                        m += 1
-                        target[c] = plain[c]
-                        P[c] = 0.0
-                start2[q + 1] = m
+            m = _runs_of(count, redo, order, start, keep, start2)
+            for a in range(m):
+                c = keep[a]
+                target[c] = plain[c]
+                P[c] = 0.0
             for b in range(n):
                 if redo[labels[b]]:
                     for q in range(GOMEGA + 1):
@@ -545,16 +539,9 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
             # Newton's law at contacts that closed within the step, several at once, can make
             # energy as at the start (eq. (87)): such an island's pass again, all targets 0
             _gained_into(labels, count, n, S, V, inv_m, inv_i, e0, e1, floor, redo)
-            m3 = 0
-            fill[0] = 0
-            for q in range(count):
-                if redo[q]:
-                    for a in range(start2[q], start2[q + 1]):
-                        c = keep[a]
-                        parent[m3] = c
-                        m3 += 1
-                        target[c] = 0.0
-                fill[q + 1] = m3
+            m3 = _runs_of(count, redo, keep, start2, parent, fill)
+            for a in range(m3):
+                target[parent[a]] = 0.0
             if m3:
                 for b in range(n):
                     if redo[labels[b]]:
@@ -573,6 +560,24 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
         for m in range(GOMEGA + 1):
             S[b, UB + m] = V[b, m]
     return it, residual
+
+
+@nb.njit(cache=True, _nrt=False, inline="always")
+def _runs_of(count, pick, order, start, out, out_start):
+    """The contacts order[start[q]:start[q + 1]] of the islands q with pick[q], into out.
+
+    Island by island, in order (island q's: out[out_start[q]:out_start[q + 1]]); returns
+    their number.
+    """
+    m = 0
+    out_start[0] = 0
+    for q in range(count):
+        if pick[q]:
+            for a in range(start[q], start[q + 1]):
+                out[m] = order[a]
+                m += 1
+        out_start[q + 1] = m
+    return m
 
 
 @nb.njit(cache=True, _nrt=False, inline="always")
