@@ -335,6 +335,7 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     extra = []
     if scen["output"]["vtk"]:
         extra.append(write_vtk(path))
+    extra += _output_figures(path, scen["output"])
     result = TrackResult(path, logs, tracker.stats,
                          dict(level=level, rotation=rotation, reason=reason), scen, extra, writer,
                          flow_name=getattr(flow, "name", str(flow)))
@@ -371,6 +372,24 @@ def warn_unconverged_contacts(contact, radius):
         f"steps (up to {int(st['max_contacts']):,} contacts in one step); the deepest overlap "
         f"was {deep}: piles of many logs need more sweeps ([contact] iterations) or their logs "
         "overlap"), stacklevel=2)
+
+
+def _output_figures(path, output):
+    """``[output] figure`` and ``animation``: drawn beside the trajectory file; their paths."""
+    out = []
+    if output["figure"]:
+        import matplotlib.pyplot as plt
+
+        from driftlog.plots import plot_trajectories
+
+        png = Path(path).with_suffix(".png")
+        plt.close(plot_trajectories(path, out=png))
+        out.append(png)
+    if output["animation"]:
+        from driftlog.plots import animate
+
+        out.append(Path(animate(path, Path(path).with_suffix(".mp4"))))
+    return out
 
 
 def warn_long_exchange(coupling):

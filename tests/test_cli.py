@@ -90,6 +90,41 @@ def test_run_a_case_end_to_end(tmp_path, capsys):
     assert (tmp_path / "trajectories.png").stat().st_size > 10_000
 
 
+def test_track_draws_what_the_output_section_asks(tmp_path, capsys):
+    """``[output] figure`` and ``animation`` (they were read by nothing until 2026-12-07: a
+    scenario asking for a figure got none, without a word): ``driftlog track`` draws them
+    beside the trajectory file and says where.  ``driftlog run`` draws its own into the run
+    folder (once, not again for the keys)."""
+    import matplotlib.image as mpimg
+
+    traj = tmp_path / "t.nc"
+    assert main(["track", "vortex", "-o", str(traj), "--quiet", "--set", "time.end=10.0",
+                 "--set", "physics.level=tracer", "--set", "output.figure=true",
+                 "--set", "output.animation=true"]) == 0
+    out = capsys.readouterr().out
+    png = tmp_path / "t.png"
+    anim = [p for p in (tmp_path / "t.mp4", tmp_path / "t.gif") if p.exists()]
+    assert f"figure: {png}" in out and len(anim) == 1 and f"animation: {anim[0]}" in out
+    img = mpimg.imread(png)
+    assert img.shape[0] > 200 and img.shape[1] > 200 and img[..., :3].std() > 0.05  # drawn
+    assert anim[0].stat().st_size > 10_000
+    # without the keys: the trajectory file alone
+    bare = tmp_path / "bare"
+    bare.mkdir()
+    assert main(["track", "vortex", "-o", str(bare / "t.nc"), "--quiet", "--set",
+                 "time.end=10.0", "--set", "physics.level=tracer"]) == 0
+    assert sorted(p.name for p in bare.iterdir()) == ["t.nc"]
+    # run: its own figure and animation, the keys turned off for the tracking inside it
+    capsys.readouterr()
+    assert main(["run", "vortex", "--out", str(tmp_path / "r"), "--quiet", "--no-animation",
+                 "--set", "time.end=10.0", "--set", "physics.level=tracer",
+                 "--set", "output.figure=true", "--set", "output.animation=true"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("figure:") == 1 and "animation" not in out
+    assert sorted(p.name for p in (tmp_path / "r").iterdir()
+                  if p.suffix != ".nc") == ["trajectories.png"]
+
+
 def test_a_solved_case_flow_goes_to_the_run_folder(tmp_path):
     """``driftlog run CASE --out DIR`` (and ``cases run``): the flow the solver computes for a
     shipped case is written in DIR with the trajectories, not in ./driftlog-runs/CASE."""

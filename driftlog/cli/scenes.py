@@ -128,8 +128,11 @@ def cmd_run(args):
     from driftlog.files import check_output_dir
 
     out = check_output_dir(Path(args.out or Path("driftlog-runs") / name), "run folder")
-    # a shipped case's solved flow goes to the run folder too (--out)
-    scen = as_scenario(path, case_overrides(path, name, overrides(args.set), run_dir=out))
+    # a shipped case's solved flow goes to the run folder too (--out); run draws its own
+    # figure and animation into the run folder (--no-figure, --no-animation), not [output]'s
+    over = overrides(args.set)
+    over.setdefault("output", {}).update(figure=False, animation=False)
+    scen = as_scenario(path, case_overrides(path, name, over, run_dir=out))
     print(f"driftlog: running {path}")
     res = track(scen, output=out / "trajectories.nc", progress=not args.quiet)
     flow = flow_file(scen, res.path)
@@ -137,7 +140,7 @@ def cmd_run(args):
         print(f"  flow: {flow}")
     print(f"  trajectories: {res.path}")
     for f in res.extra_files:
-        print(f"  ParaView: {f}")
+        print(f"  {extra_label(f)}: {f}")
     if not args.no_figure:
         fig = out / "trajectories.png"
         plot_trajectories(res.path, out=fig)
@@ -150,6 +153,12 @@ def cmd_run(args):
           f"physics {res.physics['level']}" + (f" ({res.physics['reason']})"
                                                if res.physics["reason"] else ""))
     return 0
+
+
+def extra_label(f):
+    """What a side file of a run is, by its suffix: a figure, an animation or ParaView's."""
+    return {".png": "figure", ".mp4": "animation", ".gif": "animation"}.get(Path(f).suffix,
+                                                                         "ParaView")
 
 
 @command
@@ -181,7 +190,7 @@ def cmd_track(args):
         print(f"flow: {flow}")
     print(f"trajectories: {res.path}")
     for f in res.extra_files:
-        print(f"ParaView: {f}")
+        print(f"{extra_label(f)}: {f}")
     return 0
 
 

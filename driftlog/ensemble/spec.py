@@ -194,7 +194,8 @@ class Ensemble:
             else:
                 out.setdefault(p.section, {})[p.key] = v
         out["logs"] = logs
-        out["output"] = {"vtk": False}  # members write no side files
+        # members write no side files
+        out["output"] = {"vtk": False, "figure": False, "animation": False}
         return out
 
     def member_scenario(self, i: int, base: dict | None = None) -> Scenario:
