@@ -637,7 +637,7 @@ class Coupling:
                             L.state, L.face, L.length, where, g, x, y, theta, length, hint)
         if m == 0:
             return False
-        h = _arrays(s)[0]
+        h, hu, hv = _arrays(s)
         th = theta[:m]
         # numpy's cos and sin (into buffers), as before: numba's may differ in the last bit
         c, sn = np.cos(th, out=cos_t[:m]), np.sin(th, out=sin_t[:m])
@@ -650,14 +650,14 @@ class Coupling:
             # pending: given over the coming interval's steps at the rate it was received
             # over the last one (docs/model.md 17.6)
             self._t_rem = self._span
-            self._courant(h)
+            self._courant(h, hu, hv)
             self.undelivered[0] += ux
             self.undelivered[1] += uy
             return False
         self._give(1.0, ux, uy)  # every step: all of it, now
         return True
 
-    def _courant(self, h):
+    def _courant(self, h, hu, hv):
         """Track the exchange Courant number at the faces the pending reaction goes to.
 
         |u| span / sqrt(A) of the water there: how many cells it crosses in an exchange
@@ -667,7 +667,6 @@ class Coupling:
         if f.size == 0 or self._span <= 0.0:
             return
         s = self.solver
-        _, hu, hv = _arrays(s)
         hf = h[f]
         wet = hf > s.dry_depth
         if not wet.any():

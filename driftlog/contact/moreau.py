@@ -397,7 +397,7 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
     u_free = fw[6]
     Pp = fw[7]
     e0, e1, floor = fw[8], fw[9], fw[10]
-    bounce = fw[11]  # the velocity pass's target of a contact that closes within the step
+    bounce = fw[11]  # each contact's target in the velocity pass, if it touches
     order, quiet, keep = iw[0], iw[1], iw[2]
     parent, labels, start, fill, seen, start2 = iw[3], iw[4], iw[5], iw[6], iw[7], iw[8]
     border, bstart = iw[9], iw[10]
@@ -427,7 +427,8 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
         u_free[c] = uf
         target[c] = uf - (g0 + dg + slop) / dt
         plain[c] = target[c]
-        bounce[c] = -eps * u0 if u0 < 0.0 else 0.0
+        # the velocity pass's target: 0, or Newton's law for one that closes within the step
+        bounce[c] = -eps * u0 if u0 < 0.0 and res[c, GAP] > tol else 0.0
         if res[c, GAP] <= tol and u0 < 0.0:
             # an impact at the step's start: Newton's law, the impulse given then (a contact
             # that closes within the step ends touching: its law is the velocity pass's)
@@ -512,17 +513,17 @@ def moreau_solve_into(S0, S, inv_m, inv_i, n, body1, body2, res, k, dt, eps, tol
         for a in range(start[q], start[q + 1]):
             c = order[a]
             if res[c, GAP] <= tol or g_free[c] <= tol:
-                t = 0.0 if res[c, GAP] <= tol else bounce[c]
                 u = _normal_velocity(c, body1, body2, res, rn1, rn2, V)
-                if u < t - vtol:
+                if u < bounce[c] - vtol:
                     need = True
+                    break
         if need:
             for a in range(start[q], start[q + 1]):
                 c = order[a]
                 if res[c, GAP] <= tol or g_free[c] <= tol:
                     keep[m] = c
                     m += 1
-                    target[c] = 0.0 if res[c, GAP] <= tol else bounce[c]
+                    target[c] = bounce[c]
         start2[q + 1] = m
     if m:
         if eps > 0.0:  # the end velocities before the pass, to solve it again (eq. (87))
