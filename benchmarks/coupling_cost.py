@@ -125,8 +125,8 @@ class Checkpoints:
                 {k.replace(" ", "_").replace("-", ""): v for k, v in c.cpu.items()},
                 c.solver_steps))
 
-        def _write(w, solver):
-            write(w, solver)
+        def _write(w, solver, **kw):
+            write(w, solver, **kw)
             cp.hit(solver.t, None)
 
         Tracker._record, run._write = _record, _write

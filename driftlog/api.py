@@ -202,17 +202,17 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         check_output(out, "trajectory file", suffixes=(".nc", ".nc4"))
         estimate_run(scen, out)
     coupling = None
+    partial = out.with_name(out.name + ".partial")
+    resume = resume and writer is None and partial.is_file()
     if scen["coupling"]["enabled"]:  # the logs act on the flow: solver and tracker together
-        from driftlog.coupling import start_coupling
+        from driftlog.coupling import resume_coupling, start_coupling
 
         if flow is not None:
             raise ScenarioError("coupling.enabled", True, "a coupled run computes its own flow: "
                                 "no flow can be given")
-        if resume and writer is None and out.with_name(out.name + ".partial").is_file():
-            # refused before the solver's spin-up rewrites the coupled flow file
-            raise ScenarioError("coupling.enabled", True, "a coupled run cannot be resumed "
-                                f"(--resume, {out}.partial): rerun it from the start")
-        coupling = start_coupling(scen, out)
+        # resumed: the solver at the flow file's restart, not spun up again (which would
+        # rewrite the coupled flow file)
+        coupling = resume_coupling(scen, out) if resume else start_coupling(scen, out)
         flow = coupling.flow
     if flow is None:
         flow = flow_from_scenario(scen, progress=progress)
@@ -251,9 +251,10 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
                  integrator=scen["integrator"]["method"],
                  flow_source=getattr(flow, "name", str(flow)))
     names = getattr(contact, "obstacle_names", ()) if contact is not None else ()
-    partial = out.with_name(out.name + ".partial")
-    resume = resume and writer is None and partial.is_file()
     kw = dict(resume=True) if resume else {}
+    until = None
+    if resume and coupling is not None:  # the logs where the coupled flow's restart is
+        until = kw["until"] = coupling.resumed["t"]
     writer = (writer or TrajectoryWriter)(out, logs, attrs=attrs,
                                           flush_interval=scen["output"]["flush_interval"],
                                           obstacle_names=names, **kw)
@@ -290,7 +291,14 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     if resume:
         from driftlog.trajectory import last_states
 
-        state = last_states(partial)
+        state = last_states(partial, until=until)
+        if until is not None and (state is None or state[0] != until):
+            from driftlog.errors import FlowFileError
+
+            raise FlowFileError(f"{partial}: cannot resume the coupled run: its last record "
+                                f"is at {'none' if state is None else state[0]} s, its flow's "
+                                f"restart at {until} s ({coupling.writer.partial}); rerun it "
+                                "from the start, without --resume")
         if state is not None:
             t_last, index, columns = state
             if order is not None:  # the file's logs -> the tracker's
@@ -306,9 +314,7 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         kept = writer.close(finalize=False)  # keep the partial file: nothing computed is lost
         end = f"{t_end + origin:g} s" if t_end is not None else "the flow's end"
         if isinstance(kept, Path) and kept.exists():
-            how = (f"driftlog track SCENARIO -o {out} --resume continues it" if coupling is None
-                   else "a coupled run cannot be resumed (the flow is not stored to the last "
-                   "bit): rerun it from the start")
+            how = f"driftlog track SCENARIO -o {out} --resume continues it"
             exc.add_note(f"kept {kept}: {getattr(writer, 'nobs', '?')} observations and "
                          f"{getattr(writer, 'nhit', '?')} contact hits up to t = "
                          f"{tracker.t + origin:.6g} s of {end}; {how}")

@@ -57,7 +57,7 @@ from driftlog.solver.momentum import _arrays, face_momentum
 from driftlog.tracker import Tracker
 
 __all__ = ["COUPLING_SECTION", "CoupledTracker", "SolverFlow", "Coupling", "FlowOutput",
-           "start_coupling", "coupled_flow_path"]
+           "start_coupling", "resume_coupling", "coupled_flow_path"]
 
 
 class SolverFlow(MeshFlowField):
@@ -409,9 +409,18 @@ class CoupledTracker(Tracker):
         return self.coupling.stops(self, fixed[keep])
 
     def resume_from(self, t, index, columns):
-        """A coupled run cannot be resumed (the flow is not stored to the last bit)."""
-        raise ScenarioError("coupling.enabled", True, "a coupled run cannot be resumed: "
-                            "rerun it from the start")
+        """``Tracker.resume_from``, and the momentum accounts kept with the flow's restart.
+
+        ``t`` must be the restart's time (``resume_coupling``): the solver is there.
+        """
+        kept = self.coupling.resumed
+        if kept is None or t != kept["t"]:
+            raise RuntimeError(f"resuming the logs at {t} s, the coupled flow at "
+                               f"{None if kept is None else kept['t']} s")
+        super().resume_from(t, index, columns)
+        sc = kept["scalars"]
+        np.copyto(self.received, kept["received"])
+        self.to_contacts[:] = sc["to_contacts_x"], sc["to_contacts_y"]
 
 
 # the region of the flow's node values: margin = REGION_MARGIN x (distance the fastest log or
@@ -485,6 +494,8 @@ class Coupling:
         self._seen = np.zeros(nf, np.int64)
         self._shares = 0
         self._out = np.zeros(4)
+        self._kept = None  # a restart kept before the hand-over at an output time (``_keep``)
+        self.resumed = None  # the restart a resumed run started from (``restore``)
         # the largest exchange Courant number |u| span / sqrt(area) met at a face under the
         # logs (interval mode; docs/model.md 17.6: validated up to EXCHANGE_COURANT_MAX)
         self.exchange_courant = 0.0
@@ -543,11 +554,12 @@ class Coupling:
             cpu["flow nodes"] += c1 - c
             # the reaction enters the solver's next step; the logs' interval starts from the
             # state before it (one node projection per step, not two)
-            self.handover(tracker)
+            out_now = self.writer is not None and bool(np.any(np.abs(outputs - s.t) <= tol))
+            self.handover(tracker, keep=out_now)
             c2 = clock()
             cpu["hand-over"] += c2 - c1
-            if self.writer is not None and np.any(np.abs(outputs - s.t) <= tol):
-                self.writer(s)
+            if out_now:
+                self._write_output(tracker)
             c3 = clock()
             cpu["flow file"] += c3 - c2
             # the solver's steps of one exchange interval: one step, or as many whole steps
@@ -578,17 +590,86 @@ class Coupling:
             c4 = clock()
             cpu["solver"] += c4 - c3
             self.flow.push(s)
+            if tracker.physics.level == "full":
+                # the flow's dU/dt is the new step's (full physics reads it: the pressure
+                # gradient and added mass): the flow at the logs and the first stage kept from
+                # the last sub-step, on the old step's, are sampled again, as at a snapshot of
+                # a stored flow (Tracker.advance, docs/model.md section 11)
+                tracker.invalidate_flow()
+                tracker._d0_valid = False
             c = clock()
             cpu["flow nodes"] += c - c4
             yield s.t
             c5 = clock()
             cpu["tracker"] += c5 - c
             c = c5
-        self.handover(tracker)
+        self.handover(tracker, keep=self.writer is not None)
         if self._npend:  # interval mode: what is pending goes now, at the end
             self._give(1.0)
         if self.writer is not None:
-            self.writer(s)
+            self._write_output(tracker)
+
+    def _write_output(self, tracker):
+        """The flow file's snapshot now, and the restart kept before the hand-over.
+
+        The trajectories are flushed first: a run stopped between the two files resumes from
+        the flow's restart, at most one output before the trajectories' last record (whose
+        later records it writes again; ``resume_coupling``).
+        """
+        if tracker.writer is not None:
+            tracker.writer.flush()
+        self.writer(self.solver, self._kept)
+        self._kept = None
+
+    def _keep(self, tracker):
+        """What a resumed run needs at an output time, before the hand-over (``restart``).
+
+        The solver's state before the reaction enters it (the logs' next interval starts
+        from it), the momentum each log received and the reaction still pending, and the
+        coupling's counters.
+        """
+        s = self.solver
+        f = self._touched[:self._npend].copy()
+        scalars = dict(given_x=self.given[0], given_y=self.given[1],
+                       undelivered_x=self.undelivered[0], undelivered_y=self.undelivered[1],
+                       to_contacts_x=tracker.to_contacts[0], to_contacts_y=tracker.to_contacts[1],
+                       solver_steps=self.solver_steps, handovers=self.handovers,
+                       exchange_courant=self.exchange_courant, t_rem=self._t_rem,
+                       span=self._span, step=self._step, dt=self._dt,
+                       margin_factor=self.margin_factor, widenings=self._widenings,
+                       flow_widenings=self.flow.widenings, region_nodes=self.flow.region_nodes,
+                       **{f"cpu_{i}": v for i, v in enumerate(self.cpu.values())})
+        self._kept = dict(t=float(s.t), hu=np.array(s.hu), hv=np.array(s.hv),
+                          received=tracker.received.copy(), pending_face=f,
+                          pending_x=self._sx[f], pending_y=self._sy[f], scalars=scalars)
+
+    def restore(self, kept):
+        """Put back the counters and the pending reaction ``_keep`` kept (``resume_coupling``).
+
+        The solver's state is set by ``load_restart``, the logs' accounts by
+        ``CoupledTracker.resume_from``.
+        """
+        self.resumed = kept
+        sc = kept["scalars"]
+        self.given[:] = sc["given_x"], sc["given_y"]
+        self.undelivered[:] = sc["undelivered_x"], sc["undelivered_y"]
+        self.solver_steps = int(sc["solver_steps"])
+        self.handovers = int(sc["handovers"])
+        self.exchange_courant = float(sc["exchange_courant"])
+        self._t_rem, self._span = float(sc["t_rem"]), float(sc["span"])
+        self._step, self._dt = float(sc["step"]), float(sc["dt"])
+        self.margin_factor = float(sc["margin_factor"])
+        self._widenings = int(sc["widenings"])
+        self.flow.widenings = int(sc["flow_widenings"])
+        self.flow.region_nodes = int(sc["region_nodes"])
+        for i, k in enumerate(self.cpu):
+            self.cpu[k] = float(sc.get(f"cpu_{i}", 0.0))
+        f = np.asarray(kept["pending_face"], np.int64)
+        self._touched = np.empty(self.solver.mesh.n_faces, np.int64)
+        self._touched[:f.size] = f
+        self._npend = f.size
+        self._sx[f] = kept["pending_x"]
+        self._sy[f] = kept["pending_y"]
 
     def focus(self, tracker):
         """Restrict the flow's node values to where the logs can sample in the coming step.
@@ -614,12 +695,15 @@ class Coupling:
         self.flow.focus(x[:m], y[:m], self.margin_factor * self._dt * speed
                         + 0.5 * self._length)
 
-    def handover(self, tracker):
+    def handover(self, tracker, keep=False):
         """Give the water the opposite of what the logs received since the last call.
 
+        ``keep``: an output time; what a resumed run needs is kept first (``_keep``).
         Returns True when the solver's state changed.
         """
         tracker._contact_changes()
+        if keep:
+            self._keep(tracker)
         L = tracker.logs
         s = self.solver
         b = self._rows
@@ -704,10 +788,16 @@ class FlowOutput:
 
     Written as ``<path>.partial`` (each snapshot flushed) and renamed to ``path`` when the run
     completes, as the solver's own flow files: a run that stops leaves no file at ``path``
-    that a later run could take for the whole coupled flood.
+    that a later run could take for the whole coupled flood.  Beside the last snapshot, the
+    restart a stopped run resumes from (``Coupling._keep``): the solver's exact momentum
+    before that time's hand-over (``restart_momentum_x/_y``), the momentum each log received
+    (``coupling_received_x/_y``), the reaction pending on faces (``coupling_pending_*``) and
+    the coupling's counters (attributes ``coupling_restart_*``, ``coupling_restart_time``
+    last).  ``resume``: reopen the partial file and write after its snapshot number
+    ``resume`` (its restart's, ``resume_coupling``).
     """
 
-    def __init__(self, path, solver, attrs):
+    def __init__(self, path, solver, attrs, resume=None):
         from driftlog.solver.run import _create
 
         self.path = Path(path)
@@ -715,17 +805,55 @@ class FlowOutput:
         self.snapshots = 0
         self._last = None
         self._closed = None  # the path once closed
-        self._w = _create(self.partial, solver, attrs)
+        if resume is None:
+            self._w = _create(self.partial, solver, attrs)
+            return
+        from driftlog.flowfile import FlowFileWriter
 
-    def __call__(self, solver):
-        """Write the solver's state as the next snapshot (once per time)."""
+        self._w = FlowFileWriter(self.partial, solver.mesh, solver.bed, append=True)
+        self._w.n = self.snapshots = int(resume)  # later snapshots are written again
+        self._w._last_t = self._last = float(solver.t)
+
+    def __call__(self, solver, kept=None):
+        """Write the solver's state as the next snapshot (once per time), with its restart."""
         from driftlog.solver.run import _write
 
         if self.snapshots and self._last == solver.t:
             return
-        _write(self._w, solver)
+        _write(self._w, solver, sync=False,
+               momentum=None if kept is None else (kept["hu"], kept["hv"]))
+        if kept is not None:
+            self._write_restart(kept)
+        self._w.ds.sync()
         self._last = solver.t
         self.snapshots += 1
+
+    def _write_restart(self, kept):
+        ds = self._w.ds
+        rec = kept["received"]
+        if "coupling_received_x" not in ds.variables:
+            ds.createDimension("coupling_log", rec.shape[0])
+            ds.createDimension("coupling_pending", None)
+            for axis in "xy":
+                v = ds.createVariable(f"coupling_received_{axis}", "f8", ("coupling_log",))
+                v.setncatts(dict(long_name=f"momentum each log received from the water since "
+                                 f"the last hand-over, {axis} component (for resuming)",
+                                 units="kg m s-1"))
+                v = ds.createVariable(f"coupling_pending_{axis}", "f8", ("coupling_pending",))
+                v.setncatts(dict(long_name=f"reaction pending on a face, {axis} component "
+                                 "(for resuming)", units="kg m s-1"))
+            v = ds.createVariable("coupling_pending_face", "i8", ("coupling_pending",))
+            v.setncatts(dict(long_name="faces of the pending reaction, in their order"))
+        ds.variables["coupling_received_x"][:] = rec[:, 0]
+        ds.variables["coupling_received_y"][:] = rec[:, 1]
+        f = kept["pending_face"]
+        if f.size:
+            ds.variables["coupling_pending_face"][:f.size] = f
+            ds.variables["coupling_pending_x"][:f.size] = kept["pending_x"]
+            ds.variables["coupling_pending_y"][:f.size] = kept["pending_y"]
+        ds.setncatts({"coupling_restart_pending": f.size,
+                      **{f"coupling_restart_{k}": v for k, v in kept["scalars"].items()}})
+        ds.setncattr("coupling_restart_time", kept["t"])
 
     def close(self, finalize=True, **attrs):
         """Add global attributes and close the file; returns its path.
@@ -743,6 +871,19 @@ class FlowOutput:
             os.replace(self.partial, self.path)
             self._closed = self.path
         return self._closed
+
+
+def _coupled_attrs(scenario):
+    attrs = dict(scenario.attrs())
+    attrs["title"] = (scenario["title"] or "driftlog") + " (coupled flow)"
+    attrs["coupled"] = 1
+    return attrs
+
+
+def _coupling(scenario, solver, out):
+    c = scenario["coupling"]
+    return Coupling(solver, points=c["points"], water_density=scenario["physics"]["water_density"],
+                    dry_depth=scenario["flow"]["dry_depth"], writer=out, interval=c["interval"])
 
 
 def start_coupling(scenario, trajectory_path):
@@ -763,13 +904,70 @@ def start_coupling(scenario, trajectory_path):
         raise ScenarioError("time.start", t0, f"a coupled run starts at or after the solver's "
                             f"start ({solver.t} s, [solver] start)")
     solver.advance_to(t0)  # spin-up, uncoupled
-    attrs = dict(scenario.attrs())
-    attrs["title"] = (scenario["title"] or "driftlog") + " (coupled flow)"
-    attrs["coupled"] = 1
-    out = FlowOutput(path, solver, attrs)
-    c = scenario["coupling"]
-    return Coupling(solver, points=c["points"], water_density=scenario["physics"]["water_density"],
-                    dry_depth=scenario["flow"]["dry_depth"], writer=out, interval=c["interval"])
+    return _coupling(scenario, solver, FlowOutput(path, solver, _coupled_attrs(scenario)))
+
+
+def resume_coupling(scenario, trajectory_path):
+    """The ``Coupling`` of a stopped coupled run, at the restart its flow file kept.
+
+    The solver takes the state of the restart's snapshot (the last complete one), the coupling
+    its counters and pending reaction (``Coupling.restore``); the logs take theirs from the
+    trajectories at the same time (``CoupledTracker.resume_from``; the trajectories, flushed
+    before each snapshot, may hold one more output, written again).  The flow file is
+    continued after that snapshot.  Refused, naming the file, when the partial flow file is
+    missing, kept no restart, or was computed from another scenario.
+    """
+    import netCDF4
+
+    from driftlog.errors import FlowFileError
+    from driftlog.solver.config import build_solver, estimate_mesh
+    from driftlog.solver.run import load_restart
+    from driftlog.trajectory import _recover
+
+    sec = scenario["solver"]
+    estimate_mesh(sec)
+    path = coupled_flow_path(scenario, trajectory_path)
+    partial = path.with_name(path.name + ".partial")
+    if not partial.is_file():
+        raise FlowFileError(f"{partial}: cannot resume the coupled run: its flow file is "
+                            "missing (the logs need the flow they acted on); rerun it from "
+                            "the start, without --resume")
+    try:
+        netCDF4.Dataset(partial).close()
+    except OSError as exc:
+        raise FlowFileError(f"{partial}: cannot resume the coupled run from it: not readable "
+                            f"as netCDF ({exc}); rerun it from the start, without --resume") \
+            from None
+    try:
+        netCDF4.Dataset(partial, "a").close()
+    except OSError:  # killed while open: HDF5 refuses to write it again, reads it
+        _recover(partial)
+    with netCDF4.Dataset(partial) as ds:
+        ds.set_auto_maskandscale(False)
+        a = {k: ds.getncattr(k) for k in ds.ncattrs()}
+        if "coupling_restart_time" not in a or "coupling_received_x" not in ds.variables:
+            raise FlowFileError(f"{partial}: cannot resume the coupled run from it: it kept no "
+                                "restart (written by a driftlog before 2026-12-07, or stopped "
+                                "before its first output); rerun it from the start")
+        if a.get("scenario_resolved") != scenario.to_json():
+            raise FlowFileError(f"{partial}: cannot resume the coupled run from it: it was "
+                                "computed from another scenario (its scenario_resolved "
+                                "differs); rerun it from the start, without --resume")
+        sc = {k[len("coupling_restart_"):]: v for k, v in a.items()
+              if k.startswith("coupling_restart_")}
+        npend = int(sc.pop("pending"))
+        kept = dict(t=float(sc.pop("time")),
+                    received=np.column_stack([ds.variables["coupling_received_x"][:],
+                                              ds.variables["coupling_received_y"][:]]),
+                    pending_face=np.array(ds.variables["coupling_pending_face"][:npend]),
+                    pending_x=np.array(ds.variables["coupling_pending_x"][:npend]),
+                    pending_y=np.array(ds.variables["coupling_pending_y"][:npend]),
+                    scalars=sc)
+    solver = build_solver(sec)
+    n = load_restart(solver, partial, at=kept["t"])
+    coupling = _coupling(scenario, solver, FlowOutput(path, solver, None, resume=n))
+    coupling.restore(kept)
+    return coupling
 
 
 def coupled_flow_path(scenario, trajectory_path) -> Path:

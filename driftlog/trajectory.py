@@ -164,10 +164,14 @@ class TrajectoryWriter:
         Records between flushes (sooner when ``MAX_BUFFERED_OBS`` observations are buffered).
     resume : bool
         Append to an existing ``.partial`` file (after a crash) instead of starting afresh.
+    until : float, optional
+        With ``resume``: continue after the records up to this time only (a coupled run
+        resumes where its flow was kept, which may be one output before its last record):
+        the records after it are written again by the resumed run.
     """
 
     def __init__(self, path, logs, attrs=None, flush_interval=10, resume=False,
-                 obstacle_names=()):
+                 obstacle_names=(), until=None):
         self.path = Path(path)
         self.partial = self.path.with_name(self.path.name + ".partial")
         self.flush_interval = int(flush_interval)
@@ -183,10 +187,13 @@ class TrajectoryWriter:
             self.ds.set_auto_maskandscale(False)  # times are written on the run's clock
             for v in self.ds.variables.values():
                 _small_chunk_cache(v)
-            self.nobs = len(self.ds.dimensions["obs"])
+            self.nobs = _obs_count(self.ds)
             # hits belong to the records up to their time: those after the last record are
             # recomputed by the resumed run (and overwritten here)
-            t = self.ds["time"][:]
+            t = self.ds["time"][:self.nobs]
+            if until is not None:  # records are appended in time order
+                self.nobs = int(np.searchsorted(t, until, side="right"))
+                t = t[:self.nobs]
             t_last = float(t.max()) if t.size else -np.inf
             self.nhit = int(np.sum(self.ds["hit_time"][:] <= t_last)) if t.size else 0
             return
@@ -287,6 +294,7 @@ class TrajectoryWriter:
             self.nhit += k
             self._hbuf = []
         self.ds.hit_count = self.nhit
+        self.ds.obs_count = self.nobs
 
     def hits(self, hits: dict):
         """Append contact events (dict of arrays time, log_id, other, impulse, x, y).
@@ -325,6 +333,9 @@ class TrajectoryWriter:
 def _recover(partial):
     """Copy a ``.partial`` file left by a killed process into a fresh one, in place.
 
+    Also the partial flow file of a killed coupled run (``driftlog.coupling.resume_coupling``):
+    each variable keeps its chunking and compression.
+
     HDF5 marks a file open for writing; after a SIGKILL the mark stays and the file can be
     read but not opened for writing again.  Everything readable is copied (the records and
     hits up to the last flush); the old file is kept as ``.partial.killed`` until the copy is
@@ -342,7 +353,7 @@ def _recover(partial):
         for name, var in a.variables.items():
             attrs = {k: var.getncattr(k) for k in var.ncattrs() if k != "_FillValue"}
             fill = var.getncattr("_FillValue") if "_FillValue" in var.ncattrs() else None
-            kw = _obs_storage(b, True) if var.dimensions == ("obs",) else {}
+            kw = _obs_storage(b, True) if var.dimensions == ("obs",) else _storage_of(var)
             v = _small_chunk_cache(b.createVariable(name, var.dtype, var.dimensions,
                                                     fill_value=fill, **kw))
             v.setncatts(attrs)
@@ -353,6 +364,20 @@ def _recover(partial):
     os.remove(old)
 
 
+def _storage_of(var):
+    """The chunking and compression of a variable, as ``createVariable`` keywords."""
+    kw = {}
+    chunks = var.chunking()
+    if isinstance(chunks, list):
+        kw["chunksizes"] = chunks
+    f = var.filters() or {}
+    if f.get("zlib"):
+        kw.update(zlib=True, complevel=f.get("complevel", 4))
+    if f.get("shuffle"):
+        kw["shuffle"] = True
+    return kw
+
+
 _BLOCK = 1 << 20  # observations per write when rewriting contiguous
 
 
@@ -361,13 +386,15 @@ def _to_contiguous(src, dst):
     tmp = Path(str(dst) + ".tmp")
     with netCDF4.Dataset(src) as a, netCDF4.Dataset(tmp, "w", format="NETCDF4") as b:
         a.set_auto_maskandscale(False)  # copied as stored (times on the run's clock)
-        idx = a["trajectory_index"][:]
+        nobs = _obs_count(a)  # rows after obs_count: stale, from before a resume
+        idx = a["trajectory_index"][:nobs]
         ntraj = len(a.dimensions["trajectory"])
         rows = np.bincount(idx, minlength=ntraj)
         nobs = idx.size
         order = np.argsort(idx, kind="stable")
         del idx  # memory: the sort order and one variable at a time (16 bytes per observation)
-        b.setncatts({k: a.getncattr(k) for k in a.ncattrs() if k != "hit_count"})
+        b.setncatts({k: a.getncattr(k) for k in a.ncattrs()
+                     if k not in ("hit_count", "obs_count")})
         b.createDimension("trajectory", ntraj)
         b.createDimension("obs", nobs)
         nhit = int(a.getncattr("hit_count")) if "hit_count" in a.ncattrs() else \
@@ -383,6 +410,7 @@ def _to_contiguous(src, dst):
             v.set_auto_maskandscale(False)
             data = var[:]
             if var.dimensions == ("obs",):
+                data = data[:nobs]
                 for start in range(0, nobs, _BLOCK):  # permuted block by block
                     v[start:start + _BLOCK] = data[order[start:start + _BLOCK]]
                 continue
@@ -414,6 +442,9 @@ def open_trajectories(path):
     nhit = ds.attrs.get("hit_count")
     if nhit is not None and int(nhit) < ds.sizes.get("hit", 0):  # a partial file's stale rows
         ds = ds.isel(hit=slice(0, int(nhit)))
+    nobs = ds.attrs.get("obs_count")
+    if nobs is not None and int(nobs) < ds.sizes.get("obs", 0):  # the same for records
+        ds = ds.isel(obs=slice(0, int(nobs)))
     if "trajectory_index" not in ds and "rowSize" in ds:
         ds = ds.assign_coords(trajectory_index=("obs", np.repeat(
             np.arange(ds.sizes["trajectory"]), ds["rowSize"].values)))
@@ -423,23 +454,35 @@ def open_trajectories(path):
     return ds
 
 
-def last_states(path):
+def _obs_count(ds):
+    """Rows of ``obs`` that hold records (``obs_count``; rows after it are stale)."""
+    n = len(ds.dimensions["obs"])
+    if "obs_count" in ds.ncattrs():
+        n = min(n, int(ds.getncattr("obs_count")))
+    return n
+
+
+def last_states(path, until=None):
     """Where a stopped run can resume: the time of its last record and each log's last state.
 
     Returns (time, index, columns) with the last observation of every log that has one (logs
     that left the domain earlier keep their last, 'left_domain', observation), or None if the
-    file holds no record.
+    file holds no record.  ``until``: the records up to this time only.
     """
     with netCDF4.Dataset(path) as ds:
         ds.set_auto_maskandscale(False)  # times on the run's clock (as the tracker counts)
-        t = ds["time"][:]
+        n = _obs_count(ds)
+        t = ds["time"][:n]
+        if until is not None:  # records are appended in time order
+            n = int(np.searchsorted(t, until, side="right"))
+            t = t[:n]
         if t.size == 0:
             return None
-        ti = ds["trajectory_index"][:]
+        ti = ds["trajectory_index"][:n]
         order = np.lexsort((t, ti))
         last = order[np.flatnonzero(np.diff(np.append(ti[order], -1)) != 0)]
         names = [*OBS_VARS, *(k for k in EXTRA_OBS_VARS if k in ds.variables)]
-        cols = {name: ds[name][:][last] for name in names}
+        cols = {name: ds[name][:n][last] for name in names}
         return float(t.max()), ti[last], cols
 
 

@@ -114,7 +114,7 @@ def _create(path, solver, attrs):
     return w
 
 
-def _write(w, solver):
+def _write(w, solver, sync=True, momentum=None):
     # the state once (on a renumbered mesh each read is a copy), one flush for the snapshot
     # and the fields beside it
     h, hu, hv = solver.h, solver.hu, solver.hv
@@ -133,17 +133,23 @@ def _write(w, solver):
                                      ex["max_water_level"], np.nan)
     for name, arr in ex.items():
         w.ds.variables[name][:] = arr
-    w.ds.variables[RESTART_FIELDS[0]][:] = hu
-    w.ds.variables[RESTART_FIELDS[1]][:] = hv
+    # ``momentum``: the restart's (hu, hv) when not the state's (a coupled run's, before the
+    # hand-over; driftlog.coupling.FlowOutput)
+    rx, ry = (hu, hv) if momentum is None else momentum
+    w.ds.variables[RESTART_FIELDS[0]][:] = rx
+    w.ds.variables[RESTART_FIELDS[1]][:] = ry
     w.ds.setncatts({"restart_time": solver.t, "restart_steps": solver.steps,
                     "initial_volume": solver.initial_volume})
-    w.ds.sync()
+    if sync:
+        w.ds.sync()
 
 
-def load_restart(solver, path):
+def load_restart(solver, path, at=None):
     """Set the solver to the last snapshot of its flow file ``path`` (state, balance, extremes).
 
-    Returns the number of snapshots in the file.
+    ``at``: the snapshot at this time instead (a coupled run's restart, whose next snapshot
+    may have been cut off while it was written); the restart data must be that time's.
+    Returns the number of snapshots up to it.
     """
     path = Path(path)
     with netCDF4.Dataset(path) as ds:
@@ -154,6 +160,13 @@ def load_restart(solver, path):
             raise FlowFileError(f"{path}: cannot resume from it: not written by the driftlog "
                                 f"solver (missing {', '.join(missing) or 'restart_time'})")
         n = len(ds.dimensions["time"])
+        if at is not None:
+            times = np.asarray(ds.variables["time"][:n])
+            hit = np.flatnonzero(times == at)
+            if hit.size == 0:
+                raise FlowFileError(f"{path}: cannot resume from it: no snapshot at its "
+                                    f"restart time {at} s")
+            n = int(hit[0]) + 1
         nf = ds.dimensions[FACE_DIM].size
         if nf != solver.mesh.n_faces:
             raise FlowFileError(f"{path}: has {nf} faces, the solver's mesh "
