@@ -177,7 +177,7 @@ def _contact_model(scen, flow):
 
 
 def track(scenario, flow=None, output=None, progress=False, overrides=None,
-          resume=False, writer=None) -> TrackResult:
+          resume=False, writer=None, resume_hint=None) -> TrackResult:
     """Run the debris scenario: flow (given, or from the scenario), logs, tracker, outputs.
 
     Parameters
@@ -195,6 +195,9 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         with the ``TrajectoryWriter`` interface (``record``, ``hits``, ``flush``, ``set_attrs``,
         ``close``); default ``TrajectoryWriter``.  Ensembles pass a recorder that reduces the
         records as they come instead of (or beside) writing them.
+    resume_hint : str, optional
+        The command that continues a stopped run, for the note an interrupted run adds to
+        its exception (default: ``driftlog track SCENARIO -o OUTPUT --resume``).
     """
     scen = as_scenario(scenario, overrides)
     out = Path(output or scen["output"]["path"])
@@ -314,7 +317,7 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         kept = writer.close(finalize=False)  # keep the partial file: nothing computed is lost
         end = f"{t_end + origin:g} s" if t_end is not None else "the flow's end"
         if isinstance(kept, Path) and kept.exists():
-            how = f"driftlog track SCENARIO -o {out} --resume continues it"
+            how = f"{resume_hint or f'driftlog track SCENARIO -o {out} --resume'} continues it"
             exc.add_note(f"kept {kept}: {getattr(writer, 'nobs', '?')} observations and "
                          f"{getattr(writer, 'nhit', '?')} contact hits up to t = "
                          f"{tracker.t + origin:.6g} s of {end}; {how}")

@@ -90,6 +90,41 @@ def test_run_a_case_end_to_end(tmp_path, capsys):
     assert (tmp_path / "trajectories.png").stat().st_size > 10_000
 
 
+def test_run_stopped_then_resumed_with_the_command_it_names(tmp_path, capsys):
+    """An interrupted ``driftlog run`` names the command that continues it (``run ...
+    --resume``, not ``track``, whose paths would not be the run folder's) and that command
+    gives the uninterrupted run's trajectories."""
+    import shlex
+
+    from driftlog.trajectory import open_trajectories
+
+    args = ["vortex", "--quiet", "--no-figure", "--no-animation", "--set", "time.end=20.0"]
+    assert main(["run", *args, "--out", str(tmp_path / "full")]) == 0
+    from driftlog.tracker import Tracker
+
+    real = Tracker._record
+
+    def stop(self):
+        if self.t > 12.0:
+            raise KeyboardInterrupt
+        real(self)
+
+    Tracker._record = stop
+    try:
+        assert main(["run", *args, "--out", str(tmp_path / "r")]) == 130
+    finally:
+        Tracker._record = real
+    err = capsys.readouterr().err
+    hint = err.split("; ")[-1].split(" continues it")[0].strip()
+    words = shlex.split(hint)
+    assert words[:2] == ["driftlog", "run"] and words[-1] == "--resume"
+    assert main(words[1:]) == 0
+    a = open_trajectories(tmp_path / "full" / "trajectories.nc")
+    b = open_trajectories(tmp_path / "r" / "trajectories.nc")
+    for v in ("time", "x", "y", "theta"):
+        np.testing.assert_array_equal(a[v].values, b[v].values)
+
+
 def test_track_draws_what_the_output_section_asks(tmp_path, capsys):
     """``[output] figure`` and ``animation`` (they were read by nothing until 2026-12-07: a
     scenario asking for a figure got none, without a word): ``driftlog track`` draws them

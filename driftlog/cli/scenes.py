@@ -115,6 +115,8 @@ def add_run(sub):
     p.add_argument("--no-figure", action="store_true", help="skip the figure")
     p.add_argument("--no-animation", action="store_true", help="skip the animation")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--resume", action="store_true",
+                   help="continue a stopped run from its folder's trajectories.nc.partial")
     add_set(p)
     p.set_defaults(run=cmd_run)
 
@@ -134,7 +136,13 @@ def cmd_run(args):
     over.setdefault("output", {}).update(figure=False, animation=False)
     scen = as_scenario(path, case_overrides(path, name, over, run_dir=out))
     print(f"driftlog: running {path}")
-    res = track(scen, output=out / "trajectories.nc", progress=not args.quiet)
+    import shlex
+
+    again = shlex.join(["driftlog", "run", *([args.scenario] if args.scenario else []),
+                        "--out", str(out), *(w for a in args.set or () for w in ("--set", a)),
+                        "--resume"])
+    res = track(scen, output=out / "trajectories.nc", progress=not args.quiet,
+                resume=args.resume, resume_hint=again)
     flow = flow_file(scen, res.path)
     if flow is not None and flow.exists():
         print(f"  flow: {flow}")
