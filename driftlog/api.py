@@ -303,10 +303,12 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
                                 f"restart at {until} s ({coupling.writer.partial}); rerun it "
                                 "from the start, without --resume")
         if state is not None:
+            from driftlog.trajectory import kept_counts
+
             t_last, index, columns = state
             if order is not None:  # the file's logs -> the tracker's
                 index = back[index]
-            tracker.resume_from(t_last, index, columns)
+            tracker.resume_from(t_last, index, columns, kept_counts(partial, t_last))
     try:
         tracker.run()
     except BaseException as exc:

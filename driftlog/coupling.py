@@ -408,7 +408,7 @@ class CoupledTracker(Tracker):
         keep[1:] = np.diff(fixed) > self.time_tol
         return self.coupling.stops(self, fixed[keep])
 
-    def resume_from(self, t, index, columns):
+    def resume_from(self, t, index, columns, counts=None):
         """``Tracker.resume_from``, and the momentum accounts kept with the flow's restart.
 
         ``t`` must be the restart's time (``resume_coupling``): the solver is there.
@@ -417,7 +417,7 @@ class CoupledTracker(Tracker):
         if kept is None or t != kept["t"]:
             raise RuntimeError(f"resuming the logs at {t} s, the coupled flow at "
                                f"{None if kept is None else kept['t']} s")
-        super().resume_from(t, index, columns)
+        super().resume_from(t, index, columns, counts)
         sc = kept["scalars"]
         np.copyto(self.received, kept["received"])
         self.to_contacts[:] = sc["to_contacts_x"], sc["to_contacts_y"]
@@ -618,7 +618,10 @@ class Coupling:
         """
         if tracker.writer is not None:
             tracker.writer.flush()
-        self.writer(self.solver, self._kept)
+        if getattr(self.writer, "keeps_restart", False):
+            self.writer(self.solver, self._kept)
+        else:  # any callable writer(solver)
+            self.writer(self.solver)
         self._kept = None
 
     def _keep(self, tracker):
@@ -796,6 +799,8 @@ class FlowOutput:
     last).  ``resume``: reopen the partial file and write after its snapshot number
     ``resume`` (its restart's, ``resume_coupling``).
     """
+
+    keeps_restart = True  # ``Coupling`` passes it the restart kept before the hand-over
 
     def __init__(self, path, solver, attrs, resume=None):
         from driftlog.solver.run import _create

@@ -137,6 +137,8 @@ class Tracker:
     ``save``/``restore``, ``invalidate_flow``.
     """
 
+    _wall0 = _wall_base = 0.0  # ``run``'s start (perf_counter) and the seconds before it
+
     # ``advance(dt, have_d0=True)`` takes the first stage ``max_step`` just computed at the
     # same state (``ContactModel._event`` reuses it; ``driftlog.protocols.ContactBodies``)
     keeps_first_stage = True
@@ -842,13 +844,19 @@ class Tracker:
         self._set_active(np.flatnonzero(L.status == FLOATING))
         return True
 
-    def resume_from(self, t, index, columns):
+    def resume_from(self, t, index, columns, counts=None):
         """Restart from a stopped run's last records (``trajectory.last_states``).
 
         The logs take their recorded state and status; logs never recorded are still waiting;
         time restarts at ``t`` (an output time, where a sub-step always ends), so the resumed
-        run continues exactly as the uninterrupted one would have.
+        run continues exactly as the uninterrupted one would have.  ``counts``: the run's
+        statistics and its contact model's up to ``t`` (``TrajectoryWriter.kept_counts``),
+        which the resumed run adds to.
         """
+        if counts is not None:
+            self.stats.update(counts.get("tracker") or {})
+            if self.contact is not None and counts.get("contact"):
+                self.contact.stats.update(counts["contact"])
         L = self.logs
         if self.physics.waterlogging != "off":
             if "log_density" not in columns:
@@ -901,6 +909,10 @@ class Tracker:
             # the hits of the interval that ends here go to the writer before its record: a
             # flush that the record triggers writes both together (a kill loses neither alone)
             self.writer.hits(self.contact.drain_hits())
+        keep = getattr(self.writer, "keep_counts", None)
+        if keep is not None:  # the counts so far, flushed with the record (a resume adds to them)
+            self.stats["wall_seconds"] = self._wall_base + _time.perf_counter() - self._wall0
+            keep(self.t, self.stats, None if self.contact is None else self.contact.stats)
         L = self.logs
         idx = np.flatnonzero((L.status != WAITING) & ~self._recorded_left)
         if idx.size == 0:
@@ -971,7 +983,8 @@ class Tracker:
 
     def run(self):
         """Run to t_end; returns the Logs (their final state)."""
-        wall = _time.perf_counter()
+        wall = self._wall0 = _time.perf_counter()
+        self._wall_base = self.stats["wall_seconds"]  # a resumed run's before it stopped
         bar = None
         if self.progress:
             from tqdm import tqdm
@@ -1001,7 +1014,7 @@ class Tracker:
                 self._fill_holes()
             if bar is not None:
                 bar.close()
-            self.stats["wall_seconds"] = _time.perf_counter() - wall
+            self.stats["wall_seconds"] = self._wall_base + _time.perf_counter() - wall
         return self.logs
 
 

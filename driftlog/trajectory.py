@@ -178,6 +178,7 @@ class TrajectoryWriter:
         self._buf = []
         self._nbuf = 0  # observations in _buf
         self._hbuf = []
+        self._counts = None  # ``keep_counts``' latest, written at the next flush
         if resume:
             try:
                 self.ds = netCDF4.Dataset(self.partial, "a")
@@ -295,6 +296,8 @@ class TrajectoryWriter:
             self._hbuf = []
         self.ds.hit_count = self.nhit
         self.ds.obs_count = self.nobs
+        if self._counts is not None:
+            self.ds.resume_counts = "[" + ", ".join(self._counts) + "]"
 
     def hits(self, hits: dict):
         """Append contact events (dict of arrays time, log_id, other, impulse, x, y).
@@ -307,6 +310,17 @@ class TrajectoryWriter:
         if k == 0:
             return
         self._hbuf.append({key: np.asarray(hits[key]).copy() for key, _ in HIT_KEYS})
+
+    def keep_counts(self, t, tracker, contact=None):
+        """The run's statistics up to its record at ``t`` (dicts of numbers), written with it.
+
+        Kept as the attribute ``resume_counts`` at the next flush, with those of the record
+        before (a coupled run may resume one output before its last record), so that a
+        resumed run adds to them (``kept_counts``).
+        """
+        entry = json.dumps({"time": float(t), "tracker": tracker, "contact": contact},
+                           default=float)
+        self._counts = (self._counts or [])[-1:] + [entry]
 
     def flush(self):
         """Write buffered records and hits, and sync the file to disk."""
@@ -394,7 +408,7 @@ def _to_contiguous(src, dst):
         order = np.argsort(idx, kind="stable")
         del idx  # memory: the sort order and one variable at a time (16 bytes per observation)
         b.setncatts({k: a.getncattr(k) for k in a.ncattrs()
-                     if k not in ("hit_count", "obs_count")})
+                     if k not in ("hit_count", "obs_count", "resume_counts")})
         b.createDimension("trajectory", ntraj)
         b.createDimension("obs", nobs)
         nhit = int(a.getncattr("hit_count")) if "hit_count" in a.ncattrs() else \
@@ -452,6 +466,18 @@ def open_trajectories(path):
         ds = ds.set_coords("trajectory_index")
     ds["time"].attrs["units"] = "s"
     return ds
+
+
+def kept_counts(path, t):
+    """The statistics a stopped run kept with its record at ``t`` (``keep_counts``), or None.
+
+    None when the file kept none at that time: the resumed run then counts its own part only.
+    """
+    with netCDF4.Dataset(path) as ds:
+        if "resume_counts" not in ds.ncattrs():
+            return None
+        kept = json.loads(ds.getncattr("resume_counts"))
+    return next((c for c in kept if c.get("time") == float(t)), None)
 
 
 def _obs_count(ds):

@@ -273,6 +273,9 @@ flush_interval = 1
     np.testing.assert_array_equal(again["time"].values, full["time"].values)
     np.testing.assert_array_equal(again["x"].values, full["x"].values)
     np.testing.assert_array_equal(again["theta"].values, full["theta"].values)
+    # the run's counts go on from where it stopped
+    for k in ("stats_substeps", "stats_rhs_evaluations", "stats_min_dt", "stats_max_dt"):
+        assert again.attrs[k] == full.attrs[k], k
 
 
 SCATTERED = """
