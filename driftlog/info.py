@@ -127,14 +127,22 @@ def describe(path) -> str:
         field = open_flow(p)
         lines = _flow_lines(field, f"{p}: driftlog flow file (UGRID-1.0 + CF)")
         if p.name.endswith(".partial"):  # the solver's flow until it reaches its end
+            coupled = str(field.attrs.get("coupled", "0")) == "1"
             try:
-                end = json.loads(field.attrs.get("scenario_resolved", "{}"))["solver"]["end"]
+                end = json.loads(field.attrs.get("scenario_resolved", "{}"))[
+                    "time" if coupled else "solver"]["end"]
             except (ValueError, KeyError, TypeError):
                 end = None
-            lines[0] += ", PARTIAL (a solver run in progress or stopped)"
+            if coupled:  # a coupled tracking run's flow: resumed with its trajectories
+                lines[0] += (", PARTIAL (the flow of a coupled tracking run in progress or "
+                             "stopped)")
+                how = ("`driftlog track SCENARIO --resume` continues it with its trajectories "
+                       "(their .partial file)")
+            else:
+                lines[0] += ", PARTIAL (a solver run in progress or stopped)"
+                how = "`driftlog solve SCENARIO --resume` continues it"
             lines.append(f"  computed up to t = {field.times[-1]:g} s"
-                         + (f" of {end:g} s" if end else "")
-                         + "; `driftlog solve SCENARIO --resume` continues it")
+                         + (f" of {end:g} s" if end else "") + f"; {how}")
         return "\n".join(lines)
     if fk.kind in ("model_output", "openfoam"):
         from driftlog.adapters import detect_format, open_flow_source, reader

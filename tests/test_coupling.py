@@ -549,6 +549,11 @@ def test_coupled_run_stopped_and_resumed_equals_the_uninterrupted_run(tmp_path, 
     kept = tmp_path / "r_flow.nc.partial"
     with netCDF4.Dataset(kept) as ds:
         assert ds.getncattr("coupling_restart_time") == 15.0
+    from driftlog.info import describe
+
+    # not `driftlog solve --resume`: this flow goes on with its trajectories
+    assert "coupled tracking run" in describe(kept)
+    assert "`driftlog track SCENARIO --resume` continues it" in describe(kept)
     with netCDF4.Dataset(tmp_path / "r.nc.partial") as ds:
         assert ds["time"][:].max() == (20.0 if where == "flow file" else 15.0)
     res = track(scen, resume=True)
