@@ -850,7 +850,7 @@ class Tracker:
         The logs take their recorded state and status; logs never recorded are still waiting;
         time restarts at ``t`` (an output time, where a sub-step always ends), so the resumed
         run continues exactly as the uninterrupted one would have.  ``counts``: the run's
-        statistics and its contact model's up to ``t`` (``TrajectoryWriter.kept_counts``),
+        statistics and its contact model's up to ``t`` (``trajectory.kept_counts``),
         which the resumed run adds to.
         """
         if counts is not None:

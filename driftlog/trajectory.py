@@ -644,5 +644,6 @@ OUTPUT_SECTION = Section("output", [
     Key("vtk", "bool", False, "also write VTK (ParaView) files beside the trajectory file"),
     Key("figure", "bool", False, "draw a figure of the trajectories"),
     Key("animation", "bool", False, "write an animation (MP4 if ffmpeg is there, else GIF)"),
-    Key("flush_interval", "int", 10, "records between flushes to disk", min=1),
+    Key("flush_interval", "int", 10, "records between flushes to disk (a coupled run flushes "
+        "every record, with its flow file's snapshot)", min=1),
 ], doc="what is written")
