@@ -170,6 +170,9 @@ class TrajectoryWriter:
         the records after it are written again by the resumed run.
     """
 
+    _counts = None  # ``keep_counts``' latest entries (also for subclasses with an __init__ of
+    # their own that record elsewhere)
+
     def __init__(self, path, logs, attrs=None, flush_interval=10, resume=False,
                  obstacle_names=(), until=None):
         self.path = Path(path)
@@ -178,7 +181,6 @@ class TrajectoryWriter:
         self._buf = []
         self._nbuf = 0  # observations in _buf
         self._hbuf = []
-        self._counts = None  # ``keep_counts``' latest, written at the next flush
         if resume:
             try:
                 self.ds = netCDF4.Dataset(self.partial, "a")

@@ -364,6 +364,24 @@ enabled = true
 """
 
 
+def _stopped_after(scen, t_stop):
+    """Track a coupled scenario, stopped (KeyboardInterrupt) past the solver's ``t_stop``."""
+    real = Coupling.handover
+
+    def stop(self, tracker, keep=False):
+        if self.solver.t > t_stop:
+            raise KeyboardInterrupt
+        return real(self, tracker, keep)
+
+    Coupling.handover = stop
+    try:
+        with pytest.raises(KeyboardInterrupt) as exc:
+            track(scen)
+    finally:
+        Coupling.handover = real
+    return exc.value
+
+
 def test_coupled_track_writes_its_flow_and_balance(tmp_path):
     out = tmp_path / "logs.nc"
     scen = dict(tomllib.loads(COUPLED_CHANNEL), output={"path": str(out)})
@@ -380,24 +398,9 @@ def test_coupled_track_writes_its_flow_and_balance(tmp_path):
     assert res.logs.state[0, 0] > 4.0
     assert not flow.with_name(flow.name + ".partial").exists()
     # a coupled run that stops leaves its flow at the temporary name (nothing at the final
-    # one that a later run could take for the whole coupled flood), and says it cannot resume
-    from driftlog.coupling import Coupling
-
+    # one that a later run could take for the whole coupled flood), and says how to resume
     flow.unlink()
-    real = Coupling.handover
-
-    def stop(self, tracker, keep=False):
-        if self.solver.t > 2.2:
-            raise KeyboardInterrupt
-        return real(self, tracker, keep)
-
-    Coupling.handover = stop
-    try:
-        with pytest.raises(KeyboardInterrupt) as exc:
-            track(scen)
-    finally:
-        Coupling.handover = real
-    note = " ".join(exc.value.__notes__)
+    note = " ".join(_stopped_after(scen, 2.2).__notes__)
     kept = flow.with_name(flow.name + ".partial")
     assert not flow.exists() and kept.exists()
     assert f"kept {kept}" in note and "--resume continues it" in note
@@ -615,19 +618,7 @@ def test_coupled_resume_refuses_a_missing_or_foreign_flow_file(tmp_path):
         track(scen, resume=True)
     assert flow.read_bytes() == b"not netCDF" and partial.read_bytes() == b"partial"
     # a flow file of another scenario (here, the same with another end)
-    real = Coupling.handover
-
-    def stop(self, tracker, keep=False):
-        if self.solver.t > 7.0:
-            raise KeyboardInterrupt
-        return real(self, tracker, keep)
-
-    Coupling.handover = stop
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            track(scen)
-    finally:
-        Coupling.handover = real
+    _stopped_after(scen, 7.0)
     other = merge_into(scen, {"time": {"end": 30.0}})
     with pytest.raises(FlowFileError, match="computed from another scenario"):
         track(other, resume=True)
