@@ -851,12 +851,16 @@ class Tracker:
         time restarts at ``t`` (an output time, where a sub-step always ends), so the resumed
         run continues exactly as the uninterrupted one would have.  ``counts``: the run's
         statistics and its contact model's up to ``t`` (``trajectory.kept_counts``),
-        which the resumed run adds to.
+        which the resumed run adds to, and the pairs in contact at ``t`` (a contact still
+        pushing after the restart is not recorded as a new hit).
         """
         if counts is not None:
             self.stats.update(counts.get("tracker") or {})
             if self.contact is not None and counts.get("contact"):
                 self.contact.stats.update(counts["contact"])
+            if self.contact is not None and counts.get("contact_active") is not None:
+                # the pairs in contact at t: a contact that goes on pushing is not a new hit
+                self.contact._active = np.asarray(counts["contact_active"], np.int64)
         L = self.logs
         if self.physics.waterlogging != "off":
             if "log_density" not in columns:
@@ -912,7 +916,9 @@ class Tracker:
         keep = getattr(self.writer, "keep_counts", None)
         if keep is not None:  # the counts so far, flushed with the record (a resume adds to them)
             self.stats["wall_seconds"] = self._wall_base + _time.perf_counter() - self._wall0
-            keep(self.t, self.stats, None if self.contact is None else self.contact.stats)
+            C = self.contact
+            keep(self.t, self.stats, None if C is None else C.stats,
+                 None if C is None else getattr(C, "_active", None))
         L = self.logs
         idx = np.flatnonzero((L.status != WAITING) & ~self._recorded_left)
         if idx.size == 0:

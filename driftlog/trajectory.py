@@ -199,6 +199,9 @@ class TrajectoryWriter:
                 t = t[:self.nobs]
             t_last = float(t.max()) if t.size else -np.inf
             self.nhit = int(np.sum(self.ds["hit_time"][:] <= t_last)) if t.size else 0
+            kept = _counts_at(self.ds, t_last) if t.size else None
+            if kept is not None and "hits" in kept:  # exact: the hits drained up to t_last
+                self.nhit = int(kept["hits"])
             return
         self.path.parent.mkdir(parents=True, exist_ok=True)
         ds = self.ds = netCDF4.Dataset(self.partial, "w", format="NETCDF4")
@@ -313,15 +316,21 @@ class TrajectoryWriter:
             return
         self._hbuf.append({key: np.asarray(hits[key]).copy() for key, _ in HIT_KEYS})
 
-    def keep_counts(self, t, tracker, contact=None):
+    def keep_counts(self, t, tracker, contact=None, active=None):
         """The run's statistics up to its record at ``t`` (dicts of numbers), written with it.
 
-        Kept as the attribute ``resume_counts`` at the next flush, with those of the record
-        before (a coupled run may resume one output before its last record), so that a
-        resumed run adds to them (``kept_counts``).
+        ``active``: the contact model's pairs in contact at ``t`` (integer keys), so that a
+        resumed run does not take a contact that goes on pushing for a new hit.  Kept as the
+        attribute ``resume_counts`` at the next flush, with those of the record before (a
+        coupled run may resume one output before its last record), so that a resumed run adds
+        to them (``kept_counts``).
         """
-        entry = json.dumps({"time": float(t), "tracker": tracker, "contact": contact},
-                           default=float)
+        # the hits up to this record: those drained for it are buffered already
+        hits = self.nhit + sum(len(h["time"]) for h in self._hbuf)
+        entry = json.dumps({"time": float(t), "hits": hits, "tracker": tracker,
+                            "contact": contact,
+                            "contact_active": None if active is None else
+                            np.asarray(active, np.int64).tolist()}, default=float)
         self._counts = (self._counts or [])[-1:] + [entry]
 
     def flush(self):
@@ -476,9 +485,14 @@ def kept_counts(path, t):
     None when the file kept none at that time: the resumed run then counts its own part only.
     """
     with netCDF4.Dataset(path) as ds:
-        if "resume_counts" not in ds.ncattrs():
-            return None
-        kept = json.loads(ds.getncattr("resume_counts"))
+        return _counts_at(ds, t)
+
+
+def _counts_at(ds, t):
+    """``kept_counts`` of an open dataset."""
+    if "resume_counts" not in ds.ncattrs():
+        return None
+    kept = json.loads(ds.getncattr("resume_counts"))
     return next((c for c in kept if c.get("time") == float(t)), None)
 
 
