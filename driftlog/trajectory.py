@@ -170,8 +170,11 @@ class TrajectoryWriter:
         the records after it are written again by the resumed run.
     """
 
-    _counts = None  # ``keep_counts``' latest entries (also for subclasses with an __init__ of
-    # their own that record elsewhere)
+    # ``keep_counts``' latest entries, and what it reads, for subclasses too whose __init__ of
+    # their own records elsewhere (tests' spies, users' recorders)
+    _counts = None
+    nhit = 0
+    _hbuf = ()
 
     def __init__(self, path, logs, attrs=None, flush_interval=10, resume=False,
                  obstacle_names=(), until=None):
