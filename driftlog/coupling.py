@@ -431,6 +431,18 @@ REGION_MARGIN = 3.0
 # off at 2)
 EXCHANGE_COURANT_MAX = 1.0
 CPU_PARTS = ("solver", "flow nodes", "tracker", "hand-over", "flow file")
+# the coupling's counters a restart keeps (``Coupling._keep``, ``restore``): the name in the
+# flow file (``coupling_restart_<name>``), whether on the flow (else the coupling), the
+# attribute and its type
+KEPT_COUNTERS = (("solver_steps", False, "solver_steps", int),
+                 ("handovers", False, "handovers", int),
+                 ("exchange_courant", False, "exchange_courant", float),
+                 ("t_rem", False, "_t_rem", float), ("span", False, "_span", float),
+                 ("step", False, "_step", float), ("dt", False, "_dt", float),
+                 ("margin_factor", False, "margin_factor", float),
+                 ("widenings", False, "_widenings", int),
+                 ("flow_widenings", True, "widenings", int),
+                 ("region_nodes", True, "region_nodes", int))
 
 
 class Coupling:
@@ -636,11 +648,8 @@ class Coupling:
         scalars = dict(given_x=self.given[0], given_y=self.given[1],
                        undelivered_x=self.undelivered[0], undelivered_y=self.undelivered[1],
                        to_contacts_x=tracker.to_contacts[0], to_contacts_y=tracker.to_contacts[1],
-                       solver_steps=self.solver_steps, handovers=self.handovers,
-                       exchange_courant=self.exchange_courant, t_rem=self._t_rem,
-                       span=self._span, step=self._step, dt=self._dt,
-                       margin_factor=self.margin_factor, widenings=self._widenings,
-                       flow_widenings=self.flow.widenings, region_nodes=self.flow.region_nodes,
+                       **{name: getattr(self.flow if on_flow else self, attr)
+                          for name, on_flow, attr, _ in KEPT_COUNTERS},
                        **{f"cpu_{i}": v for i, v in enumerate(self.cpu.values())})
         self._kept = dict(t=float(s.t), hu=np.array(s.hu), hv=np.array(s.hv),
                           received=tracker.received.copy(), pending_face=f,
@@ -656,15 +665,8 @@ class Coupling:
         sc = kept["scalars"]
         self.given[:] = sc["given_x"], sc["given_y"]
         self.undelivered[:] = sc["undelivered_x"], sc["undelivered_y"]
-        self.solver_steps = int(sc["solver_steps"])
-        self.handovers = int(sc["handovers"])
-        self.exchange_courant = float(sc["exchange_courant"])
-        self._t_rem, self._span = float(sc["t_rem"]), float(sc["span"])
-        self._step, self._dt = float(sc["step"]), float(sc["dt"])
-        self.margin_factor = float(sc["margin_factor"])
-        self._widenings = int(sc["widenings"])
-        self.flow.widenings = int(sc["flow_widenings"])
-        self.flow.region_nodes = int(sc["region_nodes"])
+        for name, on_flow, attr, kind in KEPT_COUNTERS:
+            setattr(self.flow if on_flow else self, attr, kind(sc[name]))
         for i, k in enumerate(self.cpu):
             self.cpu[k] = float(sc.get(f"cpu_{i}", 0.0))
         f = np.asarray(kept["pending_face"], np.int64)
