@@ -2,8 +2,8 @@
 
 (a) + (c): a fixed array of two logs (1.8 m, 0.15 m radius, broadside, held by posts) across a
 4 m channel carrying 1 m2/s on 1 m of water: the rise of the level 3-8 m upstream against the
-one-dimensional momentum balance with the logs' drag (docs/model.md eq. (76)), at three mesh
-sizes (the test runs the middle one, tests/test_coupling.py).
+one-dimensional momentum balance with the logs' drag (docs/model.md eq. (76)), at four mesh
+sizes, 1 m to 0.125 m (the test runs the 0.5 m one, tests/test_coupling.py).
 
 (b): cases/bridge_jam/coupled.toml: 30 logs jam at a deck across a 7 m channel; the level
 along the channel at the end against the same flow without logs (a figure), the backwater
@@ -29,7 +29,7 @@ Writes benchmarks/results/coupling_validation{.md,.csv,.json} ((a), (b): the row
 not run are kept from the last run) and coupling_backwater.png.
 
     python benchmarks/coupling_validation.py             # all
-    python benchmarks/coupling_validation.py --skip-fine # without the 0.25 m meshes
+    python benchmarks/coupling_validation.py --skip-fine # without the finest meshes
     python benchmarks/coupling_validation.py --only jam --out DIR [--reuse]
 """
 
@@ -356,7 +356,7 @@ def _write(name, rows, cols, title, note):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--skip-fine", action="store_true", help="no 0.25 m mesh")
+    ap.add_argument("--skip-fine", action="store_true", help="no 0.25 m and 0.125 m meshes")
     ap.add_argument("--only", choices=("array", "intervals", "jam", "converge", "piers"),
                     default=None)
     ap.add_argument("--out", type=Path, default=None,
@@ -368,7 +368,7 @@ def main(argv=None):
 
     rows, parts = [], set()
     if a.only in (None, "array"):
-        rows += fixed_array([1.0, 0.5] + ([] if a.skip_fine else [0.25]))
+        rows += fixed_array([1.0, 0.5] + ([] if a.skip_fine else [0.25, 0.125]))
         parts.add("(a)")
     if a.only in (None, "jam"):
         out = a.out or Path(tempfile.mkdtemp(prefix="driftlog-jam-"))

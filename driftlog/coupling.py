@@ -47,6 +47,7 @@ from driftlog.coupling_kernels import (
     node_rows,
     refocus,
     region_points,
+    spread_footprint,
     spread_reaction,
 )
 from driftlog.errors import ScenarioError
@@ -445,6 +446,10 @@ KEPT_COUNTERS = (("solver_steps", False, "solver_steps", int),
                  ("region_nodes", True, "region_nodes", int))
 
 
+# how a log's reaction is shared among the faces (``[coupling] spread``)
+SPREADS = ("footprint", "points")
+
+
 class Coupling:
     """Drive a solver and a ``CoupledTracker`` together; hand the logs' reaction to the water.
 
@@ -453,7 +458,7 @@ class Coupling:
     solver : ShallowWaterSolver
         At the coupled run's start time.
     points : int
-        Points along each log over which its reaction is spread.
+        Points along each log over which its reaction is spread (``spread = "points"``).
     water_density : float
         kg/m3 (the physics section's).
     dry_depth : float
@@ -464,6 +469,10 @@ class Coupling:
         Exchange interval (s, ``[coupling] interval``): the solver takes as many whole steps
         as fit in it (at least one) before the logs follow and hand their reaction over
         (docs/model.md 17.6); 0: every step, the paper's Figure 3.
+    spread : str
+        How a log's reaction is shared among faces (``SPREADS``; docs/model.md eq. (72)):
+        "footprint", by the area of each face inside the log's plan (length x diameter);
+        "points", evenly over ``points`` points along its axis (the code before 2026-12-07).
 
     Attributes
     ----------
@@ -475,9 +484,12 @@ class Coupling:
     """
 
     def __init__(self, solver, points=8, water_density=1000.0, dry_depth=1e-3, writer=None,
-                 interval=0.0):
+                 interval=0.0, spread="footprint"):
         self.solver = solver
         self.interval = float(interval)
+        if spread not in SPREADS:
+            raise ValueError(f"spread {spread!r}: one of {', '.join(SPREADS)}")
+        self.spread = spread
         self.points = int(points)
         self.rho = float(water_density)
         self.flow = SolverFlow(solver, dry_depth)
@@ -490,6 +502,13 @@ class Coupling:
         self.cpu = dict.fromkeys(CPU_PARTS, 0.0)
         nf = solver.mesh.n_faces
         self._sx, self._sy = np.zeros(nf), np.zeros(nf)
+        # the footprint's walk (``spread_footprint``): a stamp per log, the faces found, their
+        # areas, the clipping's polygons
+        self._fmark = np.zeros(nf, np.int64)
+        self._fstamp = 0
+        self._fqueue = np.empty(nf, np.int64)
+        self._farea = np.empty(nf)
+        self._fwork = np.empty((4, solver.mesh.face_nodes.shape[1] + 4))
         self._touched = np.empty(0, np.int64)
         self._rows = None  # hand-over buffers (``gather_reaction``), one row per log
         self._dt = 0.0  # recent solver steps (s), for the region's margin
@@ -715,25 +734,33 @@ class Coupling:
         if b is None or b[0].shape[0] < len(L):
             n = len(L)
             b = self._rows = (np.empty((n, 2)), np.empty(n), np.empty(n), np.empty(n),
-                              np.empty(n), np.empty(n, np.int64), np.full(n, -1, np.int64),
-                              np.empty(n), np.empty(n))
+                              np.empty(n), np.empty(n), np.empty(n, np.int64),
+                              np.full(n, -1, np.int64), np.empty(n), np.empty(n))
             # the faces of the reaction pending (kept) and of the new one
             kept = self._touched[:self._npend]
-            self._touched = np.empty(s.mesh.n_faces + n * self.points, np.int64)
+            self._touched = np.empty(s.mesh.n_faces + n * max(self.points, 8), np.int64)
             self._touched[:kept.size] = kept
-        g, x, y, theta, length, hint, where, cos_t, sin_t = b
+        g, x, y, theta, length, radius, hint, where, cos_t, sin_t = b
         m = gather_reaction(tracker.received, tracker.act, tracker.state, tracker.face,
-                            L.state, L.face, L.length, where, g, x, y, theta, length, hint)
+                            L.state, L.face, L.length, L.radius, where, g, x, y, theta, length,
+                            radius, hint)
         if m == 0:
             return False
         h, hu, hv = _arrays(s)
         th = theta[:m]
         # numpy's cos and sin (into buffers), as before: numba's may differ in the last bit
         c, sn = np.cos(th, out=cos_t[:m]), np.sin(th, out=sin_t[:m])
-        self._npend, ux, uy = spread_reaction(
-            g[:m], x[:m], y[:m], c, sn, length[:m], hint[:m], self.points, s.mesh.locator(),
-            h, self.flow._state_face, s.dry_depth, self._sx, self._sy, self._touched,
-            self._npend)
+        if self.spread == "footprint":
+            self._npend, ux, uy, self._fstamp = spread_footprint(
+                g[:m], x[:m], y[:m], c, sn, length[:m], radius[:m], hint[:m],
+                s.mesh.locator(), h, self.flow._state_face, s.dry_depth, self._sx, self._sy,
+                self._touched, self._npend, self._fmark, self._fstamp, self._fqueue,
+                self._farea, self._fwork)
+        else:
+            self._npend, ux, uy = spread_reaction(
+                g[:m], x[:m], y[:m], c, sn, length[:m], hint[:m], self.points,
+                s.mesh.locator(), h, self.flow._state_face, s.dry_depth, self._sx, self._sy,
+                self._touched, self._npend)
         self.handovers += 1
         if self.interval > 0.0:
             # pending: given over the coming interval's steps at the rate it was received
@@ -889,7 +916,8 @@ def _coupled_attrs(scenario):
 
 def _coupling(scenario, solver, out):
     c = scenario["coupling"]
-    return Coupling(solver, points=c["points"], water_density=scenario["physics"]["water_density"],
+    return Coupling(solver, points=c["points"], spread=c["spread"],
+                    water_density=scenario["physics"]["water_density"],
                     dry_depth=scenario["flow"]["dry_depth"], writer=out, interval=c["interval"])
 
 
@@ -929,7 +957,7 @@ def resume_coupling(scenario, trajectory_path):
     from driftlog.errors import FlowFileError
     from driftlog.solver.config import build_solver, estimate_mesh
     from driftlog.solver.run import load_restart
-    from driftlog.trajectory import _recover
+    from driftlog.trajectory import reopen_partial
 
     sec = scenario["solver"]
     estimate_mesh(sec)
@@ -945,10 +973,7 @@ def resume_coupling(scenario, trajectory_path):
         raise FlowFileError(f"{partial}: cannot resume the coupled run from it: not readable "
                             f"as netCDF ({exc}); rerun it from the start, without --resume") \
             from None
-    try:
-        netCDF4.Dataset(partial, "a").close()
-    except OSError:  # killed while open: HDF5 refuses to write it again, reads it
-        _recover(partial)
+    reopen_partial(partial)  # killed while open: HDF5 refuses to write it again, reads it
     with netCDF4.Dataset(partial) as ds:
         ds.set_auto_maskandscale(False)
         a = {k: ds.getncattr(k) for k in ds.ncattrs()}
@@ -1050,8 +1075,12 @@ def _check_coupling(t, prefix, scen):
 COUPLING_SECTION = Section("coupling", [
     Key("enabled", "bool", False, "two-way coupling: the logs' fluid forces act back on the "
         "solver's flow (needs [flow] source = 'solver')"),
-    Key("points", "int", 8, "points along a log over which its reaction on the water is "
-        "spread", min=1, max=1000),
+    Key("spread", "str", "footprint", "how a log's reaction on the water is shared among "
+        "faces: footprint, by the area of each face under the log's plan (length x diameter); "
+        "points, evenly over [coupling] points along its axis (docs/model.md eq. (72))",
+        choices=SPREADS),
+    Key("points", "int", 8, "with spread = 'points': points along a log over which its "
+        "reaction on the water is spread", min=1, max=1000),
     Key("flow_path", "path", "", "flow file of the coupled run, relative to the scenario's "
         "folder (default: beside the trajectories, <name>_flow.nc)"),
     Key("interval", "float", 0.0, "exchange interval: the solver takes as many whole steps "

@@ -11,10 +11,11 @@
   change of region before a step in one call (the kernels above and the copy of the state);
 - ``gather_reaction``: the logs with a reaction to hand over and their rows, from the
   tracker's compact arrays (floating logs) or the full ones (the others), without scattering;
-- ``spread_reaction`` and ``give_share``: the logs' reaction spread over points along their
-  axes into the faces under them (a log whose two ends lie well inside its centre's face has
-  every point there, without locating them), then given to their water, all of it or a share
-  (``driftlog.solver.momentum.add_face_momentum``'s arithmetic);
+- ``spread_footprint``, ``spread_reaction`` and ``give_share``: the logs' reaction shared
+  among the faces under their plans by area (``footprint_area``: each face cut to the log's
+  rectangle), or spread over points along their axes (a log whose two ends lie well inside
+  its centre's face has every point there, without locating them), then given to their
+  water, all of it or a share (``driftlog.solver.momentum.add_face_momentum``'s arithmetic);
 - ``account_advance`` and ``account_contacts``: the momentum the water gave each floating log
   over a free sub-step, and the entrained water's share of the contacts' velocity changes;
 - ``keep_linearisation`` and ``held_drag``: the drag a contact-held log bears beyond what its
@@ -48,7 +49,7 @@ from driftlog.columns import (
 from driftlog.locate import _edge_side, locate_one
 
 __all__ = ["mark_region", "node_rows", "shift_rows", "poison_rows", "spread_reaction",
-           "give_share",
+           "spread_footprint", "footprint_area", "give_share",
            "region_points", "refocus",
            "gather_reaction",
            "account_advance", "account_contacts", "keep_linearisation", "held_drag",
@@ -307,6 +308,149 @@ def spread_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h, state
     return nt, ux, uy
 
 
+@nb.njit(cache=True, inline="always")
+def _clip_half(ps, pt, n, qs, qt, a, b, c):
+    """Sutherland-Hodgman: the polygon (ps, pt)[:n] cut to a s + b t <= c, into (qs, qt).
+
+    A convex polygon gains at most one vertex; round-off on vertices lying on the line could
+    make more sign changes, so writes stop at the buffer's end (such vertices bound slivers
+    of round-off: no area is lost that matters).
+    """
+    cap = qs.shape[0]
+    m = 0
+    for k in range(n):
+        j = k + 1 if k + 1 < n else 0
+        s0, t0, s1, t1 = ps[k], pt[k], ps[j], pt[j]
+        d0 = a * s0 + b * t0 - c
+        d1 = a * s1 + b * t1 - c
+        if d0 <= 0.0 and m < cap:
+            qs[m] = s0
+            qt[m] = t0
+            m += 1
+        if ((d0 < 0.0 < d1) or (d1 < 0.0 < d0)) and m < cap:
+            w = d0 / (d0 - d1)
+            qs[m] = s0 + w * (s1 - s0)
+            qt[m] = t0 + w * (t1 - t0)
+            m += 1
+    return m
+
+
+@nb.njit(cache=True)
+def footprint_area(f, cx, cy, ct, st, half_l, half_w, loc, work):
+    """Area of face f inside the rectangle of centre (cx, cy), axis (ct, st), half-sides.
+
+    The face's nodes in the rectangle's frame (s along the axis, t across), cut to the four
+    sides (``_clip_half``), the shoelace area of what is left.  ``work`` (4, >= nmax + 4).
+    """
+    n = loc.face_n[f]
+    ps, pt, qs, qt = work[0], work[1], work[2], work[3]
+    smin = tmin = np.inf
+    smax = tmax = -np.inf
+    for k in range(n):
+        a = loc.face_nodes[f, k]
+        dx = loc.node_x[a] - cx
+        dy = loc.node_y[a] - cy
+        ps[k] = dx * ct + dy * st
+        pt[k] = -dx * st + dy * ct
+        smin = min(smin, ps[k])
+        smax = max(smax, ps[k])
+        tmin = min(tmin, pt[k])
+        tmax = max(tmax, pt[k])
+    if smin >= half_l or smax <= -half_l or tmin >= half_w or tmax <= -half_w:
+        return 0.0
+    if not (smin >= -half_l and smax <= half_l and tmin >= -half_w and tmax <= half_w):
+        n = _clip_half(ps, pt, n, qs, qt, 1.0, 0.0, half_l)
+        n = _clip_half(qs, qt, n, ps, pt, -1.0, 0.0, half_l)
+        n = _clip_half(ps, pt, n, qs, qt, 0.0, 1.0, half_w)
+        n = _clip_half(qs, qt, n, ps, pt, 0.0, -1.0, half_w)
+    area = 0.0
+    for k in range(n):
+        j = k + 1 if k + 1 < n else 0
+        area += ps[k] * pt[j] - ps[j] * pt[k]
+    return max(0.5 * area, 0.0)
+
+
+@nb.njit(cache=True)
+def spread_footprint(got, x, y, cos_t, sin_t, length, radius, hint, loc, h, state_face,
+                     dry_depth, sx, sy, touched, nt, mark, stamp, queue, area, work):
+    """The opposite of the momentum ``got`` (n, 2) of each log, spread over its footprint.
+
+    The footprint is the log's plan, the rectangle ``length`` x 2 ``radius`` about its
+    centre (x, y) and axis (cos_t, sin_t); each face takes the share of its area inside it
+    (``footprint_area``; docs/model.md eq. (72)).  The faces are found by a walk over
+    neighbours from the face of the centre (located from ``hint``), through the faces that
+    overlap the footprint.  What lies outside the mesh or on a face not deeper than
+    ``dry_depth`` goes to the centre's face, which takes what the others leave, so that the
+    shares sum to the whole.  A log whose footprint lies inside its centre's face (the four
+    corners) gives it all there, without a walk.  ``mark`` (n_faces, int64), a stamp per
+    log from ``stamp`` on (returned, with nt, undelivered x and y); ``queue``, ``area``
+    (n_faces) and ``work`` (4, >= nmax + 4) are buffers; sums per face and ``touched`` as
+    ``spread_reaction``'s.
+    """
+    ux = uy = 0.0
+    for i in range(got.shape[0]):
+        gx, gy = got[i, 0], got[i, 1]
+        if gx == 0.0 and gy == 0.0:
+            continue
+        hi = hint[i]
+        centre = locate_one(x[i], y[i], hi if 0 <= hi < sx.shape[0] else -1, loc)
+        if centre < 0:
+            ux -= gx
+            uy -= gy
+            continue
+        cx, cy, ct, st = x[i], y[i], cos_t[i], sin_t[i]
+        half_l, half_w = 0.5 * length[i], radius[i]
+        whole = 4.0 * half_l * half_w
+        nq = 0
+        inside = True
+        for a in (-1.0, 1.0):
+            for b in (-1.0, 1.0):
+                px = cx + a * half_l * ct - b * half_w * st
+                py = cy + a * half_l * st + b * half_w * ct
+                if inside and not _well_inside(px, py, centre, loc):
+                    inside = False
+        if not inside:
+            stamp += 1
+            mark[centre] = stamp
+            queue[0] = centre
+            nq = 1
+            k = 0
+            while k < nq:
+                f = queue[k]
+                a_f = footprint_area(f, cx, cy, ct, st, half_l, half_w, loc, work)
+                area[k] = a_f
+                k += 1
+                if a_f <= 0.0:
+                    continue
+                for e in range(loc.face_n[f]):
+                    g = loc.face_nbr[f, e]
+                    if g >= 0 and mark[g] != stamp:
+                        mark[g] = stamp
+                        queue[nq] = g
+                        nq += 1
+        # the other faces' shares, in the order found; the centre's face takes the rest
+        rx, ry = -gx, -gy
+        for k in range(1, nq):
+            f = queue[k]
+            if area[k] <= 0.0 or h[state_face[f]] <= dry_depth:
+                continue
+            w = area[k] / whole
+            mx, my = -gx * w, -gy * w
+            if sx[f] == 0.0 and sy[f] == 0.0:
+                touched[nt] = f
+                nt += 1
+            sx[f] += mx
+            sy[f] += my
+            rx -= mx
+            ry -= my
+        if sx[centre] == 0.0 and sy[centre] == 0.0:
+            touched[nt] = centre
+            nt += 1
+        sx[centre] += rx
+        sy[centre] += ry
+    return nt, ux, uy, stamp
+
+
 @nb.njit(cache=True)
 def give_share(frac, sx, sy, touched, nt, h, state_face, area, density, dry_depth, hu, hv,
                out, seen, stamp):
@@ -358,16 +502,16 @@ def give_share(frac, sx, sy, touched, nt, h, state_face, area, density, dry_dept
 
 
 @nb.njit(cache=True)
-def gather_reaction(got, act, state, face, all_state, all_face, length, where, g, x, y, theta,
-                    ln, hint):
+def gather_reaction(got, act, state, face, all_state, all_face, length, radius, where, g, x, y,
+                    theta, ln, rd, hint):
     """The logs with a reaction to hand over, in their order, and their rows; ``got`` cleared.
 
     ``act``: the floating logs, whose current state and face hint are the compact rows
     ``state``, ``face``; the others' are ``all_state``, ``all_face`` (what
     ``Tracker._scatter`` would make of them).  ``where``: -1 for every log on entry and on
     return (a buffer).  Writes, for each log with ``got`` not zero, its reaction, centre,
-    angle, length and face hint into ``g``, ``x``, ``y``, ``theta``, ``ln``, ``hint``;
-    returns their count.
+    angle, length, radius and face hint into ``g``, ``x``, ``y``, ``theta``, ``ln``, ``rd``,
+    ``hint``; returns their count.
     """
     for p in range(act.shape[0]):
         where[act[p]] = p
@@ -386,6 +530,7 @@ def gather_reaction(got, act, state, face, all_state, all_face, length, where, g
         g[m, 0] = gx
         g[m, 1] = gy
         ln[m] = length[j]
+        rd[m] = radius[j]
         got[j, 0] = 0.0
         got[j, 1] = 0.0
         m += 1

@@ -185,11 +185,8 @@ class TrajectoryWriter:
         self._nbuf = 0  # observations in _buf
         self._hbuf = []
         if resume:
-            try:
-                self.ds = netCDF4.Dataset(self.partial, "a")
-            except OSError:  # killed while open: HDF5 refuses to write it again, reads it
-                _recover(self.partial)
-                self.ds = netCDF4.Dataset(self.partial, "a")
+            reopen_partial(self.partial)  # killed while open: HDF5 refuses to write it again
+            self.ds = netCDF4.Dataset(self.partial, "a")
             self.ds.set_auto_maskandscale(False)  # times are written on the run's clock
             for v in self.ds.variables.values():
                 _small_chunk_cache(v)
@@ -356,6 +353,44 @@ class TrajectoryWriter:
             os.remove(self.partial)
             return self.path
         return self.partial
+
+
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+
+
+def _left_open(path):
+    """Whether an HDF5 file is marked open for writing (left so by a killed process).
+
+    Read from the superblock's file consistency flags (versions 2 and 3, which netCDF-4
+    writes: bit 0 write access, bit 2 SWMR); None for a file without them.  Trying to open
+    such a file for writing fails, and the failed open left an HDF5 file object behind: a
+    later file that the system gave the same inode (the killed file's copy, once the killed
+    file was removed) was taken by HDF5 for that file, and closing it crashed the process
+    (``nc_close`` reporting the other's open objects; tests/test_coupling.py's killed run
+    under pytest-xdist).
+    """
+    with open(path, "rb") as f:
+        head = f.read(12)
+    if len(head) < 12 or head[:8] != HDF5_SIGNATURE or head[8] < 2:
+        return None
+    return bool(head[11] & 0x05)
+
+
+def reopen_partial(partial):
+    """Make a ``.partial`` file writable again; True if a killed process had left it open.
+
+    Such a file (``_left_open``) is copied to a fresh one (``_recover``) without first
+    trying to open it for writing.
+    """
+    mark = _left_open(partial)
+    if not mark:  # no flags to read, or the file is open elsewhere in this process: try
+        try:
+            netCDF4.Dataset(partial, "a").close()
+        except OSError:
+            mark = True
+    if mark:
+        _recover(partial)
+    return bool(mark)
 
 
 def _recover(partial):
