@@ -48,13 +48,27 @@ from driftlog.schema import Section, check_table
 from . import anuga, cfgrid, file, hecras, mike, openfoam, raster, selafin, ugrid
 from ._netcdf import open_dataset
 
-__all__ = ["READERS", "KINDS", "reader", "options_section", "open_flow_source",
+__all__ = ["READERS", "KINDS", "VARIABLE_NAMES", "reader", "options_section", "open_flow_source",
            "detect_format", "flow_from_scenario", "import_flow", "checked_snapshot"]
 
 READERS = [file, hecras, openfoam, ugrid, anuga, cfgrid, selafin, mike, raster]
 """The reader modules, in the order 'auto' tries them."""
 
 KINDS = tuple(r.KIND for r in READERS)
+
+
+def _variable_names():
+    from . import _netcdf
+
+    names = {}
+    for roles in (_netcdf.ROLES, mike.ROLES, selafin.ROLES, openfoam.SHALLOW_WATER_NAMES,
+                  openfoam.VOF_NAMES, raster._GEOTIFF_DEFAULTS):
+        names.update(dict.fromkeys(roles))
+    return tuple(names)
+
+
+VARIABLE_NAMES = _variable_names()
+"""The driftlog names ``variables`` maps to a source's variables (the readers' roles)."""
 
 
 def _register_with_files():
@@ -152,6 +166,10 @@ def open_flow_source(kind, path, time_range=None, variables=None, dry_depth=1e-3
         raise FlowFileError(f"{path}: format {kind!r} unknown; one of {', '.join(KINDS)} "
                             "or 'auto'")
     options = check_options(kind, options, path)
+    unknown = sorted(set(variables or {}) - set(VARIABLE_NAMES))
+    if unknown:
+        raise FlowFileError(f"{path}: variables {unknown}: not names driftlog knows (one of "
+                            f"{', '.join(VARIABLE_NAMES)})")
     return reader(kind).open(path, time_range=time_range, variables=dict(variables or {}),
                              dry_depth=dry_depth, **options)
 
@@ -218,12 +236,18 @@ def import_flow(source, output, kind="auto", compress=True, progress=None, keep_
     except OSError as exc:
         raise FlowFileError(f"{output}: cannot write the flow file ({exc})") from None
     try:
+        deepest = 0.0
         with writer as w:
             for i, t in enumerate(field.times):
                 h, hu, hv = checked_snapshot(field, i)
                 w.write(float(t), h, hu=hu, hv=hv, dry_depth=field.dry_depth)
+                deepest = max(deepest, float(h.max(initial=0.0)))
                 if progress is not None:
                     progress(i + 1, field.times.size)
+        if 0.0 < deepest < field.dry_depth:  # every velocity zeroed: not a flow any more
+            raise FlowFileError(f"{output}: not written: dry_depth = {field.dry_depth:g} m is "
+                                f"above the deepest water of {source} ({deepest:g} m), every "
+                                "face would be dry; give a dry depth below it (--dry-depth)")
         os.replace(tmp, output)
     finally:
         tmp.unlink(missing_ok=True)

@@ -19,7 +19,13 @@ from driftlog.errors import DriftlogError, ScenarioError
 from driftlog.files import check_output
 from driftlog.logs import Logs, logs_from_groups, spatial_order
 from driftlog.physics import PhysicsOptions, log_parameters, rhs_kernel
-from driftlog.preflight import check_flow_values, check_start, count_logs, estimate_run
+from driftlog.preflight import (
+    check_flow_values,
+    check_start,
+    count_logs,
+    estimate_run,
+    run_inputs,
+)
 from driftlog.scenario import Scenario, load_scenario
 from driftlog.sources import flow_from_scenario
 from driftlog.tracker import StepOptions, Tracker
@@ -202,7 +208,8 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     scen = as_scenario(scenario, overrides)
     out = Path(output or scen["output"]["path"])
     if writer is None:
-        check_output(out, "trajectory file", suffixes=(".nc", ".nc4"))
+        role = "trajectory file" if output else "trajectory file ([output] path)"
+        check_output(out, role, inputs=run_inputs(scen), suffixes=(".nc", ".nc4"))
         estimate_run(scen, out)
     coupling = None
     partial = out.with_name(out.name + ".partial")

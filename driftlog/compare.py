@@ -25,13 +25,49 @@ from driftlog.logs import LEFT, STATUS_MEANINGS
 from driftlog.trajectory import open_trajectories
 
 __all__ = ["compare_runs", "compare_trajectories", "arrival_times", "parse_flow_spec",
-           "write_trajectory_comparison"]
+           "parse_flow_specs", "parse_gates", "write_trajectory_comparison"]
 
 
 def parse_flow_spec(spec: str):
     """``NAME=SOURCE`` or ``SOURCE``: a flow file, model output (auto-detected) or 'scenario'."""
     name, _, src = spec.partition("=") if "=" in spec else ("", "", spec)
     return (name or Path(src).stem or src), src
+
+
+def parse_flow_specs(specs):
+    """``--flow`` arguments -> [(name, source)], each name once.
+
+    A source given without a name is named after its file (``Path(src).stem``); when two such
+    names are the same (``d1/flow.nc`` and ``d2/flow.nc``), after their folder and file
+    (``d1_flow``, ``d2_flow``).  A name given twice is refused: each run is kept by its name.
+    """
+    parsed = [(spec, *parse_flow_spec(spec)) for spec in specs]
+    named = [("=" in spec, name) for spec, name, _ in parsed]
+    out = []
+    for spec, name, src in parsed:
+        if "=" not in spec and named.count((False, name)) > 1 and Path(src).parent.name:
+            name = f"{Path(src).parent.name}_{name}"
+        out.append((spec, name, src))
+    for i, (spec, name, _) in enumerate(out):
+        for spec2, name2, _ in out[:i]:
+            if name2 == name:
+                raise DriftlogError(f"--flow {spec!r}: the name {name!r} is already the one of "
+                                    f"--flow {spec2!r}; give each flow a name of its own: "
+                                    "--flow NAME=SOURCE")
+    return [(name, src) for _, name, src in out]
+
+
+def parse_gates(specs):
+    """``--gate`` arguments -> {name: (x0, y0, x1, y1)}; a name given twice is refused."""
+    lines = {}
+    for spec in specs:
+        name, vals = parse_line_spec(spec)
+        if name in lines:
+            raise DriftlogError(f"--gate {spec!r}: the gate {name!r} is given twice (also "
+                                f"{name}={','.join(f'{v:g}' for v in lines[name])}); give each "
+                                "gate a name of its own")
+        lines[name] = vals
+    return lines
 
 
 def engine_flows(scenario, engines, progress=False):
@@ -292,6 +328,11 @@ def compare_runs(scenario, flows: list[tuple[str, str]], out_dir, line=None, pro
 
     if len(flows) < 2:
         raise DriftlogError("driftlog compare needs two flows or more (--flow NAME=SOURCE)")
+    names = [name for name, _ in flows]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise DriftlogError(f"driftlog compare: the flow name {twice[0]!r} is given twice; each "
+                            "flow needs a name of its own (its run is kept by its name)")
     scen = as_scenario(scenario)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

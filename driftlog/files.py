@@ -321,6 +321,10 @@ def check_output(path, role: str = "output", inputs=(), suffixes=None, create=Tr
     folder that cannot be created or written, the same file as one of ``inputs``, a suffix not
     in ``suffixes``.  Creates the parent folder (unless ``create`` is false: then the nearest
     existing folder above must be writable).  Returns the path.
+
+    ``inputs``: paths, or (path, what it is) pairs for the message (e.g. ``(flow, "the
+    scenario's flow file ([flow] path)")``); one the run will write before it reads it (a
+    solver flow not computed yet) counts by its path.
     """
     p = Path(path)
     if p.is_dir():
@@ -328,16 +332,22 @@ def check_output(path, role: str = "output", inputs=(), suffixes=None, create=Tr
     if suffixes is not None and p.suffix.lower() not in suffixes:
         raise OutputPathError(f"{p}: the {role} must end in " + " or ".join(suffixes))
     for src in inputs:
-        if src is not None and p.exists() and Path(src).exists():
-            try:
-                same = os.path.samefile(p, src)
-            except OSError:
-                same = False
-            if same:
-                raise OutputPathError(f"{p}: the {role} is the input file itself; write to "
-                                      "another path")
+        src, what = src if isinstance(src, tuple) else (src, "the input file itself")
+        if src is not None and _same_file(p, src):
+            raise OutputPathError(f"{p}: the {role} is {what}; write to another path")
     check_output_dir(p.parent, role, p, create=create)
     return p
+
+
+def _same_file(a, b) -> bool:
+    """Whether two paths name one file: the same file, or the same path if either is missing."""
+    a, b = Path(a), Path(b)
+    if a.exists() and b.exists():
+        try:
+            return os.path.samefile(a, b)
+        except OSError:
+            return False
+    return a.resolve() == b.resolve()
 
 
 def check_output_dir(folder, role: str = "output folder", for_file=None, create=True) -> Path:

@@ -31,7 +31,7 @@ from driftlog.columns import THETA, X, Y
 from driftlog.errors import DriftlogWarning, ScenarioError
 
 __all__ = ["check_start", "check_scenario", "check_flow_values", "count_logs", "estimate_run",
-           "run_end"]
+           "run_end", "run_inputs"]
 
 
 def _log_capsules(logs):
@@ -229,6 +229,24 @@ def check_flow_values(flow, t0, t1):
     return hi - lo + 1
 
 
+def run_inputs(scen) -> list:
+    """The files a run reads, as ``check_output``'s ``inputs``: its scenario and its flow.
+
+    The flow counts by its path when it is not written yet (a solver flow the run computes):
+    a trajectory file there would be overwritten by the flow, or the flow by it.
+    """
+    inputs = [(scen.path, "the scenario file")] if scen.path else []
+    sec = scen["flow"]
+    if sec["source"] == "solver":
+        from driftlog.solving import default_flow_path
+
+        inputs.append((default_flow_path(scen), "the scenario's flow file ([flow] path, "
+                       "computed by the solver)"))
+    elif sec["source"] != "analytic" and sec["path"]:
+        inputs.append((sec["path"], "the scenario's flow file ([flow] path)"))
+    return inputs
+
+
 def check_scenario(scen, logs, output=None, read_flow=True):
     """Every check ``track`` makes before it starts, without tracking (``scenario check``).
 
@@ -239,7 +257,9 @@ def check_scenario(scen, logs, output=None, read_flow=True):
     from driftlog.files import check_output
     done = []
     out = Path(output or scen["output"]["path"])
-    check_output(out, "trajectory file", suffixes=(".nc", ".nc4"), create=False)
+    role = "trajectory file" if output else "trajectory file ([output] path)"
+    check_output(out, role, inputs=run_inputs(scen), suffixes=(".nc", ".nc4"),
+                 create=False)
     n, nobs, mem = estimate_run(scen, out)
     done.append(f"output {out} writable; {n} logs, {nobs:.3g} observations, about "
                 f"{mem / 2**20:.3g} MiB")

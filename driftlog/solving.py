@@ -15,7 +15,8 @@ from pathlib import Path
 from driftlog.errors import ScenarioError
 from driftlog.solver.config import build_solver, estimate_mesh, partial_path, solver_hash
 
-__all__ = ["solve_scenario", "flow_from_scenario", "default_flow_path", "stored_flow"]
+__all__ = ["solve_scenario", "flow_from_scenario", "default_flow_path", "stored_flow",
+           "solver_inputs"]
 
 
 def default_flow_path(scenario, engine=None):
@@ -29,6 +30,22 @@ def default_flow_path(scenario, engine=None):
     p = scenario["flow"].get("path") or ""
     path = Path(p) if p else scenario.base_dir / "solver_flow.nc"
     return engine_flow_path(path, engine or scenario["solver"]["engine"])
+
+
+def solver_inputs(scenario) -> list:
+    """The files the solver reads, as ``check_output``'s ``inputs``.
+
+    The scenario, the mesh file (mesh = 'file') and the initial flow file (initial type =
+    'file').
+    """
+    sec = scenario["solver"]
+    inputs = [(scenario.path, "the scenario file")] if scenario.path else []
+    if sec["mesh"] == "file" and sec["mesh_file"]:
+        inputs.append((sec["mesh_file"], "the solver's mesh file ([solver] mesh_file)"))
+    ini = sec.get("initial") or {}
+    if ini.get("type") == "file" and ini.get("path"):
+        inputs.append((ini["path"], "the solver's initial flow file ([solver.initial] path)"))
+    return inputs
 
 
 def stored_flow(path, digest):
@@ -58,7 +75,9 @@ def solve_scenario(scenario, output=None, resume=False, progress=False):
 
     from driftlog.files import check_output
 
-    path = check_output(Path(output) if output else default_flow_path(scenario), "flow file")
+    path = check_output(Path(output) if output else default_flow_path(scenario),
+                        "flow file" if output else "flow file ([flow] path)",
+                        inputs=solver_inputs(scenario), suffixes=(".nc", ".nc4"))
     partial = partial_path(path)
     digest = solver_hash(sec)
     attrs = dict(scenario.attrs())

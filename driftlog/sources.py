@@ -69,6 +69,10 @@ def _check_flow(t, prefix, scen):
     if read and not Path(t["path"]).exists():
         raise ScenarioError(f"{prefix}.path", t["path"], "file not found")
     t["options"] = adapters.check_flow_options(t, prefix, scen.base_dir)
+    for k, v in t["variables"].items():
+        if k not in adapters.VARIABLE_NAMES:
+            raise ScenarioError(f"{prefix}.variables.{k}", v, "not a name driftlog knows; one "
+                                f"of {', '.join(adapters.VARIABLE_NAMES)}")
     if src == "analytic" and t["kind"] not in ANALYTIC_KINDS:
         raise ScenarioError(f"{prefix}.kind", t["kind"],
                             "must be one of " + ", ".join(map(repr, ANALYTIC_KINDS)))

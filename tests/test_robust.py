@@ -675,3 +675,168 @@ def test_info_describes_every_kind(files, capsys, tmp_path):
     assert main(["info", str(tmp_path / "p.nc.partial")]) == 0
     text = capsys.readouterr().out
     assert "PARTIAL" in text and "complete up to t = 4.0 s of 10.0 s (40% of the run)" in text
+
+
+# ----------------------------------------------------------------- class 11: inputs overwritten,
+# arguments of the commands (fuzz pass of 2026-12-07)
+SOLVER_SCENARIO = """
+[flow]
+source = "solver"
+path = "flow.nc"
+[solver]
+mesh = "channel"
+channel = [0.0, 0.0, 100.0, 20.0]
+cell_size = 5.0
+bed = "flat"
+manning = 0.02
+order = 1
+end = 20.0
+output_interval = 5.0
+[solver.initial]
+type = "level"
+value = 1.0
+velocity = [0.5, 0.0]
+[solver.boundaries.inflow]
+type = "level"
+value = 1.05
+[solver.boundaries.outflow]
+type = "level"
+value = 1.0
+[time]
+end = 20.0
+output_interval = 1.0
+[[logs]]
+x = [20.0, 30.0]
+y = [10.0, 8.0]
+length = 2.0
+radius = 0.1
+density = 700.0
+[physics]
+level = "tracer"
+"""
+
+
+def test_track_never_writes_over_its_flow(tmp_path, capsys):
+    flow = _flow_file(tmp_path / "f.nc")
+    data = flow.read_bytes()
+    s = _scenario_on_file(tmp_path, flow)
+    err = _err(capsys, ["track", s, "-o", flow])
+    assert f"{flow}: the trajectory file is the scenario's flow file ([flow] path)" in err
+    s.write_text(s.read_text().replace(str(tmp_path / "out.nc"), str(flow)))  # [output] path
+    for cmd in ("track", "scenario check"):
+        err = _err(capsys, [*cmd.split(), s])
+        assert "the trajectory file ([output] path) is the scenario's flow file" in err
+    assert flow.read_bytes() == data
+    # a solver flow not computed yet: refused before the solver writes it
+    s = tmp_path / "solver.toml"
+    s.write_text(SOLVER_SCENARIO)
+    err = _err(capsys, ["track", s, "-o", tmp_path / "flow.nc"])
+    assert "is the scenario's flow file ([flow] path, computed by the solver)" in err
+    assert not (tmp_path / "flow.nc").exists()
+
+
+def test_solve_never_writes_over_its_inputs(tmp_path, capsys):
+    s = tmp_path / "solver.nc"  # a scenario under a NetCDF suffix
+    s.write_text(SOLVER_SCENARIO)
+    err = _err(capsys, ["solve", s, "-o", s])
+    assert f"{s}: the flow file is the scenario file; write to another path" in err
+    assert s.read_text() == SOLVER_SCENARIO
+    s = tmp_path / "solver.toml"
+    s.write_text(SOLVER_SCENARIO)
+    assert "the flow file must end in .nc or .nc4" in _err(capsys, ["solve", s, "-o", s])
+    assert "the flow file must end in .nc or .nc4" in _err(capsys, ["solve", s, "-o",
+                                                                     tmp_path / "x.txt"])
+    assert s.read_text() == SOLVER_SCENARIO and not (tmp_path / "x.txt").exists()
+    # the initial state's flow file
+    init = _flow_file(tmp_path / "init.nc")
+    data = init.read_bytes()
+    s.write_text(SOLVER_SCENARIO.replace('type = "level"\nvalue = 1.0',
+                                         f'type = "file"\npath = "{init}"', 1))
+    err = _err(capsys, ["solve", s, "-o", init])
+    assert "is the solver's initial flow file ([solver.initial] path)" in err
+    assert init.read_bytes() == data
+
+
+def test_export_checks_its_output(tmp_path, capsys):
+    flow = _flow_file(tmp_path / "f.nc")
+    data = flow.read_bytes()
+    err = _err(capsys, ["export", flow, "-o", flow, "--format", "selafin"])
+    assert f"{flow}: the selafin file must end in .slf or .srf" in err
+    assert flow.read_bytes() == data
+    err = _err(capsys, ["export", flow, "-o", tmp_path / "x.slf", "--format", "dfsu"])
+    assert "x.slf: the dfsu file must end in .dfsu" in err
+    assert main(["export", str(flow), "-o", str(tmp_path / "x.slf")]) == 0
+    slf = (tmp_path / "x.slf").read_bytes()
+    err = _err(capsys, ["export", tmp_path / "x.slf", "-o", tmp_path / "x.slf"])
+    assert "the selafin file is the input file itself" in err
+    assert (tmp_path / "x.slf").read_bytes() == slf
+
+
+def test_compare_names_each_flow_once(tmp_path, capsys):
+    from driftlog.compare import parse_flow_specs
+
+    assert parse_flow_specs(["d1/flow.nc", "d2/flow.nc"]) == [("d1_flow", "d1/flow.nc"),
+                                                               ("d2_flow", "d2/flow.nc")]
+    assert parse_flow_specs(["a.nc", "b=a.nc"]) == [("a", "a.nc"), ("b", "a.nc")]
+    flow = _flow_file(tmp_path / "f.nc")
+    s = _scenario_on_file(tmp_path, flow)
+    for flows, named in ((["a=" + str(flow), "a=" + str(flow)], "'a'"),
+                         ([str(flow), str(flow)], f"'{tmp_path.name}_f'")):
+        err = _err(capsys, ["compare", s, *[a for f in flows for a in ("--flow", f)],
+                            "--out", tmp_path / "cmp"])
+        assert f"the name {named} is already the one of --flow" in err, err
+        assert "give each flow a name of its own" in err
+    err = _err(capsys, ["compare", s, "--flow", flow, "--flow", "b=" + str(flow), "--gate",
+                        "g=5,0,5,4", "--gate", "g=6,0,6,4", "--out", tmp_path / "cmp"])
+    assert "--gate 'g=6,0,6,4': the gate 'g' is given twice (also g=5,0,5,4)" in err
+    assert not (tmp_path / "cmp").exists()
+
+
+def test_import_arguments(files, tmp_path, capsys):
+    out = tmp_path / "o.nc"
+    for value in ("-1", "nan", "0"):
+        err = _err(capsys, ["import", files["flow"], "-o", out, "--dry-depth", value])
+        assert f"--dry-depth {float(value):g}: must be a finite number > 0.0 m" in err
+    err = _err(capsys, ["import", files["flow"], "-o", out, "--dry-depth", "1e308"])
+    assert "dry_depth = 1e+308 m is above the deepest water" in err and "(1 m)" in err
+    err = _err(capsys, ["import", files["flow"], "-o", out, "--var", "bogus=x"])
+    assert "--var bogus=x: 'bogus' is not a name driftlog knows; one of depth, level" in err
+    assert not list(tmp_path.iterdir())  # nothing written
+    # the same names in the scenario and the API
+    from driftlog.adapters import open_flow_source
+
+    from driftlog.scenario import load_scenario
+
+    s = _scenario_on_file(tmp_path, files["flow"], extra="[flow.variables]\nbogus = 'x'\n")
+    with pytest.raises(ScenarioError, match=r"\[flow.variables.bogus\] = 'x': not a name"):
+        load_scenario(s)
+    with pytest.raises(FlowFileError, match=r"variables \['bogus'\]: not names driftlog knows"):
+        open_flow_source("auto", files["flow"], variables={"bogus": "x"})
+
+
+def test_ensemble_arguments(tmp_path, capsys):
+    (tmp_path / "base.toml").write_text(UNIFORM)
+    e = tmp_path / "ens.toml"
+    e.write_text(textwrap.dedent("""
+        [ensemble]
+        base = "base.toml"
+        members = 3
+        workers = 0
+        grid_cell = 0.5
+        grid_origin = [-1.0, -2.0]
+        grid_size = [6.0, 4.0]
+        [ensemble.vary]
+        "logs.length" = { uniform = [0.3, 1.0] }
+        """))
+    out = tmp_path / "o"
+    err = _err(capsys, ["ensemble", e, "--out", out, "--workers", "-1"])
+    assert "--workers -1: must be >= 0" in err
+    err = _err(capsys, ["ensemble", e, "--out", out, "--resume", "--overwrite"])
+    assert "resume and overwrite (--resume --overwrite) together" in err
+    err = _err(capsys, ["ensemble", e, "--out", out, "--scheduler", "bogus"])
+    assert "scheduler 'bogus' is not a Dask scheduler address" in err
+    assert "tcp://HOST:PORT" in err
+    err = _err(capsys, ["ensemble", e, "--out", out, "--members", "99999999999999999999"])
+    assert "an ensemble of 99999999999999999999 members needs about" in err
+    assert "--members" in err
+    assert not out.exists()  # refused before anything is written

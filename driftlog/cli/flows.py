@@ -84,10 +84,23 @@ def cmd_import(args):
 
     from tqdm import tqdm
 
-    from driftlog.adapters import import_flow
+    from driftlog.adapters import VARIABLE_NAMES, import_flow
+    from driftlog.errors import ScenarioError
+    from driftlog.schema import check_value
+    from driftlog.sources import FLOW_SECTION
 
     variables = {k: str(v) for k, v in parse_pairs(args.var, "--var").items()}
+    for k, v in variables.items():
+        if k not in VARIABLE_NAMES:
+            raise DriftlogError(f"--var {k}={v}: {k!r} is not a name driftlog knows; one of "
+                                f"{', '.join(VARIABLE_NAMES)}")
     options = parse_pairs(args.option, "--option")
+    key = FLOW_SECTION.by_name["dry_depth"]
+    try:  # the rule of the scenario's [flow] dry_depth
+        check_value(key, "flow.dry_depth", args.dry_depth, Path.cwd())
+    except ScenarioError:
+        raise DriftlogError(f"--dry-depth {args.dry_depth:g}: must be a finite number "
+                            f"{key.describe()} {key.units}, as [flow] dry_depth") from None
     t0 = time.perf_counter()
     bar = None
 
@@ -135,6 +148,7 @@ def add_export(sub):
 
 def cmd_export(args):
     from driftlog.adapters import mike, open_flow_source, selafin
+    from driftlog.files import atomic_output, check_output
 
     out = Path(args.output)
     fmt = args.format
@@ -146,12 +160,17 @@ def cmd_export(args):
         else:
             raise DriftlogError(f"{out}: format not known from the suffix {out.suffix!r}: give "
                                 "--format selafin or --format dfsu")
+    # the suffix of the format (mikeio writes .dfsu only), never over the source; a missing
+    # folder is not created (the writers refuse it below, as before)
+    check_output(out, f"{fmt} file", inputs=[args.source],
+                 suffixes=selafin.SUFFIXES if fmt == "selafin" else mike.SUFFIXES, create=False)
     field = open_flow_source("auto", args.source)
     try:
-        if fmt == "selafin":
-            selafin.write(field, out, precision=args.precision)
-        else:
-            mike.write(field, out)
+        with atomic_output(out) as tmp:  # renamed when complete: never a truncated file
+            if fmt == "selafin":
+                selafin.write(field, tmp, precision=args.precision)
+            else:
+                mike.write(field, tmp)
     except OSError as exc:
         raise DriftlogError(f"{out}: cannot write the {fmt} file ({exc})") from None
     print(f"{args.source} -> {out} ({fmt}, {field.times.size} snapshots, "
@@ -193,8 +212,8 @@ def cmd_compare(args):
         compare_trajectories,
         engine_flows,
         final_time_text,
-        parse_flow_spec,
-        parse_line_spec,
+        parse_flow_specs,
+        parse_gates,
     )
 
     if args.line is not None:
@@ -218,7 +237,7 @@ def cmd_compare(args):
             for f in write_trajectory_comparison(r, args.inputs[0], args.inputs[1], args.out):
                 print(f"written: {f}")
         return 0
-    lines = dict(parse_line_spec(g) for g in args.gate or [])
+    lines = parse_gates(args.gate or [])
     if len(args.inputs) == 1 and args.engines:
         if args.flow:
             raise DriftlogError("driftlog compare: give --engines or --flow, not both")
@@ -235,7 +254,7 @@ def cmd_compare(args):
                             "more (or --engines E1,E2), or two trajectory files")
     path, _ = scenario_path(args.inputs[0])
     out = Path(args.out or "driftlog-compare")
-    compare_runs(path, [parse_flow_spec(f) for f in args.flow], out, args.line,
+    compare_runs(path, parse_flow_specs(args.flow), out, args.line,
                  progress=True, lines=lines)
     print((out / "compare.md").read_text())
     print(f"report: {out / 'compare.md'}, {out / 'compare.json'}; figure: {out / 'compare.png'}")

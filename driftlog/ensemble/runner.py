@@ -238,6 +238,9 @@ def _prepare_flow(ensemble: Ensemble, base: dict, out: Path):
     return new, read_flow_mesh(path)
 
 
+MEMBER_BYTES = 512  # memory held per member before any runs (estimate; check_fits)
+
+
 def _finished(members_dir: Path, n: int) -> list[int]:
     out = []
     if members_dir.is_dir():
@@ -253,6 +256,24 @@ def open_member(output, member: int) -> MemberSummary:
     return MemberSummary.from_npz(Path(output) / "members" / f"member_{member:06d}.npz")
 
 
+def _bad_scheduler(address, exc):
+    return DriftlogError(f"scheduler {address!r} is not a Dask scheduler address ({exc}): it "
+                         "looks like tcp://HOST:PORT, e.g. tcp://head:8786 (--scheduler or "
+                         "[ensemble] scheduler)")
+
+
+def check_scheduler(address):
+    """Refuse a scheduler address that distributed cannot parse, before anything is computed."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, loc = parse_address(address)
+        if scheme in ("tcp", "tls"):
+            parse_host_port(loc)
+    except (ValueError, TypeError) as exc:
+        raise _bad_scheduler(address, exc) from None
+
+
 def _start_client(workers, scheduler, processes):
     from distributed import Client, LocalCluster
 
@@ -261,6 +282,8 @@ def _start_client(workers, scheduler, processes):
             return Client(scheduler, timeout="30s"), None
         except OSError as exc:
             raise DriftlogError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+        except (ValueError, TypeError) as exc:  # not an address (distributed's own parser)
+            raise _bad_scheduler(scheduler, exc) from None
     kw = dict(n_workers=workers, threads_per_worker=1, processes=processes,
               dashboard_address=None, silence_logs=logging.ERROR)
     if processes:  # one thread per worker process: no oversubscription by numba or BLAS
@@ -353,10 +376,25 @@ def run_ensemble(ensemble, workers=None, scheduler=None, client=None, resume=Fal
         Draw the PNG figures of the aggregate.
     """
     started = time.perf_counter()
+    if resume and overwrite:
+        raise DriftlogError("resume and overwrite (--resume --overwrite) together: resume keeps "
+                            "the finished members of the output folder, overwrite deletes them "
+                            "first; give one of them")
+    if workers is not None and int(workers) < 0:
+        raise DriftlogError(f"--workers {workers}: must be >= 0 (0: the members in this "
+                            "process, without Dask), as [ensemble] workers")
     ens = load_ensemble(ensemble, overrides)
     sec = ens.section
+    if client is None and (scheduler or sec["scheduler"]):
+        check_scheduler(scheduler or sec["scheduler"])
     out = Path(output or sec["output"]).resolve()
     n = ens.members
+    from driftlog.resources import check_fits
+
+    # the member table, the list of members to run and their parameters: a few hundred bytes
+    # per member, allocated before the first one runs
+    check_fits(MEMBER_BYTES * n, f"an ensemble of {n} members", "give fewer members "
+               "([ensemble] members, or --members)")
     members_dir, failed_dir = out / "members", out / "failed"
     manifest_path = out / "manifest.json"
     fp = ens.fingerprint()
