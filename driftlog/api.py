@@ -207,6 +207,10 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
     coupling = None
     partial = out.with_name(out.name + ".partial")
     resume = resume and writer is None and partial.is_file()
+    if resume:  # a stopped run of these logs and this scenario, before anything appends to it
+        from driftlog.trajectory import check_resume
+
+        check_resume(partial, scen, logs_from_scenario(scen))
     if scen["coupling"]["enabled"]:  # the logs act on the flow: solver and tracker together
         from driftlog.coupling import resume_coupling, start_coupling
 
