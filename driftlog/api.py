@@ -224,6 +224,15 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         # rewrite the coupled flow file)
         coupling = resume_coupling(scen, out) if resume else start_coupling(scen, out)
         flow = coupling.flow
+    if resume:  # a stopped run of these logs and this scenario, before anything appends to it
+        from driftlog.trajectory import check_resume
+
+        try:
+            check_resume(partial, scen, logs_from_scenario(scen))
+        except DriftlogError:
+            if coupling is not None:  # its flow file as it was (nothing written yet)
+                coupling.writer.close(finalize=False)
+            raise
     if flow is None:
         flow = flow_from_scenario(scen, progress=progress)
     if writer is None and scen["time"]["end"] is None:  # the run ends with the flow: its size

@@ -280,7 +280,8 @@ def _read_mesh(path: Path) -> Mesh:
     try:
         return read_ugrid_mesh(path)
     except MeshError as exc:
-        raise FlowFileError(f"{path}: not a driftlog flow file: {exc}") from None
+        msg = str(exc).removeprefix(f"{path}: ")  # the file named once
+        raise FlowFileError(f"{path}: not a driftlog flow file: {msg}") from None
 
 
 def read_flow_mesh(path) -> Mesh:

@@ -312,8 +312,8 @@ LOGS_SECTION = Section("logs", [
     Key("seeding", "str", "list", "how the logs are placed", choices=SEEDINGS),
     Key("x", "floats", [], "x of each log centre", "m", when="seeding = list"),
     Key("y", "floats", [], "y of each log centre", "m", when="seeding = list"),
-    Key("theta", "any", 0.0, "angle of the log axis to the x axis: a number, a list (one per "
-        "log), or 'random'", "rad"),
+    Key("theta", "numbers_or_str", 0.0, "angle of the log axis to the x axis: a number, a "
+        "list (one per log), or 'random'", "rad", choices=("random",)),
     Key("count", "int", 1, "number of logs", min=1, when="seeding = line, polygon, random, grid"),
     Key("start", "point", None, "first end of the release line", "m", when="seeding = line"),
     Key("end", "point", None, "second end of the release line", "m", when="seeding = line"),
@@ -324,7 +324,8 @@ LOGS_SECTION = Section("logs", [
     Key("length", "float", 1.0, "log length L", "m", min=0.0, exclusive_min=True),
     Key("radius", "float", 0.1, "log radius r", "m", min=0.0, exclusive_min=True),
     Key("density", "float", 720.0, "log density rho_b", "kg/m3", min=0.0, exclusive_min=True),
-    Key("release_time", "float", None, "when the logs enter (default: time.start)", "s"),
+    Key("release_time", "float", None, "when the logs enter (default: time.start), from "
+        "time.start to the run's end", "s"),
     Key("velocity", "str", "flow", "initial velocity: the flow's at release, or rest",
         choices=("flow", "rest")),
 ], doc="logs to release (repeat [[logs]] for several groups)", repeated=True, check=_check_logs)

@@ -458,6 +458,12 @@ def read_ugrid_mesh(path, topology: str | None = None) -> Mesh:
                     break
         node_x = np.asarray(ds.variables[xname][:], np.float64)
         node_y = np.asarray(ds.variables[yname][:], np.float64)
+    for name, a in ((xname, node_x), (yname, node_y)):
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            raise MeshError(f"{path}: the node coordinate {name}[{int(bad[0])}] = "
+                            f"{a[bad[0]]}: node coordinates must be finite numbers "
+                            f"({bad.size} of {a.size} are not)")
     return mesh_merging_seams(node_x, node_y, face_nodes, fill_value=int(fill),
                               start_index=start, node_z=z)
 
@@ -469,6 +475,7 @@ def mesh_merging_seams(node_x, node_y, face_nodes, fill_value=FILL, start_index=
     The mesh's ``merged_nodes`` = (nodes removed, rel_tol) is shown by its repr (``driftlog
     info``); ``node_index`` maps its nodes to the given ones (for node-located data).
     """
+    node_x, node_y = _as_points(node_x, "node_x"), _as_points(node_y, "node_y")
     keep, fn, n_merged = merge_coincident_nodes(node_x, node_y, face_nodes, fill_value,
                                                 start_index, rel_tol)
     x = np.asarray(node_x, np.float64)[keep]

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from driftlog.logs import STATUS_MEANINGS
-from driftlog.trajectory import open_trajectories
+from driftlog.trajectory import open_trajectories, require_observations
 
 __all__ = ["plot_trajectories", "animate", "flow_of_trajectories", "log_outlines"]
 
@@ -162,6 +162,7 @@ def plot_trajectories(path, flow=None, background="speed", show_mesh=False, out=
     """Figure of the trajectories in a file; saved to ``out`` (PNG) if given. Returns the figure."""
     plt = _mpl()
     ds = open_trajectories(path)
+    require_observations(ds, path, "nothing to plot")
     if out is not None:
         from driftlog.files import check_output
 
@@ -245,6 +246,7 @@ def animate(path, out, flow=None, background="speed", fps=20, max_frames=300, dp
     from matplotlib.collections import PolyCollection
 
     ds = open_trajectories(path)
+    require_observations(ds, path, "nothing to animate")
     from driftlog.errors import ArgumentError
     from driftlog.files import check_output
 

@@ -16,6 +16,12 @@ mesh; and logs against obstacles at the start, by this rule:
   come from the flow.
 - **warning**: obstacles are given but ``[contact] enabled = false``: the logs pass through them.
 
+And the logs' release times against the run's span:
+
+- **error**: a ``[[logs]]`` group released before ``[time] start`` (it would enter at the start,
+  not at its release time) or after the run's end (``[time] end``, else the flow's): the run
+  would record nothing of it.
+
 Warnings are ``DriftlogWarning`` (the CLI prints ``driftlog: warning: ...``); errors are
 ``DriftlogError`` subclasses naming the key, the value and what is allowed.
 """
@@ -127,6 +133,32 @@ def _check_span(scen, flow):
                             "after a time ([flow] steady_at)")
 
 
+def _check_release(scen, flow, logs):
+    """Each group's release time within the run's span: ``[time] start`` to its end."""
+    rt = np.asarray(logs.release_time, float)
+    if rt.size == 0:
+        return
+    t0, t1 = float(scen["time"]["start"]), run_end(scen, flow)
+    tol = 1e-9 * max(abs(t0), abs(t1 or 0.0), 1.0)
+    end = f"{t1:g} s" if t1 is not None else "its end"
+    span = f"between time.start = {t0:g} s and the run's end ({end})"
+    early = np.flatnonzero(rt < t0 - tol)
+    if early.size:
+        i = int(early[0])
+        raise ScenarioError(f"logs[{logs.group[i]}].release_time", float(rt[i]),
+                            f"is before time.start = {t0:g} s: its logs would enter at the "
+                            f"start, not at their release time; release them {span}")
+    if t1 is not None:
+        late = np.flatnonzero(rt > t1 + tol)
+        if late.size:
+            i = int(late[0])
+            what = ("time.end" if scen["time"]["end"] is not None else "the end of the flow")
+            raise ScenarioError(f"logs[{logs.group[i]}].release_time", float(rt[i]),
+                                f"is after {what} ({t1:g} s): its logs would never be "
+                                "released and the run would record nothing of them; release "
+                                f"them {span}")
+
+
 def check_start(scen, flow, logs, mesh=None, warn=True):
     """Logs against the flow's mesh and the obstacles at the start (the module's rule).
 
@@ -149,6 +181,7 @@ def check_start(scen, flow, logs, mesh=None, warn=True):
     from driftlog.tracker import outside_error
 
     _check_span(scen, flow)
+    _check_release(scen, flow, logs)
     mesh = mesh if mesh is not None else getattr(flow, "mesh", None)
     if mesh is not None:
         face = mesh.locate(logs.state[:, X], logs.state[:, Y])

@@ -35,7 +35,7 @@ class Key:
     """One scenario key: type, default, units, rules and description.
 
     ``type`` is one of float, int, bool, str, path, floats, point, points, table,
-    float_or_str, any.
+    float_or_str, numbers_or_str (a number, a list of numbers or one of ``choices``), any.
     """
 
     name: str
@@ -139,6 +139,24 @@ def check_value(k: Key, key: str, value, base_dir: Path):
                 raise ScenarioError(key, value, "must be a number or one of "
                                     + ", ".join(repr(c) for c in k.choices))
             return value
+        return _check_number(k, key, value)
+    if t == "numbers_or_str":
+        if isinstance(value, str):
+            if value not in k.choices:
+                raise ScenarioError(key, value, "must be a number, a list of numbers or one of "
+                                    + ", ".join(repr(c) for c in k.choices))
+            return value
+        if isinstance(value, list):
+            if not value:
+                raise _type_error(key, value, "a number or a non-empty list of numbers")
+            for i, v in enumerate(value):
+                if isinstance(v, bool) or not isinstance(v, (int, float)):
+                    raise ScenarioError(f"{key}[{i}]", v, "must be a number (the list "
+                                        f"{value!r} must hold numbers only)")
+            return [_check_number(k, f"{key}[{i}]", v) for i, v in enumerate(value)]
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise _type_error(key, value, "a number, a list of numbers or one of "
+                              + ", ".join(repr(c) for c in k.choices))
         return _check_number(k, key, value)
     if t == "path":
         if not isinstance(value, str) or not value:

@@ -28,7 +28,7 @@ from driftlog.logs import STATUS_MEANINGS
 from driftlog.schema import Key, Section
 
 __all__ = ["TrajectoryWriter", "RenumberedWriter", "open_trajectories", "write_vtk",
-           "write_flow_vtk", "last_states"]
+           "write_flow_vtk", "last_states", "check_resume", "require_observations"]
 
 OBS_VARS = {
     "x": ("f8", dict(standard_name="projection_x_coordinate", long_name="x of the log centre",
@@ -508,6 +508,7 @@ def open_trajectories(path):
     nobs = ds.attrs.get("obs_count")
     if nobs is not None and int(nobs) < ds.sizes.get("obs", 0):  # the same for records
         ds = ds.isel(obs=slice(0, int(nobs)))
+    _check_structure(path, ds)
     if "trajectory_index" not in ds and "rowSize" in ds:
         ds = ds.assign_coords(trajectory_index=("obs", np.repeat(
             np.arange(ds.sizes["trajectory"]), ds["rowSize"].values)))
@@ -515,6 +516,134 @@ def open_trajectories(path):
         ds = ds.set_coords("trajectory_index")
     ds["time"].attrs["units"] = "s"
     return ds
+
+
+# what the readers (info, plot, animate, vtk, compare) use, by dimension
+REQUIRED = {"obs": ("time", "x", "y", "theta", "u", "v", "status"),
+            "trajectory": ("trajectory", "length", "radius", "density")}
+# global attributes holding JSON, and the type each holds
+JSON_ATTRS = {"scenario_resolved": dict, "obstacle_names": list, "physics_options": dict,
+              "resume_counts": list}
+
+
+def _check_structure(path, ds):
+    """Refuse a trajectory file whose structure the readers cannot use (``InputFileError``).
+
+    The variables the readers use, on their dimension; which log each observation belongs to
+    (``rowSize``: one count >= 0 per log, summing to the observations; or ``trajectory_index``
+    of a ``.partial`` file: log numbers in range); the status codes; the JSON attributes.
+    """
+    from driftlog.errors import InputFileError
+
+    def bad(what):
+        return InputFileError(f"{path}: a damaged trajectory file: {what}; it cannot be read "
+                              "(write it again with driftlog track or run)")
+
+    for dim, names in REQUIRED.items():
+        if dim not in ds.dims:
+            raise bad(f"no dimension {dim!r}")
+        for name in names:
+            if name not in ds.variables:
+                raise bad(f"no variable {name!r} (one value per "
+                          f"{'observation' if dim == 'obs' else 'log'})")
+            if ds[name].dims != (dim,):
+                raise bad(f"the variable {name!r} has dimensions {ds[name].dims}, not "
+                          f"({dim!r},)")
+    ntraj, nobs = ds.sizes["trajectory"], ds.sizes["obs"]
+    if "rowSize" in ds.variables and "trajectory_index" not in ds.variables:
+        rows = ds["rowSize"].values
+        if ds["rowSize"].dims != ("trajectory",) or not np.issubdtype(rows.dtype, np.integer):
+            raise bad(f"rowSize must be integers, one per log ({ntraj}): it is "
+                      f"{rows.dtype} of dimensions {ds['rowSize'].dims}")
+        if rows.size and rows.min() < 0:
+            i = int(np.argmin(rows))
+            raise bad(f"rowSize[{i}] = {int(rows[i])}: a count of observations must be >= 0")
+        if int(rows.sum()) != nobs:
+            raise bad(f"rowSize sums to {int(rows.sum())} observations, the obs dimension "
+                      f"holds {nobs}")
+    elif "trajectory_index" in ds.variables:
+        idx = ds["trajectory_index"].values
+        if ds["trajectory_index"].dims != ("obs",) or not np.issubdtype(idx.dtype, np.integer):
+            raise bad("trajectory_index must be integers, one per observation: it is "
+                      f"{idx.dtype} of dimensions {ds['trajectory_index'].dims}")
+        out = np.flatnonzero((idx < 0) | (idx >= ntraj))
+        if out.size:
+            i = int(out[0])
+            raise bad(f"trajectory_index[{i}] = {int(idx[i])}: must be a log number from 0 to "
+                      f"{ntraj - 1} ({out.size} observations out of range)")
+    else:
+        raise bad("neither rowSize (a finished file) nor trajectory_index (a .partial file): "
+                  "which log each observation belongs to is unknown")
+    st = ds["status"].values
+    codes = len(STATUS_MEANINGS.split())
+    wrong = np.flatnonzero(~np.isfinite(st) | (st < 0) | (st >= codes)) if st.size else st
+    if wrong.size:
+        i = int(wrong[0])
+        raise bad(f"status[{i}] = {st[i]}: the status codes are 0 to {codes - 1} "
+                  f"({STATUS_MEANINGS}); {wrong.size} observations have another")
+    for name, kind in JSON_ATTRS.items():
+        if name not in ds.attrs:
+            continue
+        try:
+            value = json.loads(str(ds.attrs[name]))
+        except ValueError as exc:
+            raise bad(f"the attribute {name} is not JSON ({exc}): "
+                      f"{_clip(str(ds.attrs[name]))!r}") from None
+        if not isinstance(value, kind):
+            raise bad(f"the attribute {name} must hold a JSON "
+                      f"{'object' if kind is dict else 'list'}: {_clip(str(ds.attrs[name]))!r}")
+
+
+def require_observations(ds, path, what):
+    """Refuse (``InputFileError``) a trajectory file without observations; ``what``: why it matters.
+
+    Its logs are released after the run's end, or the run stopped before its first record.
+    """
+    if ds.sizes.get("obs", 0) == 0:
+        from driftlog.errors import InputFileError
+
+        raise InputFileError(f"{path}: the trajectory file holds no observations "
+                             f"({ds.sizes.get('trajectory', 0)} logs, none recorded: released "
+                             f"after the run's end, or the run stopped before its first "
+                             f"record): {what}")
+
+
+def _clip(text, n=60):
+    return text if len(text) <= n else text[:n] + "..."
+
+
+def check_resume(partial, scenario, logs):
+    """Refuse (``InputFileError``) a ``.partial`` file that a run of ``scenario`` cannot resume.
+
+    It must be a driftlog trajectory file of a stopped run (not a flow file, a finished or a
+    damaged file), of the same logs (their number, ids and groups) and, as it stores its
+    scenario (``scenario_resolved``), of the same scenario, as a coupled run's flow file must
+    (``coupling.resume_coupling``): appended to, anything else would mix two runs in one file.
+    """
+    from driftlog.errors import InputFileError
+    from driftlog.files import require
+
+    again = "rerun it from the start, without --resume (or remove the .partial file)"
+    require(partial, ("partial",), "file a run resumes from", hint=again,
+            expected="the .partial trajectory file of a stopped run")
+    ds = open_trajectories(partial)  # its structure
+    try:
+        cannot = f"{partial}: cannot resume the run from it"
+        n = ds.sizes["trajectory"]
+        if n != len(logs):
+            raise InputFileError(f"{cannot}: it holds {n} logs, the scenario seeds {len(logs)}; "
+                                 f"{again}")
+        ids, groups = ds["trajectory"].values, ds["group"].values if "group" in ds else None
+        if not np.array_equal(ids, logs.id) or (groups is not None
+                                                and not np.array_equal(groups, logs.group)):
+            raise InputFileError(f"{cannot}: its logs (ids and groups) are not the scenario's; "
+                                 f"{again}")
+        resolved = ds.attrs.get("scenario_resolved")
+        if resolved is not None and resolved != scenario.to_json():
+            raise InputFileError(f"{cannot}: it was computed from another scenario (its "
+                                 f"scenario_resolved differs); {again}")
+    finally:
+        ds.close()
 
 
 def kept_counts(path, t):
@@ -601,6 +730,7 @@ def write_vtk(path, out_dir=None, every=1):
     from driftlog.files import check_output_dir
 
     ds = open_trajectories(path)
+    require_observations(ds, path, "nothing to export to ParaView")
     out_dir = check_output_dir(Path(out_dir or Path(path).with_suffix("")).resolve(),
                                "ParaView folder")
     t = ds["time"].values

@@ -61,10 +61,14 @@ def read_obstacle_mesh(path, key="obstacles.path"):
 
     try:
         m = meshio.read(path)
-    except Exception as exc:  # meshio raises many kinds
+    except (Exception, SystemExit) as exc:  # meshio raises many kinds (ansys: SystemExit)
         raise ScenarioError(key, str(path),
                             f"cannot be read as a mesh by meshio ({exc})") from None
     v = np.asarray(m.points, float)
+    if v.ndim != 2 or len(v) == 0:  # a text file meshio reads as an empty STL
+        raise ScenarioError(key, str(path), "holds no points: not a surface mesh (an empty or "
+                            "text file?); obstacle meshes need 3D points and triangle or quad "
+                            "cells")
     if v.shape[1] == 2:
         raise ScenarioError(key, str(path), "is a 2D mesh; obstacle meshes need 3D points "
                             "(x, y, z) to be cut by the logs' plane")
