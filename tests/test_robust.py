@@ -675,3 +675,89 @@ def test_info_describes_every_kind(files, capsys, tmp_path):
     assert main(["info", str(tmp_path / "p.nc.partial")]) == 0
     text = capsys.readouterr().out
     assert "PARTIAL" in text and "complete up to t = 4.0 s of 10.0 s (40% of the run)" in text
+
+
+# ----------------------------------------------------------------- class 9: check = solve's checks
+SOLVER = UNIFORM.replace("""source = "analytic"
+kind = "uniform"
+velocity = [0.5, 0.0]
+depth = 1.0""", """source = "solver"
+path = "sflow.nc\"""") + """
+[solver]
+end = 4.0
+channel = [0.0, -5.0, 20.0, 10.0]
+cell_size = 2.0
+[solver.initial]
+type = "level"
+value = 1.0
+"""
+
+
+def test_tiny_steps_are_refused_before_the_run(tmp_path, capsys):
+    """[time] hydro_step = 1e-7 on a 4-s run passed the check, then the run did not end
+    (4e7 stops); 1e-300 failed with a traceback; [solver] output_interval = 1e-9 wrote a
+    flow file for ever; [solver] end before start solved '0 steps, 1 snapshot'."""
+    from driftlog.tracker import check_landings
+
+    s = tmp_path / "s.toml"
+    for step in ("1e-7", "1e-300"):
+        s.write_text(UNIFORM.replace("[time]", f"[time]\nhydro_step = {step}"))
+        check = _err(capsys, ["scenario", "check", s])
+        assert f"[time.hydro_step] = {float(step)!r}: makes 4e+" in check
+        assert "must be >= 4e-06 s" in check
+        assert _err(capsys, ["track", s, "-o", tmp_path / "t.nc"]) == check
+    with pytest.raises(ScenarioError, match="time.output_interval"):
+        check_landings(0.0, 4.0, 1e-7)
+    check_landings(0.0, 4.0, 1.0, 1e-3)  # 4000 stops: fine
+    for solver, what in (("output_interval = 1e-9", "[solver.output_interval] = 1e-09: makes "
+                          "4e+09 snapshots"),
+                         ("start = 10.0", "[solver.end] = 4.0: must be after solver.start")):
+        s.write_text(SOLVER.replace("[solver]\n", f"[solver]\n{solver}\n"))
+        check = _err(capsys, ["scenario", "check", s])
+        assert what in check
+        assert _err(capsys, ["solve", s, "-o", tmp_path / "f.nc"]) == check
+        assert not list(tmp_path.glob("f.nc*"))
+
+
+def test_scenario_check_runs_the_checks_of_solve(tmp_path, capsys):
+    """scenario check said valid where solve failed (boundary tag, initial state from a file)
+    or a pier was left out without a word, and a self-crossing outline crashed Triangle."""
+    flow = _flow_file(tmp_path / "other.nc")  # another mesh
+    s = tmp_path / "s.toml"
+    cases = {
+        "[solver.boundaries.nosuchtag]\ntype = 'level'\nvalue = 1.0\n":
+            "[solver.boundaries.nosuchtag] = '{...}': no boundary edge has this tag",
+        "": "nosuch.nc: flow file not found",
+        f"path = '{flow}'\n": "has 40 faces, the solver's mesh",
+    }
+    for extra, what in cases.items():
+        text = SOLVER + extra
+        if "boundaries" not in extra:
+            text = SOLVER.replace('type = "level"\nvalue = 1.0', "type = 'file'\n"
+                                + (extra or f"path = '{tmp_path / 'nosuch.nc'}'\n"))
+        s.write_text(text)
+        check = _err(capsys, ["scenario", "check", s])
+        assert what in check, check
+        assert _err(capsys, ["solve", s, "-o", tmp_path / "f.nc"]) == check
+    for geometry, what in (
+            ("piers = [[500.0, 0.0, 1.0]]", "[solver.piers[0]] = [500.0, 0.0, 1.0]: lies outside "
+             "solver.channel"),
+            ("piers = [[19.5, 0.0, 1.0]]", "[solver.piers[0]] = [19.5, 0.0, 1.0]: crosses or "
+             "touches solver.channel (side 1, from point 1 to point 2)"),
+            ("piers = [[5.0, 0.0, 1.0], [5.5, 0.0, 1.0]]", "[solver.piers[1]] = [5.5, 0.0, 1.0]:"
+             " crosses or touches solver.piers[0]"),
+            ("mesh = 'polygon'\noutline = [[-5.0, -5.0], [20.0, 5.0], [20.0, -5.0], [-5.0, 5.0]]",
+             "[solver.outline] = [[-5.0, -5.0], [20.0, 5.0], [20.0, -5.0], [-5.0, 5.0]]: crosses "
+             "itself: side 0 meets side 2")):
+        s.write_text(SOLVER.replace("[solver]\n", f"[solver]\n{geometry}\n"))
+        check = _err(capsys, ["scenario", "check", s])
+        assert what in check, check
+        assert _err(capsys, ["solve", s, "-o", tmp_path / "f.nc"]) == check
+    from driftlog.errors import MeshError
+    from driftlog.mesher import polygon_mesh
+
+    with pytest.raises(MeshError, match="side 0 of the outline crosses or touches side 2"):
+        polygon_mesh([[-5, -5], [20, 5], [20, -5], [-5, 5]], 2.0)
+    with pytest.raises(MeshError, match="hole 0 lies outside the outline"):
+        polygon_mesh([[0, 0], [10, 0], [10, 10], [0, 10]], 2.0,
+                     holes=[[[20, 20], [21, 20], [21, 21]]])
