@@ -761,3 +761,14 @@ def test_scenario_check_runs_the_checks_of_solve(tmp_path, capsys):
     with pytest.raises(MeshError, match="hole 0 lies outside the outline"):
         polygon_mesh([[0, 0], [10, 0], [10, 10], [0, 10]], 2.0,
                      holes=[[[20, 20], [21, 20], [21, 21]]])
+
+
+def test_plot_time_outside_the_records(files, capsys, tmp_path):
+    """plot --time 18 on a run ending at 4 s drew the 4-s positions titled 't = 18 s'."""
+    for time in ("18", "-1", "nan"):
+        err = _err(capsys, ["plot", files["traj"], "--time", time, "-o", tmp_path / "p.png"])
+        assert f"{files['traj']}: time {float(time)!r} s is outside the trajectories' " \
+               "records, 0 to 4 s" in err
+    assert not (tmp_path / "p.png").exists()
+    assert main(["plot", str(files["traj"]), "--time", "4", "-o", str(tmp_path / "p.png")]) == 0
+    assert (tmp_path / "p.png").is_file()
