@@ -772,3 +772,30 @@ def test_plot_time_outside_the_records(files, capsys, tmp_path):
     assert not (tmp_path / "p.png").exists()
     assert main(["plot", str(files["traj"]), "--time", "4", "-o", str(tmp_path / "p.png")]) == 0
     assert (tmp_path / "p.png").is_file()
+
+
+def test_set_in_an_array_of_tables(tmp_path, capsys):
+    """--set logs.density=800 replaced every [[logs]] group by the table {density = 800} (and
+    the error then named a missing key of the file); now it sets the key in every group,
+    logs.1.density or logs[1].density in group 1, as for [[obstacles]]."""
+    from driftlog.cli.common import overrides
+    from driftlog.scenario import load_scenario
+
+    s = tmp_path / "two.toml"
+    s.write_text(UNIFORM + "[[logs]]\nx = [3.0]\ny = [0.0]\nlength = 1.0\nradius = 0.05\n"
+                 "density = 600.0\n[contact]\nenabled = true\n[[obstacles]]\ntype = 'circle'\n"
+                 "center = [8.0, 5.0]\nradius = 0.5\n")
+
+    def groups(*pairs, section="logs", key="density"):
+        return [g[key] for g in load_scenario(s, overrides(pairs))[section]]
+
+    assert groups("logs.density=800.0") == [800.0, 800.0]
+    assert groups("logs.1.density=800.0") == [700.0, 800.0]
+    assert groups("logs[1].density=800.0", "logs.length=2.0", key="length") == [2.0, 2.0]
+    assert groups("obstacles[0].radius=0.25", section="obstacles", key="radius") == [0.25]
+    assert groups("obstacles.radius=0.75", section="obstacles", key="radius") == [0.75]
+    out = tmp_path / "t.nc"
+    err = _err(capsys, ["track", s, "-o", out, "--set", "logs[2].density=800.0"])
+    assert "[logs[2]] = '{...}': no such table: [[logs]] has 2 (indices 0 to 1)" in err
+    err = _err(capsys, ["track", s, "-o", out, "--set", "logs.density=-1"])
+    assert "[logs[0].density] = -1: must be > 0" in err
