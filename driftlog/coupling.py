@@ -55,7 +55,7 @@ from driftlog.flow import InMemorySnapshots, MeshFlowField
 from driftlog.logs import FLOATING
 from driftlog.schema import Key, Section
 from driftlog.solver.momentum import _arrays, face_momentum
-from driftlog.tracker import Tracker
+from driftlog.tracker import Tracker, check_landings
 
 __all__ = ["COUPLING_SECTION", "CoupledTracker", "SolverFlow", "Coupling", "FlowOutput",
            "start_coupling", "resume_coupling", "coupled_flow_path"]
@@ -400,6 +400,7 @@ class CoupledTracker(Tracker):
         """Outputs, releases and the end as before; hydrodynamic steps from the solver."""
         t0, t1 = (self.t if t_origin is None else t_origin), self.t_end
         self._steady = False
+        check_landings(t0, t1, self.output_interval)
         n_out = int(np.floor((t1 - t0) / self.output_interval + 1e-9))
         outs = t0 + self.output_interval * np.arange(n_out + 1)
         self._outputs = np.unique(np.append(outs, t1))

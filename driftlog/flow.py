@@ -76,7 +76,7 @@ __all__ = [
     "FlowField", "FlowSample", "MeshFlowField", "MeshKernel", "InMemorySnapshots", "SAMPLE_COLUMNS",
     "sample_point", "sample_point_columns",
     "H", "U", "V", "DUDT", "DVDT", "DUDX", "DUDY", "DVDX", "DVDY", "DETADX", "DETADY", "ETA",
-    "NVAR", "OUTSIDE", "DRY", "WET",
+    "NVAR", "OUTSIDE", "DRY", "WET", "time_in_seconds",
 ]
 
 # names of the columns of a sample (driftlog.columns H ... ETA), as written to files
@@ -446,6 +446,65 @@ class InMemorySnapshots:
     def read(self, i):
         """Snapshot i: (h, hu, hv)."""
         return self.h[i], self.hu[i], self.hv[i]
+
+
+_TIME_UNITS = {"s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,
+               "min": 60.0, "mins": 60.0, "minute": 60.0, "minutes": 60.0,
+               "h": 3600.0, "hr": 3600.0, "hrs": 3600.0, "hour": 3600.0, "hours": 3600.0,
+               "d": 86400.0, "day": 86400.0, "days": 86400.0}
+
+
+_CALENDARS = ("standard", "gregorian", "proleptic_gregorian", "julian", "noleap", "365_day",
+              "all_leap", "366_day", "360_day", "none")
+
+
+def time_in_seconds(values, units, where, calendar=None):
+    """Times in seconds on the axis' own reference, and that reference (the date after 'since').
+
+    ``values`` are numbers with CF ``units`` ('seconds since 1970-01-01', 'days since
+    2001-02-30 00:00' with ``calendar = '360_day'``, 'hours', 's'), or date stamps (ISO
+    strings or numpy datetime64), taken as seconds since the first stamp.  Any CF calendar:
+    a CF time unit is a fixed number of seconds in every calendar, so the seconds need no
+    calendar; the reference date is checked against it (cftime).  Float64 seconds since the
+    reference keep the file's own precision (the reference is not added in).
+    """
+    raw = np.asarray(values)
+    if raw.dtype.kind in "SUOM":  # date stamps: seconds since the first one
+        try:
+            stamps = raw.astype("datetime64[ms]") if raw.dtype.kind != "M" else raw
+        except ValueError as exc:
+            raise FlowFileError(f"{where}: time stamps not understood ({exc}); expected ISO "
+                                "dates such as '2024-01-01T00:00:00'") from None
+        if stamps.size == 0 or np.any(np.isnat(stamps)):
+            raise FlowFileError(f"{where}: empty or missing (NaT) time stamps")
+        sec = (stamps - stamps.flat[0]).astype("timedelta64[ms]").astype(np.int64) / 1000.0
+        return sec, str(stamps.flat[0].astype("datetime64[ms]")).replace(".000", "")
+    values = np.asarray(raw, dtype=np.float64)
+    if units is None:
+        return values, None
+    u = str(units).strip()
+    unit, _, origin = u.partition(" since ")
+    f = _TIME_UNITS.get(unit.strip().lower())
+    if f is None:
+        hint = (" (months and years are not fixed durations in CF: not accepted)"
+                if unit.strip().lower() in ("month", "months", "year", "years") else "")
+        raise FlowFileError(f"{where}: time units {units!r} not understood (expected "
+                            f"'seconds since ...', 'hours since ...' or 'days since ...'){hint}")
+    origin = origin.strip() or None
+    if calendar is not None and origin is not None:
+        cal = str(calendar).strip().lower()
+        if cal not in _CALENDARS:
+            raise FlowFileError(f"{where}: calendar {calendar!r} unknown (CF calendars: "
+                                f"{', '.join(_CALENDARS)})")
+        if cal != "none":
+            import cftime
+
+            try:
+                cftime.num2date(0.0, f"seconds since {origin}", calendar=cal)
+            except (ValueError, TypeError) as exc:
+                raise FlowFileError(f"{where}: reference date {origin!r} is not a date of the "
+                                    f"{cal!r} calendar ({exc})") from None
+    return values * f, origin
 
 
 def check_times(times, name):

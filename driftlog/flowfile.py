@@ -29,7 +29,7 @@ import numpy as np
 
 from driftlog._version import __version__
 from driftlog.errors import FlowFileError, MeshError
-from driftlog.flow import MeshFlowField, check_times
+from driftlog.flow import MeshFlowField, check_times, time_in_seconds
 from driftlog.mesh import Mesh, read_ugrid_mesh
 
 __all__ = ["FlowFileWriter", "write_flow", "open_flow", "read_flow_mesh", "NetCDFSnapshots",
@@ -240,7 +240,13 @@ class NetCDFSnapshots:
                 raise FlowFileError(f"{self.path}: variable {name!r} is missing (a driftlog flow "
                                     "file has time, water_depth, velocity_x, velocity_y)")
         self.vars = (self.ds.variables[depth], self.ds.variables[u], self.ds.variables[v])
-        self.times = check_times(self.ds.variables["time"][:], self.name)
+        # CF units as the other readers take them ('days since ...' in seconds, unknown
+        # units refused); ``origin``: the date after 'since', None without one
+        tvar = self.ds.variables["time"]
+        seconds, self.origin = time_in_seconds(tvar[:], getattr(tvar, "units", None),
+                                               f"{self.path}: time",
+                                               calendar=getattr(tvar, "calendar", None))
+        self.times = check_times(seconds, self.name)
 
     def read(self, i):
         """Snapshot i as face arrays (h, hu, hv); fill values are an error."""
@@ -309,6 +315,10 @@ def open_flow(path, dry_depth=None) -> MeshFlowField:
         raise FlowFileError(f"{path}: cannot read ({exc})") from None
     ds = src.ds
     attrs = {k: ds.getncattr(k) for k in ds.ncattrs()}
+    if src.origin is not None:  # the time axis' own reference (the default one is implied)
+        ref = f"seconds since {src.origin}"
+        if "time_reference" in attrs or ref != TIME_UNITS:
+            attrs["time_reference"] = ref
     _read_edge_tags(ds, mesh)
     if "bed_level" not in ds.variables:
         raise FlowFileError(f"{path}: variable 'bed_level' is missing")

@@ -13,7 +13,8 @@ import triangle
 from driftlog.errors import MeshError
 from driftlog.mesh import Mesh
 
-__all__ = ["polygon_mesh", "channel_mesh", "circle", "rectangle"]
+__all__ = ["polygon_mesh", "channel_mesh", "circle", "rectangle", "find_crossing",
+           "find_misplaced_hole"]
 
 
 def circle(center, radius, cell_size=None, n=None):
@@ -39,6 +40,70 @@ def _densify(poly, size, closed=True):
         k = max(int(np.ceil(np.hypot(*(b - a)) / size)), 1)
         pts.append(a + (b - a) * (np.arange(k)[:, None] / k))
     return np.concatenate(pts)
+
+
+_BLOCK = 512  # sides tested at a time against all the others: bounded memory
+
+
+def _sides_meet(a0, a1, b0, b1):
+    """(n, m) whether side k of a (a0[k] to a1[k]) and side l of b cross or touch."""
+    def orient(p, q, r):
+        return ((q[..., 0] - p[..., 0]) * (r[..., 1] - p[..., 1])
+                - (q[..., 1] - p[..., 1]) * (r[..., 0] - p[..., 0]))
+
+    P0, P1, Q0, Q1 = a0[:, None], a1[:, None], b0[None], b1[None]
+    box = ((np.maximum(P0, P1) >= np.minimum(Q0, Q1))
+           & (np.maximum(Q0, Q1) >= np.minimum(P0, P1))).all(axis=-1)
+    return (box & (orient(P0, P1, Q0) * orient(P0, P1, Q1) <= 0)
+            & (orient(Q0, Q1, P0) * orient(Q0, Q1, P1) <= 0))
+
+
+def find_crossing(rings):
+    """The first two sides of closed polygons ``rings`` that cross or touch, or None.
+
+    Returns (a, i, b, j): side i of ring a (from its point i to point i + 1) meets side j of
+    ring b (a <= b; consecutive sides of a ring, which share a point, are not counted).  Triangle
+    fails on such outlines, or crashes the process (a segmentation fault).  O(n^2) in the sides
+    of a ring, over pairs of rings whose boxes overlap.
+    """
+    rings = [np.asarray(r, dtype=float) for r in rings]
+    ends = [(r, np.roll(r, -1, axis=0)) for r in rings]
+    boxes = [(r.min(axis=0), r.max(axis=0)) for r in rings]
+    for a, (a0, a1) in enumerate(ends):
+        for b in range(a, len(rings)):
+            if np.any(boxes[a][1] < boxes[b][0]) or np.any(boxes[b][1] < boxes[a][0]):
+                continue
+            b0, b1 = ends[b]
+            n, m = len(a0), len(b0)
+            for k0 in range(0, n, _BLOCK):
+                meet = _sides_meet(a0[k0:k0 + _BLOCK], a1[k0:k0 + _BLOCK], b0, b1)
+                if a == b:  # a side and itself or its neighbours share points
+                    i = np.arange(k0, min(k0 + _BLOCK, n))[:, None]
+                    gap = np.abs(i - np.arange(m)[None])
+                    meet &= (gap > 1) & (gap < n - 1)
+                hit = np.argwhere(meet)
+                if hit.size:
+                    return a, int(hit[0, 0]) + k0, b, int(hit[0, 1])
+    return None
+
+
+def find_misplaced_hole(outer, holes):
+    """The first hole outside ``outer`` or inside another hole, or None.
+
+    Returns (k, None) for hole k outside the outline, (k, j) for hole k inside hole j.  The
+    rings must not cross (``find_crossing``): one point of a hole then tells where it lies.
+    """
+    from matplotlib.path import Path as MplPath
+
+    holes = [np.asarray(h, dtype=float) for h in holes]
+    ring = MplPath(np.asarray(outer, dtype=float))
+    for k, h in enumerate(holes):
+        if not ring.contains_point(h[0]):
+            return k, None
+        for j, other in enumerate(holes):
+            if j != k and MplPath(other).contains_point(h[0]):
+                return k, j
+    return None
 
 
 def polygon_mesh(outer, cell_size, holes=(), side_tags=None, min_angle=30.0, refine=None) -> Mesh:
@@ -73,6 +138,20 @@ def polygon_mesh(outer, cell_size, holes=(), side_tags=None, min_angle=30.0, ref
 
     check_fits(est * 1500.0, f"meshing with cell_size = {cell_size:g} m (about {est:.3g} "
                "triangles)", "use a larger cell_size")
+    holes = [np.asarray(h, dtype=float) for h in holes]
+    crossing = find_crossing([outer] + holes)
+    if crossing is not None:
+        a, i, b, j = crossing
+        name = ["the outline"] + [f"hole {k}" for k in range(len(holes))]
+        raise MeshError(f"side {i} of {name[a]} crosses or touches side {j} of {name[b]} (side "
+                        "i runs from point i to point i + 1): the mesher needs simple polygons, "
+                        "the holes inside the outline without touching it or each other")
+    misplaced = find_misplaced_hole(outer, holes)
+    if misplaced is not None:
+        k, j = misplaced
+        raise MeshError(f"hole {k} lies " + ("outside the outline" if j is None else
+                                             f"inside hole {j}") + ": holes must lie inside "
+                        "the outline, apart from each other")
     tags = ["wall"]
     side_tags = side_tags or {}
     verts, segs, marks = [], [], []

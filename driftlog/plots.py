@@ -163,14 +163,21 @@ def plot_trajectories(path, flow=None, background="speed", show_mesh=False, out=
     plt = _mpl()
     ds = open_trajectories(path)
     require_observations(ds, path, "nothing to plot")
+    t = ds["time"].values
+    t0, t1 = (float(t.min()), float(t.max())) if t.size else (0.0, 0.0)
+    t_show = t1 if time is None else float(time)
+    tol = 1e-9 * max(t1 - t0, 1.0)
+    if not t0 - tol <= t_show <= t1 + tol:  # the last records before it, titled with it
+        from driftlog.errors import ArgumentError
+
+        raise ArgumentError(f"{path}: time {time!r} s is outside the trajectories' records, "
+                            f"{t0:g} to {t1:g} s")
     if out is not None:
         from driftlog.files import check_output
 
         check_output(out, "figure", inputs=[path], suffixes=FIGURE_SUFFIXES)
     if flow is None and background not in (None, "none"):
         flow = flow_of_trajectories(ds, path)
-    t = ds["time"].values
-    t_show = float(t.max()) if time is None else float(time)
     bounds = _bounds(ds, flow)
     if ax is None:
         w, h = bounds[2] - bounds[0], bounds[3] - bounds[1]

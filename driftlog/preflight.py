@@ -159,6 +159,22 @@ def _check_release(scen, flow, logs):
                                 f"them {span}")
 
 
+def _check_landings(scen, flow):
+    """The run's stops within ``tracker.MAX_LANDINGS``, as the tracker checks them.
+
+    Its outputs, and the steps of ``[time] hydro_step`` on a flow without snapshots.
+    """
+    from driftlog.tracker import check_landings
+
+    end = run_end(scen, flow)
+    if end is None:
+        return
+    tm = scen["time"]
+    steady = (flow is not None and not scen["coupling"]["enabled"]
+              and np.asarray(getattr(flow, "times", ())).size <= 1)
+    check_landings(tm["start"], end, tm["output_interval"], tm["hydro_step"] if steady else None)
+
+
 def check_start(scen, flow, logs, mesh=None, warn=True):
     """Logs against the flow's mesh and the obstacles at the start (the module's rule).
 
@@ -182,6 +198,7 @@ def check_start(scen, flow, logs, mesh=None, warn=True):
 
     _check_span(scen, flow)
     _check_release(scen, flow, logs)
+    _check_landings(scen, flow)
     mesh = mesh if mesh is not None else getattr(flow, "mesh", None)
     if mesh is not None:
         face = mesh.locate(logs.state[:, X], logs.state[:, Y])
@@ -319,13 +336,16 @@ def check_scenario(scen, logs, output=None, read_flow=True):
             flow = flow_from_scenario(scen)
             done.append(f"solver flow {path} stored and up to date")
         else:
-            from driftlog.solver.config import build_mesh, estimate_mesh
+            from driftlog.solver.config import build_mesh, build_solver, estimate_mesh
 
             cells = estimate_mesh(sec)
             mesh = build_mesh(sec)
+            # the solver as the run builds it: its checks of the boundary tags, the initial
+            # state (a flow file on this mesh), the sea
+            build_solver(sec, mesh)
             done.append(f"solver mesh built ({mesh.n_faces} cells"
-                        + (f", estimated {cells:.3g}" if cells else "") + "); the flow is "
-                        "computed by the run")
+                        + (f", estimated {cells:.3g}" if cells else "") + ") with its "
+                        "boundaries and initial state; the flow is computed by the run")
     else:
         from driftlog.sources import flow_from_scenario
 

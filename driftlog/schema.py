@@ -242,6 +242,10 @@ def check_tables(raw: dict, sections, top_keys, base_dir: Path) -> dict:
                                 f"unknown section{did_you_mean(name, allowed)}; allowed: "
                                 + ", ".join(allowed))
         if sec.repeated:
+            if isinstance(value, dict) and any(str(k).isdigit() for k in value):
+                i = next(k for k in value if str(k).isdigit())
+                raise ScenarioError(f"{name}[{i}]", "{...}", f"no such table: the scenario has "
+                                    f"no [[{name}]] tables to change")
             items = value if isinstance(value, list) else [value]
             data[name] = [check_table(sec, t, f"{name}[{i}]", base_dir)
                           for i, t in enumerate(items)]
@@ -287,14 +291,43 @@ def read_toml(source, what: str = "scenario"):
         raise ScenarioError(what, str(path or "<text>"), f"is not valid TOML: {exc}") from None
 
 
-def merge(base: dict, over: dict) -> dict:
-    """Nested merge of ``over`` into a copy of ``base`` (lists and scalars replace)."""
+def merge(base: dict, over: dict, path: str = "") -> dict:
+    """Nested merge of ``over`` into a copy of ``base`` (lists and scalars replace).
+
+    A table merged over an array of tables goes into each of its tables, a key 'i' (digits)
+    into table i only: ``--set logs.density=800`` changes every [[logs]] group,
+    ``--set logs.1.density=800`` (or ``logs[1].density``) group 1; over an empty array (or no
+    array) the table is the one table.  ``path``: the dotted name of ``base``, for messages.
+    """
     out = dict(base)
     for k, v in over.items():
-        if isinstance(v, dict) and isinstance(out.get(k), dict):
-            out[k] = merge(out[k], v)
+        where = f"{path}.{k}" if path else str(k)
+        old = out.get(k)
+        if isinstance(v, dict) and isinstance(old, dict):
+            out[k] = merge(old, v, where)
+        elif (isinstance(v, dict) and isinstance(old, list) and old
+              and all(isinstance(g, dict) for g in old)):
+            out[k] = _merge_groups(old, v, where)
         else:
             out[k] = v
+    return out
+
+
+def _merge_groups(groups: list, over: dict, where: str) -> list:
+    """``over`` merged into every table of ``groups``, its digit keys into those tables only."""
+    common = {k: v for k, v in over.items() if not str(k).isdigit()}
+    out = [merge(g, common, f"{where}[{i}]") for i, g in enumerate(groups)]
+    for k, v in over.items():
+        if not str(k).isdigit():
+            continue
+        i = int(k)
+        if i >= len(out):
+            raise ScenarioError(f"{where}[{i}]", "{...}" if isinstance(v, dict) else v,
+                                f"no such table: [[{where}]] has {len(out)} (indices 0 to "
+                                f"{len(out) - 1})")
+        if not isinstance(v, dict):
+            raise _type_error(f"{where}[{i}]", v, "a table")
+        out[i] = merge(out[i], v, f"{where}[{i}]")
     return out
 
 

@@ -81,7 +81,29 @@ from driftlog.stepping import (
     step_bound,
 )
 
-__all__ = ["Tracker", "StepOptions", "TIME_SECTION", "StepTooSmallError", "IntegrationError"]
+__all__ = ["Tracker", "StepOptions", "TIME_SECTION", "StepTooSmallError", "IntegrationError",
+           "MAX_LANDINGS", "check_landings"]
+
+MAX_LANDINGS = 1_000_000
+"""Output times, and hydrodynamic steps of a flow without snapshots, that a run may land on
+(each a stop of every log, ~0.1 ms: a million is minutes)."""
+
+
+def check_landings(t0, t1, output_interval, hydro_step=None):
+    """Refuse (``ScenarioError``) a run from t0 to t1 with more than ``MAX_LANDINGS`` stops.
+
+    ``[time] output_interval`` (a record each) and ``hydro_step`` (given for a flow without
+    snapshots, whose steps it sets) so small that the run would not end (1e-7 s over 4 s: 4e7
+    stops, hours) or the stop times not fit in memory (1e-300 s).
+    """
+    span = float(t1) - float(t0)
+    for key, step in (("time.output_interval", output_interval), ("time.hydro_step", hydro_step)):
+        if step is None or not span > 0:
+            continue
+        n = span / step
+        if n > MAX_LANDINGS:
+            raise ScenarioError(key, step, f"makes {n:.3g} stops over the run's {span:g} s, more "
+                                f"than {MAX_LANDINGS:g}: must be >= {span / MAX_LANDINGS:.3g} s")
 
 
 def outside_error(flow, logs, out):
@@ -887,6 +909,7 @@ class Tracker:
         hydro = np.asarray(self.flow.times, float)
         self._snapshots = hydro
         self._steady = hydro.size <= 1
+        check_landings(t0, t1, self.output_interval, self.hydro_step if self._steady else None)
         if hydro.size <= 1:
             n = int(np.ceil((t1 - t0) / self.hydro_step - 1e-9))
             hydro = t0 + self.hydro_step * np.arange(n + 1)

@@ -100,3 +100,26 @@ def test_mesh_mismatch(tmp_path, field):
                                   [np.ones(4)])
     with pytest.raises(FlowFileError, match="has shape"):
         f.sample([1.0], [1.0], 0.0)
+
+
+def test_time_units_are_honoured(tmp_path, field):
+    """The flow-file reader takes CF time units as the ugrid reader does (it read every value
+    as seconds: 'days since' gave a flow 86400 times too short) and refuses unknown ones."""
+    from driftlog.adapters import open_flow_source
+
+    p = write_flow(tmp_path / "days.nc", field)
+    with netCDF4.Dataset(p, "a") as ds:
+        ds["time"][:] = [0.0, 10.0, 20.0]
+        ds["time"].units = "days since 2000-01-01"
+    g = open_flow(p)
+    np.testing.assert_array_equal(g.times, [0.0, 864000.0, 1728000.0])
+    assert g.attrs["time_reference"] == "seconds since 2000-01-01"
+    np.testing.assert_array_equal(open_flow_source("file", p).times, g.times)
+    np.testing.assert_array_equal(open_flow_source("ugrid", p).times, g.times)
+    assert "time_reference" not in open_flow(write_flow(tmp_path / "s.nc", field)).attrs
+    bad = write_flow(tmp_path / "fortnights.nc", field)
+    with netCDF4.Dataset(bad, "a") as ds:
+        ds["time"].units = "fortnights since 2000-01-01"
+    with pytest.raises(FlowFileError, match=r"fortnights.nc: time: time units 'fortnights "
+                       r"since 2000-01-01' not understood"):
+        open_flow(bad)

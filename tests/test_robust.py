@@ -840,3 +840,125 @@ def test_ensemble_arguments(tmp_path, capsys):
     assert "an ensemble of 99999999999999999999 members needs about" in err
     assert "--members" in err
     assert not out.exists()  # refused before anything is written
+# ----------------------------------------------------------------- class 9: check = solve's checks
+SOLVER = UNIFORM.replace("""source = "analytic"
+kind = "uniform"
+velocity = [0.5, 0.0]
+depth = 1.0""", """source = "solver"
+path = "sflow.nc\"""") + """
+[solver]
+end = 4.0
+channel = [0.0, -5.0, 20.0, 10.0]
+cell_size = 2.0
+[solver.initial]
+type = "level"
+value = 1.0
+"""
+
+
+def test_tiny_steps_are_refused_before_the_run(tmp_path, capsys):
+    """[time] hydro_step = 1e-7 on a 4-s run passed the check, then the run did not end
+    (4e7 stops); 1e-300 failed with a traceback; [solver] output_interval = 1e-9 wrote a
+    flow file for ever; [solver] end before start solved '0 steps, 1 snapshot'."""
+    from driftlog.tracker import check_landings
+
+    s = tmp_path / "s.toml"
+    for step in ("1e-7", "1e-300"):
+        s.write_text(UNIFORM.replace("[time]", f"[time]\nhydro_step = {step}"))
+        check = _err(capsys, ["scenario", "check", s])
+        assert f"[time.hydro_step] = {float(step)!r}: makes 4e+" in check
+        assert "must be >= 4e-06 s" in check
+        assert _err(capsys, ["track", s, "-o", tmp_path / "t.nc"]) == check
+    with pytest.raises(ScenarioError, match="time.output_interval"):
+        check_landings(0.0, 4.0, 1e-7)
+    check_landings(0.0, 4.0, 1.0, 1e-3)  # 4000 stops: fine
+    for solver, what in (("output_interval = 1e-9", "[solver.output_interval] = 1e-09: makes "
+                          "4e+09 snapshots"),
+                         ("start = 10.0", "[solver.end] = 4.0: must be after solver.start")):
+        s.write_text(SOLVER.replace("[solver]\n", f"[solver]\n{solver}\n"))
+        check = _err(capsys, ["scenario", "check", s])
+        assert what in check
+        assert _err(capsys, ["solve", s, "-o", tmp_path / "f.nc"]) == check
+        assert not list(tmp_path.glob("f.nc*"))
+
+
+def test_scenario_check_runs_the_checks_of_solve(tmp_path, capsys):
+    """scenario check said valid where solve failed (boundary tag, initial state from a file)
+    or a pier was left out without a word, and a self-crossing outline crashed Triangle."""
+    flow = _flow_file(tmp_path / "other.nc")  # another mesh
+    s = tmp_path / "s.toml"
+    cases = {
+        "[solver.boundaries.nosuchtag]\ntype = 'level'\nvalue = 1.0\n":
+            "[solver.boundaries.nosuchtag] = '{...}': no boundary edge has this tag",
+        "": "nosuch.nc: flow file not found",
+        f"path = '{flow}'\n": "has 40 faces, the solver's mesh",
+    }
+    for extra, what in cases.items():
+        text = SOLVER + extra
+        if "boundaries" not in extra:
+            text = SOLVER.replace('type = "level"\nvalue = 1.0', "type = 'file'\n"
+                                + (extra or f"path = '{tmp_path / 'nosuch.nc'}'\n"))
+        s.write_text(text)
+        check = _err(capsys, ["scenario", "check", s])
+        assert what in check, check
+        assert _err(capsys, ["solve", s, "-o", tmp_path / "f.nc"]) == check
+    for geometry, what in (
+            ("piers = [[500.0, 0.0, 1.0]]", "[solver.piers[0]] = [500.0, 0.0, 1.0]: lies outside "
+             "solver.channel"),
+            ("piers = [[19.5, 0.0, 1.0]]", "[solver.piers[0]] = [19.5, 0.0, 1.0]: crosses or "
+             "touches solver.channel (side 1, from point 1 to point 2)"),
+            ("piers = [[5.0, 0.0, 1.0], [5.5, 0.0, 1.0]]", "[solver.piers[1]] = [5.5, 0.0, 1.0]:"
+             " crosses or touches solver.piers[0]"),
+            ("mesh = 'polygon'\noutline = [[-5.0, -5.0], [20.0, 5.0], [20.0, -5.0], [-5.0, 5.0]]",
+             "[solver.outline] = [[-5.0, -5.0], [20.0, 5.0], [20.0, -5.0], [-5.0, 5.0]]: crosses "
+             "itself: side 0 meets side 2")):
+        s.write_text(SOLVER.replace("[solver]\n", f"[solver]\n{geometry}\n"))
+        check = _err(capsys, ["scenario", "check", s])
+        assert what in check, check
+        assert _err(capsys, ["solve", s, "-o", tmp_path / "f.nc"]) == check
+    from driftlog.errors import MeshError
+    from driftlog.mesher import polygon_mesh
+
+    with pytest.raises(MeshError, match="side 0 of the outline crosses or touches side 2"):
+        polygon_mesh([[-5, -5], [20, 5], [20, -5], [-5, 5]], 2.0)
+    with pytest.raises(MeshError, match="hole 0 lies outside the outline"):
+        polygon_mesh([[0, 0], [10, 0], [10, 10], [0, 10]], 2.0,
+                     holes=[[[20, 20], [21, 20], [21, 21]]])
+
+
+def test_plot_time_outside_the_records(files, capsys, tmp_path):
+    """plot --time 18 on a run ending at 4 s drew the 4-s positions titled 't = 18 s'."""
+    for time in ("18", "-1", "nan"):
+        err = _err(capsys, ["plot", files["traj"], "--time", time, "-o", tmp_path / "p.png"])
+        assert f"{files['traj']}: time {float(time)!r} s is outside the trajectories' " \
+               "records, 0 to 4 s" in err
+    assert not (tmp_path / "p.png").exists()
+    assert main(["plot", str(files["traj"]), "--time", "4", "-o", str(tmp_path / "p.png")]) == 0
+    assert (tmp_path / "p.png").is_file()
+
+
+def test_set_in_an_array_of_tables(tmp_path, capsys):
+    """--set logs.density=800 replaced every [[logs]] group by the table {density = 800} (and
+    the error then named a missing key of the file); now it sets the key in every group,
+    logs.1.density or logs[1].density in group 1, as for [[obstacles]]."""
+    from driftlog.cli.common import overrides
+    from driftlog.scenario import load_scenario
+
+    s = tmp_path / "two.toml"
+    s.write_text(UNIFORM + "[[logs]]\nx = [3.0]\ny = [0.0]\nlength = 1.0\nradius = 0.05\n"
+                 "density = 600.0\n[contact]\nenabled = true\n[[obstacles]]\ntype = 'circle'\n"
+                 "center = [8.0, 5.0]\nradius = 0.5\n")
+
+    def groups(*pairs, section="logs", key="density"):
+        return [g[key] for g in load_scenario(s, overrides(pairs))[section]]
+
+    assert groups("logs.density=800.0") == [800.0, 800.0]
+    assert groups("logs.1.density=800.0") == [700.0, 800.0]
+    assert groups("logs[1].density=800.0", "logs.length=2.0", key="length") == [2.0, 2.0]
+    assert groups("obstacles[0].radius=0.25", section="obstacles", key="radius") == [0.25]
+    assert groups("obstacles.radius=0.75", section="obstacles", key="radius") == [0.75]
+    out = tmp_path / "t.nc"
+    err = _err(capsys, ["track", s, "-o", out, "--set", "logs[2].density=800.0"])
+    assert "[logs[2]] = '{...}': no such table: [[logs]] has 2 (indices 0 to 1)" in err
+    err = _err(capsys, ["track", s, "-o", out, "--set", "logs.density=-1"])
+    assert "[logs[0].density] = -1: must be > 0" in err

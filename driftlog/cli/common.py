@@ -32,7 +32,12 @@ def sub_parser(sub, name, help, example, description=None):
 
 
 def overrides(pairs):
-    """--set physics.level=tracer --set time.end=100: a nested dict for load_scenario."""
+    """--set physics.level=tracer --set time.end=100: a nested dict for load_scenario.
+
+    In an array of tables, ``logs.density=800`` sets every group, ``logs.1.density=800`` or
+    ``logs[1].density=800`` group 1 (``schema.merge``).
+    """
+    import re
     import tomllib
 
     out = {}
@@ -45,9 +50,15 @@ def overrides(pairs):
         except tomllib.TOMLDecodeError:
             pass  # a bare word: a string
         node = out
-        parts = key.strip().split(".")
+        parts = []
+        for part in key.strip().split("."):
+            m = re.fullmatch(r"(.+)\[(\d+)\]", part)  # logs[1]: group 1 of [[logs]]
+            parts += [m[1], m[2]] if m else [part]
         for p in parts[:-1]:
             node = node.setdefault(p, {})
+            if not isinstance(node, dict):
+                raise DriftlogError(f"--set {pair!r}: {p} is given a value by another --set, "
+                                    "so it has no keys")
         node[parts[-1]] = value
     return out
 

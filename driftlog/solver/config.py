@@ -64,6 +64,12 @@ def check_solver_section(t, prefix, scen):
     if t["end"] is None:
         raise ScenarioError(f"{prefix}.end", None, "is required when [flow] source = 'solver': "
                             "the end time of the computation (s)")
+    if not t["end"] > t["start"]:
+        raise ScenarioError(f"{prefix}.end", t["end"], f"must be after {prefix}.start = "
+                            f"{t['start']:g} s (nothing to compute)")
+    from driftlog.solver.run import check_snapshots
+
+    check_snapshots(t["start"], t["end"], t["output_interval"], f"{prefix}.output_interval")
     if t.get("energy_bound", "off") != "off" and t["order"] != 2:
         raise ScenarioError(f"{prefix}.energy_bound", t["energy_bound"], "applies at order 2 "
                             "only")
@@ -97,9 +103,13 @@ def check_solver_section(t, prefix, scen):
                                 "radius > 0 (m)")
     for i, h in enumerate(t["holes"] or []):
         a = np.asarray(h, dtype=object)
-        if a.ndim != 2 or a.shape[0] < 3 or a.shape[1] != 2:
+        if (a.ndim != 2 or a.shape[0] < 3 or a.shape[1] != 2
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                           and np.isfinite(v) for v in a.ravel())):
             raise ScenarioError(f"{prefix}.holes[{i}]", h, "must be a polygon [[x, y], ...] "
                                 "of at least 3 points")
+    if t["mesh"] in ("channel", "polygon") and not (t["mesh"] == "channel" and t["structured"]):
+        _check_rings(t, prefix)
     for tag, spec in (t["boundaries"] or {}).items():
         if not isinstance(spec, dict):
             raise ScenarioError(f"{prefix}.boundaries.{tag}", spec, "must be a table with "
@@ -157,6 +167,53 @@ def _check_initial(ini, key):
         v = ini["velocity"]
         if not isinstance(v, list) or len(v) != 2:
             raise ScenarioError(f"{key}.velocity", v, "must be [u, v] (m/s)")
+
+
+def _check_rings(t, prefix):
+    """The outline (or channel), piers and holes as the mesher needs them.
+
+    No side crossing or touching another (Triangle fails on them, or crashes the process),
+    every pier and hole inside the outline and outside the others (a pier outside the channel
+    was left out of the mesh without a word).
+    """
+    from driftlog.mesher import circle, find_crossing, find_misplaced_hole, rectangle
+
+    if t["mesh"] == "polygon":
+        rings, keys, values = [np.asarray(t["outline"], float)], [f"{prefix}.outline"], \
+            [t["outline"]]
+    else:
+        x0, y0, length, width = t["channel"]
+        rings, keys, values = [rectangle(x0, y0, x0 + length, y0 + width)], \
+            [f"{prefix}.channel"], [t["channel"]]
+    polygons = {0}  # rings whose sides the message numbers (not the piers' circles)
+    for i, p in enumerate(t["piers"] or []):
+        rings.append(circle((p[0], p[1]), p[2], t["cell_size"]))
+        keys.append(f"{prefix}.piers[{i}]")
+        values.append(p)
+    for i, h in enumerate(t["holes"] or []):
+        polygons.add(len(rings))
+        rings.append(np.asarray(h, float))
+        keys.append(f"{prefix}.holes[{i}]")
+        values.append(h)
+
+    def side(k, i):
+        return f" (side {i}, from point {i} to point {(i + 1) % len(rings[k])})" \
+            if k in polygons else ""
+
+    crossing = find_crossing(rings)
+    if crossing is not None:
+        a, i, b, j = crossing
+        what = (f"crosses itself: side {i} meets side {j} (side i runs from point i to point "
+                "i + 1)" if a == b else f"crosses or touches {keys[a]}{side(a, i)}")
+        raise ScenarioError(keys[b], values[b], f"{what}{side(b, j) if a != b else ''}; the "
+                            "mesher needs simple polygons, piers and holes inside the outline "
+                            "apart from it and from each other")
+    misplaced = find_misplaced_hole(rings[0], rings[1:])
+    if misplaced is not None:
+        k, j = misplaced
+        where = f"outside {keys[0]}" if j is None else f"inside {keys[j + 1]}"
+        raise ScenarioError(keys[k + 1], values[k + 1], f"lies {where}: piers and holes must "
+                            f"lie inside {keys[0]}, apart from each other")
 
 
 def solver_hash(section) -> str:

@@ -32,9 +32,29 @@ from driftlog.errors import FlowFileError
 from driftlog.flowfile import FACE_DIM, FlowFileWriter
 from driftlog.solver.extremes import EXTREME_FIELDS
 
-__all__ = ["SolveResult", "run_solver", "load_restart"]
+__all__ = ["SolveResult", "run_solver", "load_restart", "MAX_SNAPSHOTS", "check_snapshots"]
 
 RESTART_FIELDS = ("restart_momentum_x", "restart_momentum_y")
+
+MAX_SNAPSHOTS = 100_000
+"""Snapshots a run may write (each one a step landed on and a write flushed to disk)."""
+
+
+def check_snapshots(t0, t1, output_interval, key="solver.output_interval"):
+    """Refuse (``ScenarioError``) an ``output_interval`` giving more than ``MAX_SNAPSHOTS``.
+
+    1e-9 s over 4 s asked for 4e9 snapshots: the run wrote for ever into a growing file.
+    """
+    span = float(t1) - float(t0)
+    if output_interval is None or not span > 0:
+        return
+    n = span / output_interval
+    if n > MAX_SNAPSHOTS:
+        from driftlog.errors import ScenarioError
+
+        raise ScenarioError(key, output_interval, f"makes {n:.3g} snapshots over the "
+                            f"{span:g} s computed, more than {MAX_SNAPSHOTS:g}: must be >= "
+                            f"{span / MAX_SNAPSHOTS:.3g} s")
 
 
 @dataclass
@@ -204,6 +224,7 @@ def run_solver(solver, t_end, output=None, output_interval=None, progress=False,
     t_end = float(t_end)
     if output_interval is not None and not output_interval > 0:
         raise ValueError(f"output_interval must be > 0 s, got {output_interval}")
+    check_snapshots(solver.t if t_origin is None else t_origin, t_end, output_interval)
     writer = None
     n_snap = 0
     if output is not None:
