@@ -224,11 +224,12 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         # rewrite the coupled flow file)
         coupling = resume_coupling(scen, out) if resume else start_coupling(scen, out)
         flow = coupling.flow
+    logs = logs_from_scenario(scen)
     if resume:  # a stopped run of these logs and this scenario, before anything appends to it
         from driftlog.trajectory import check_resume
 
         try:
-            check_resume(partial, scen, logs_from_scenario(scen))
+            check_resume(partial, scen, logs)
         except DriftlogError:
             if coupling is not None:  # its flow file as it was (nothing written yet)
                 coupling.writer.close(finalize=False)
@@ -237,7 +238,6 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         flow = flow_from_scenario(scen, progress=progress)
     if writer is None and scen["time"]["end"] is None:  # the run ends with the flow: its size
         estimate_run(scen, out, flow)
-    logs = logs_from_scenario(scen)
     check_start(scen, flow, logs, warn=writer is None)  # outside the mesh, in an obstacle
     if writer is None and not resume and coupling is None:  # every snapshot the run reads
         check_flow_values(flow, scen["time"]["start"], scen["time"]["end"])

@@ -737,9 +737,11 @@ class Coupling:
             b = self._rows = (np.empty((n, 2)), np.empty(n), np.empty(n), np.empty(n),
                               np.empty(n), np.empty(n), np.empty(n, np.int64),
                               np.full(n, -1, np.int64), np.empty(n), np.empty(n))
-            # the faces of the reaction pending (kept) and of the new one
+            # the faces of the reaction pending (kept) and of the new one: each face once,
+            # again only after its sums cancelled to zero (a few per log and hand-over)
             kept = self._touched[:self._npend]
-            self._touched = np.empty(s.mesh.n_faces + n * max(self.points, 8), np.int64)
+            extra = self.points if self.spread == "points" else 8
+            self._touched = np.empty(s.mesh.n_faces + n * extra, np.int64)
             self._touched[:kept.size] = kept
         g, x, y, theta, length, radius, hint, where, cos_t, sin_t = b
         m = gather_reaction(tracker.received, tracker.act, tracker.state, tracker.face,

@@ -259,6 +259,17 @@ def _well_inside(px, py, f, loc):
     return True
 
 
+@nb.njit(cache=True, inline="always")
+def _add_share(sx, sy, touched, nt, f, mx, my):
+    """Add (mx, my) to face f's sums, listing f in ``touched`` if they were zero; new nt."""
+    if sx[f] == 0.0 and sy[f] == 0.0:
+        touched[nt] = f
+        nt += 1
+    sx[f] += mx
+    sy[f] += my
+    return nt
+
+
 @nb.njit(cache=True)
 def spread_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h, state_face,
                     dry_depth, sx, sy, touched, nt):
@@ -300,11 +311,7 @@ def spread_reaction(got, x, y, cos_t, sin_t, length, hint, points, loc, h, state
                 ux += mx
                 uy += my
                 continue
-            if sx[f] == 0.0 and sy[f] == 0.0:
-                touched[nt] = f
-                nt += 1
-            sx[f] += mx
-            sy[f] += my
+            nt = _add_share(sx, sy, touched, nt, f, mx, my)
     return nt, ux, uy
 
 
@@ -436,18 +443,10 @@ def spread_footprint(got, x, y, cos_t, sin_t, length, radius, hint, loc, h, stat
                 continue
             w = area[k] / whole
             mx, my = -gx * w, -gy * w
-            if sx[f] == 0.0 and sy[f] == 0.0:
-                touched[nt] = f
-                nt += 1
-            sx[f] += mx
-            sy[f] += my
+            nt = _add_share(sx, sy, touched, nt, f, mx, my)
             rx -= mx
             ry -= my
-        if sx[centre] == 0.0 and sy[centre] == 0.0:
-            touched[nt] = centre
-            nt += 1
-        sx[centre] += rx
-        sy[centre] += ry
+        nt = _add_share(sx, sy, touched, nt, centre, rx, ry)
     return nt, ux, uy, stamp
 
 

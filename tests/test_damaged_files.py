@@ -14,29 +14,11 @@ from pathlib import Path
 import netCDF4
 import numpy as np
 import pytest
+from test_robust import UNIFORM  # the analytic uniform scenario of the bad-input tests
 
 from driftlog.cli import main
 from driftlog.flowfile import FlowFileWriter
 from driftlog.mesh import Mesh
-
-UNIFORM = """
-[flow]
-source = "analytic"
-kind = "uniform"
-velocity = [0.5, 0.0]
-depth = 1.0
-[time]
-end = 4.0
-output_interval = 1.0
-[[logs]]
-x = [1.0, 2.0]
-y = [0.0, 1.0]
-length = 0.5
-radius = 0.05
-density = 700.0
-[physics]
-level = "tracer"
-"""
 
 
 def _err(capsys, argv):
