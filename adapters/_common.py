@@ -11,12 +11,14 @@ import re
 
 import numpy as np
 
-from driftlog.errors import FlowFileError
+from driftlog.errors import FlowFileError, geographic_error
 from driftlog.flow import time_in_seconds
+from driftlog.mesh import geographic_attribute
 
 __all__ = ["select_times", "unit_factor", "SubsetSnapshots", "find_variable",
            "time_in_seconds", "time_reference_attrs", "check_values", "DRIFTLOG_NAMES",
-           "reference_epoch"]
+           "reference_epoch", "geographic_error", "geographic_attribute", "wkt_is_geographic",
+           "refuse_geographic_wkt"]
 
 #: driftlog's names for the quantities an adapter looks for (keys of ``[flow] variables``)
 DRIFTLOG_NAMES = ("depth", "level", "bed", "u", "v", "hu", "hv", "alpha")
@@ -182,3 +184,27 @@ def reference_epoch(attrs, where="flow"):
     except ValueError:
         raise FlowFileError(f"{where}: time_reference {ref!r}: date {origin!r} not "
                             "understood (expected ISO 8601, e.g. 2024-01-01 00:00:00)") from None
+
+
+def wkt_is_geographic(wkt) -> bool:
+    """Whether a CRS given as WKT (OGC, ESRI, WKT2) is geographic (longitude/latitude).
+
+    ``pyproj.CRS.from_wkt(...).is_geographic`` (a compound CRS: its horizontal part); text
+    pyproj cannot parse is geographic only if it starts with GEOGCS / GEOGCRS.  Anything
+    else (empty, a projected CRS, a MIKE name such as 'UTM-32') is not.
+    """
+    text = str(wkt or "").strip()
+    if not text:
+        return False
+    try:
+        from pyproj import CRS
+
+        return bool(CRS.from_wkt(text).is_geographic)
+    except Exception:  # noqa: BLE001 - not WKT pyproj reads: its first keyword says
+        return text.upper().startswith(("GEOGCS[", "GEOGCRS[", "GEOGRAPHICCRS["))
+
+
+def refuse_geographic_wkt(wkt, where, what):
+    """Raise ``geographic_error`` if the WKT ``wkt`` (``what``: where it was read) is geographic."""
+    if wkt_is_geographic(wkt):
+        raise geographic_error(where, what, wkt)

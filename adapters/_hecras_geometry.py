@@ -18,7 +18,7 @@ import scipy.sparse as sp
 from driftlog.errors import FlowFileError, MeshError
 
 __all__ = ["FT", "MAX_SIDES", "AREAS", "HecrasGeometry", "read_geometry", "open_h5", "read_dataset",
-           "area_table", "units", "as_text", "HDF5_SIGNATURE"]
+           "area_table", "units", "as_text", "HDF5_SIGNATURE", "check_projection"]
 
 FT = 0.3048  # international foot (HEC-RAS US Customary lengths) in metres
 MAX_SIDES = 8  # cells with more nodes (perimeter points) are split into triangles
@@ -259,6 +259,19 @@ def units(f, path):
                         "'US Customary' or 'SI Units')")
 
 
+def check_projection(f, path):
+    """Refuse a file whose 'Projection' attribute (RAS Mapper's WKT) is a geographic CRS.
+
+    HEC-RAS 2D computes in the projection's plane units; a file without the attribute (no
+    projection set in RAS Mapper) is taken as projected.
+    """
+    from ._common import refuse_geographic_wkt
+
+    proj = f.attrs.get("Projection")
+    if proj is not None:
+        refuse_geographic_wkt(as_text(proj), path, "attribute 'Projection'")
+
+
 def _read_area(f, path, name, ncell, factor):
     """One 2D area: polygon nodes per cell, face normals and lengths, least-squares weights.
 
@@ -364,6 +377,7 @@ def read_geometry(path, areas=None, f=None) -> HecrasGeometry:
     try:
         names, counts = area_table(f, path)
         sel = _select_areas(names, areas, path)
+        check_projection(f, path)
         factor, system = units(f, path)
         xs, ys, polys_start, polys_ids, cell_start, face_start = [], [], [], [], [0], [0]
         rows, cols, wx, wy, normals, lengths = [], [], [], [], [], []

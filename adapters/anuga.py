@@ -4,7 +4,9 @@ An sww file holds a triangle mesh (``volumes``, 0-based, three ``number_of_point
 with node coordinates ``x``, ``y`` relative to the global attributes ``xllcorner``,
 ``yllcorner``; per time: ``stage``, ``xmomentum``, ``ymomentum`` at the vertices, and at the
 centroids (``stage_c``...) when the run stored them (``domain.set_store_centroids(True)``);
-``elevation`` (static, or per time), ``time`` relative to the ``starttime`` attribute.
+``elevation`` (static, or per time), ``time`` relative to the ``starttime`` attribute.  The
+georeference attributes say UTM metres (``projection``, ``units``); coordinates whose ``units``
+are degrees are refused.
 
 Face values are the centroid values when present (ANUGA's conserved quantities), else the mean
 of the three vertex values of each triangle (equal to the centroid value for ANUGA's linear
@@ -24,7 +26,7 @@ from driftlog.flow import MeshFlowField, check_times
 from driftlog.mesh import mesh_merging_seams
 from driftlog.schema import Key
 
-from ._common import SubsetSnapshots, select_times
+from ._common import SubsetSnapshots, geographic_error, select_times
 from ._netcdf import NetCDFSource, netcdf_matches, open_dataset
 
 __all__ = ["open_anuga", "is_sww", "AnugaSnapshots"]
@@ -84,6 +86,11 @@ def _open(ds, path, time_range, dry_depth, use_centroids, mapping):
     if missing:
         raise FlowFileError(f"{path}: not an ANUGA sww file, or an incomplete one: variables "
                             f"{missing} are missing (an sww has {', '.join(REQUIRED)})")
+    # ANUGA's georeference: projection 'UTM', units 'm' (ANUGA warns that it does not correct
+    # for other units); degrees would be longitude / latitude
+    units = str(getattr(ds, "units", "")).strip()
+    if units.lower().startswith("degree"):
+        raise geographic_error(path, "global attribute 'units'", units)
     xll = float(getattr(ds, "xllcorner", 0.0))
     yll = float(getattr(ds, "yllcorner", 0.0))
     x = np.asarray(ds.variables["x"][:], np.float64) + xll

@@ -21,7 +21,13 @@ from driftlog.flow import check_times
 from driftlog.gridflow import GridFlowField
 from driftlog.schema import Key
 
-from ._common import SubsetSnapshots, select_times, unit_factor
+from ._common import (
+    SubsetSnapshots,
+    geographic_attribute,
+    geographic_error,
+    select_times,
+    unit_factor,
+)
 from ._netcdf import (
     ROLES,
     NetCDFSource,
@@ -133,10 +139,12 @@ def _open(ds, path, time_range, mapping, dry_depth, fill, units_override, layout
         raise FlowFileError(f"{path}: unknown layout: no 1-D x and y coordinate variables "
                             "(axis = 'X' / 'Y' or standard_name projection_x_coordinate)")
     for n in (xn, yn):
-        u = str(getattr(ds.variables[n], "units", "m"))
-        if "degree" in u or n in ("lon", "longitude", "lat", "latitude"):
-            raise FlowFileError(f"{path}: coordinate {n!r} is geographic ({u!r}); driftlog "
-                                "needs projected coordinates in metres")
+        var = ds.variables[n]
+        geo = geographic_attribute(n, {k: var.getncattr(k) for k in var.ncattrs()})
+        if geo is None and n in ("lon", "longitude", "lat", "latitude"):
+            geo = ("coordinate name", n)
+        if geo is not None:
+            raise geographic_error(path, *geo)
     x = np.asarray(ds.variables[xn][:], np.float64)
     y = np.asarray(ds.variables[yn][:], np.float64)
     notes = []

@@ -26,7 +26,9 @@ face (HEC-RAS stores no cell velocity vector; RAS Mapper reconstructs one).  Thi
 - reads the time axis from ``Time Date Stamp`` (times in seconds since the first stamp, kept as
   ``attrs["time_reference"] = "seconds since YYYY-MM-DDTHH:MM:SS"``);
 - converts US Customary files (ft, ft/s) to SI, coordinates included (x_m = 0.3048 x_ft), and
-  keeps the projection (WKT) and the factor in the flow's attributes.
+  keeps the projection (WKT) and the factor in the flow's attributes;
+- refuses a file whose ``Projection`` WKT is geographic (longitude/latitude in degrees), and a
+  terrain raster in a geographic CRS: driftlog needs projected coordinates.
 
 The plan's time series may sit in a separate file (the option ``results``), as in the trimmed
 Bald Eagle Creek example of ``../shared/data/hecras``.
@@ -40,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from driftlog.errors import FlowFileError
+from driftlog.errors import FlowFileError, geographic_error
 from driftlog.schema import Key
 
 from ._hecras_geometry import (
@@ -50,6 +52,7 @@ from ._hecras_geometry import (
     HecrasGeometry,
     area_table,
     as_text,
+    check_projection,
     open_h5,
     read_dataset,
     read_geometry,
@@ -224,6 +227,8 @@ def _bed_from_terrain(tpath, geom, path):
     mesh, fac = geom.mesh, geom.length_factor
     try:
         with rasterio.open(tpath) as r:
+            if r.crs is not None and r.crs.is_geographic:
+                raise geographic_error(tpath, "CRS", r.crs.to_string())
             x0, y0, x1, y1 = (np.asarray(mesh.bounds) / fac)
             win = rasterio.windows.from_bounds(x0, y0, x1, y1, r.transform).round_offsets() \
                 .round_lengths()
@@ -396,6 +401,7 @@ def describe(path) -> list[str]:
     f = open_h5(path)
     with f:
         names, counts = area_table(f, path)
+        check_projection(f, path)
         factor, system = units(f, path)
         lines = [f"HEC-RAS file ({as_text(f.attrs.get('File Version', b'?'))}), {system}"]
         for n, c in zip(names, counts, strict=True):

@@ -22,6 +22,8 @@ dry (depth and discharge 0) for that step.
 
 Times are seconds since the first time step, kept as the reference epoch
 (``attrs["time_reference"]``); the projection string is kept in ``attrs["projection"]``.
+Geographic coordinates (projection 'LONG/LAT', or a WKT that is a GEOGCS) are refused:
+driftlog needs projected metres.
 3D (layered), vertical-profile and spectral dfsu files are refused with a clear error.
 """
 
@@ -34,7 +36,13 @@ import numpy as np
 from driftlog.errors import FlowFileError, MeshError
 from driftlog.flow import MeshFlowField, check_times
 
-from ._common import SubsetSnapshots, reference_epoch, select_times
+from ._common import (
+    SubsetSnapshots,
+    geographic_error,
+    reference_epoch,
+    refuse_geographic_wkt,
+    select_times,
+)
 
 __all__ = ["KIND", "SUFFIXES", "OPTIONS", "can_open", "open", "describe", "open_dfsu",
            "DfsuSnapshots", "ROLES", "write"]
@@ -148,10 +156,15 @@ def _open_dfsu(path):
         raise FlowFileError(f"{path}: a DHI DFS file but not a dfsu (a dfs0, dfs1, dfs2 or "
                             "dfs3?): driftlog reads MIKE 21 FM flexible-mesh .dfsu results")
     try:
-        return _Header(path)
+        dfs = _Header(path)
     except Exception as exc:
         raise FlowFileError(f"{path}: unreadable dfsu file ({type(exc).__name__}: {exc}); "
                             "a truncated or corrupted file?") from None
+    # MIKE's name for geographic coordinates (mikeio's ``geometry.is_geo``), or a WKT GEOGCS
+    if dfs.projection.strip().upper() == "LONG/LAT":
+        raise geographic_error(path, "projection", dfs.projection)
+    refuse_geographic_wkt(dfs.projection, path, "projection")
+    return dfs
 
 
 def _find(items, role, mapping, path, required=True):

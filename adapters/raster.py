@@ -25,6 +25,9 @@ GeoTIFF series
     A raster whose AREA_OR_POINT is Point holds values at points: they are taken as the
     corners of the cells (``layout = "node"``: the domain ends at the outermost values).
 
+A raster whose CRS is geographic (EPSG:4326...: cells in degrees) is refused: driftlog needs
+projected coordinates in metres.
+
 Nodata (the raster's nodata value, or NaN): with ``fill = "dry"`` (the default for rasters,
 whose nodata marks cells outside the flood extent or the model) a dry cell (depth 0, velocity
 0); with ``fill = "error"`` an error naming the file and the cells.  Depths below
@@ -43,7 +46,7 @@ from driftlog.flow import check_times
 from driftlog.gridflow import GridFlowField
 from driftlog.schema import Key
 
-from ._common import SubsetSnapshots, select_times
+from ._common import SubsetSnapshots, geographic_error, select_times
 from ._netcdf import NEGATIVE_DEPTH_TOLERANCE
 
 __all__ = ["KIND", "SUFFIXES", "OPTIONS", "can_open", "open", "open_raster_series",
@@ -98,10 +101,15 @@ def _read(path, what="raster"):
         x = np.asarray(da.x.values, np.float64)
         y = np.asarray(da.y.values, np.float64)
         nodata = da.rio.nodata
+        rcrs = da.rio.crs
+        crs, geographic = "", False
         try:
-            crs = da.rio.crs.to_string() if da.rio.crs is not None else ""
+            crs = rcrs.to_string() if rcrs is not None else ""
+            geographic = rcrs is not None and bool(rcrs.is_geographic)
         except Exception:  # noqa: BLE001 - an odd CRS is not a reason to refuse the data
-            crs = ""
+            pass
+        if geographic:  # EPSG:4326...: cells in degrees
+            raise geographic_error(path, "CRS", crs)
         point = str(da.attrs.get("AREA_OR_POINT", "Area"))
     if x.size > 1 and not np.allclose(np.diff(x), x[1] - x[0], rtol=1e-6):
         raise FlowFileError(f"{path}: the columns are not evenly spaced (a rotated or warped "

@@ -1,7 +1,8 @@
 """Exceptions raised for bad input; each names the key or file, the value and what is allowed."""
 
 __all__ = ["DriftlogError", "MeshError", "FlowFileError", "ScenarioError", "FlowDomainError",
-           "InputFileError", "OutputPathError", "SizeError", "ArgumentError", "DriftlogWarning"]
+           "InputFileError", "OutputPathError", "SizeError", "ArgumentError", "DriftlogWarning",
+           "geographic_error"]
 
 
 class DriftlogError(Exception):
@@ -14,6 +15,21 @@ class MeshError(DriftlogError, ValueError):
 
 class FlowFileError(DriftlogError, ValueError):
     """A flow file or hydro-model output that cannot be read (missing variable, NaN, bad times)."""
+
+
+def geographic_error(where, what: str, value, error=FlowFileError) -> DriftlogError:
+    """The error refusing a file whose coordinates are geographic (longitude/latitude, degrees).
+
+    driftlog moves logs by velocity (m/s) x time: coordinates must be projected, in metres.
+    ``what`` names the variable or attribute that says so, ``value`` its value (a long WKT
+    is cut).  One wording for every reader (UGRID, CF grids, dfsu, rasters, HEC-RAS, sww).
+    """
+    text = " ".join(str(value).split())
+    shown = text if len(text) <= 80 else text[:77] + "..."
+    return error(f"{where}: {what} = {shown!r}: the coordinates are geographic (longitude/"
+                 "latitude in degrees); driftlog needs projected coordinates in metres: "
+                 "reproject the output (e.g. to its UTM zone) with the model's own tools or "
+                 "with pyproj / GDAL, then read that")
 
 
 class ScenarioError(DriftlogError, ValueError):

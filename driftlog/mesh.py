@@ -18,13 +18,13 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from driftlog.errors import MeshError
+from driftlog.errors import MeshError, geographic_error
 from driftlog.locate import Locator, build_bin_grid, locate_points
 from driftlog.nodal import lsq_node_operators
 from driftlog.seams import FILL, SEAM_TOLERANCE, merge_coincident_nodes
 
 __all__ = ["Mesh", "read_mesh", "read_ugrid_mesh", "merge_coincident_nodes", "mesh_merging_seams",
-           "SEAM_TOLERANCE"]
+           "SEAM_TOLERANCE", "geographic_attribute"]
 
 DEFAULT_TAG = "wall"
 
@@ -421,8 +421,32 @@ class Mesh:
 
 
 # --------------------------------------------------------------------- readers
+#: CF standard names of coordinates in degrees (grid_*: a rotated pole)
+GEOGRAPHIC_STANDARD_NAMES = ("longitude", "latitude", "grid_longitude", "grid_latitude")
+
+
+def geographic_attribute(name, attrs):
+    """``(attribute, value)`` by which a coordinate variable says it is geographic, or None.
+
+    CF metadata only (no guess from the values): ``standard_name`` longitude / latitude, or
+    ``units`` in degrees (degrees_east, degree_north, degrees...), as D-Flow FM writes the
+    node coordinates of a spherical model.  ``attrs``: the variable's attributes (a dict).
+    """
+    standard = str(attrs.get("standard_name", "")).strip()
+    if standard in GEOGRAPHIC_STANDARD_NAMES:
+        return f"{name}:standard_name", standard
+    units = str(attrs.get("units", "")).strip()
+    if units.lower().startswith("degree"):
+        return f"{name}:units", units
+    return None
+
+
 def read_ugrid_mesh(path, topology: str | None = None) -> Mesh:
-    """Read the 2D mesh of a UGRID NetCDF file (0- or 1-based, any ``_FillValue``)."""
+    """Read the 2D mesh of a UGRID NetCDF file (0- or 1-based, any ``_FillValue``).
+
+    Node coordinates that say they are geographic (``geographic_attribute``) are refused:
+    driftlog's meshes are in projected metres.
+    """
     import netCDF4
 
     path = Path(path)
@@ -441,6 +465,11 @@ def read_ugrid_mesh(path, topology: str | None = None) -> Mesh:
         for v in (xname, yname, fname):
             if v not in ds.variables:
                 raise MeshError(f"{path}: variable {v!r} named by {topo.name!r} is missing")
+        for v in (xname, yname):
+            var = ds.variables[v]
+            geo = geographic_attribute(v, {k: var.getncattr(k) for k in var.ncattrs()})
+            if geo is not None:
+                raise geographic_error(path, *geo, error=MeshError)
         fv = ds.variables[fname]
         fill = fv.getncattr("_FillValue") if "_FillValue" in fv.ncattrs() else FILL
         start = int(fv.getncattr("start_index")) if "start_index" in fv.ncattrs() else 0

@@ -293,6 +293,48 @@ def test_terrain_bed_is_the_lowest_pixel_in_each_cell(tmp_path, muncie):
     assert np.mean(bed <= low * FT + rise) > 0.99
 
 
+WGS84 = ('GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,'
+         '298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]]')
+GEOGRAPHIC = (r"the coordinates are geographic \(longitude/latitude in degrees\); driftlog "
+              "needs projected coordinates in metres")
+
+
+def test_geographic_projection_refused(tmp_path):
+    """A 'Projection' WKT that is a GEOGCS (RAS Mapper set to WGS 84): refused."""
+    import shutil
+
+    geo = tmp_path / "Muncie_wgs84.g05.hdf"
+    shutil.copy(MUNCIE, geo)
+    with h5py.File(geo, "r+") as f:
+        f.attrs["Projection"] = np.bytes_(WGS84)
+    msg = rf"Muncie_wgs84.g05.hdf: attribute 'Projection' = 'GEOGCS\[.*: {GEOGRAPHIC}"
+    with pytest.raises(FlowFileError, match=msg):
+        hecras.read_geometry(geo)
+    with pytest.raises(FlowFileError, match=msg):  # driftlog info
+        hecras.describe(geo)
+    plan = tmp_path / "wgs84.p01.hdf"
+    _write_plan(plan)
+    with h5py.File(plan, "r+") as f:
+        f.attrs["Projection"] = np.bytes_(WGS84)
+    with pytest.raises(FlowFileError, match=rf"wgs84.p01.hdf: attribute 'Projection'.*"
+                                            f"{GEOGRAPHIC}"):
+        hecras.open(plan)
+    # the same files in a projected CRS (StatePlane feet; none) are read (tests above)
+
+
+@pytest.mark.filterwarnings("ignore::PendingDeprecationWarning")  # rasterio's own affine use
+def test_terrain_in_geographic_crs_refused(tmp_path, muncie):
+    rasterio = pytest.importorskip("rasterio")
+    from rasterio.transform import from_origin
+
+    p = tmp_path / "terrain.tif"
+    with rasterio.open(p, "w", driver="GTiff", width=4, height=4, count=1, dtype="float64",
+                       transform=from_origin(-85.4, 40.2, 1e-3, 1e-3), crs="EPSG:4326") as r:
+        r.write(np.full((4, 4), 280.0), 1)
+    with pytest.raises(FlowFileError, match=rf"terrain.tif: CRS = 'EPSG:4326': {GEOGRAPHIC}"):
+        hecras._bed_from_terrain(p, muncie, MUNCIE)
+
+
 def test_import_cli_auto_and_scenario_source(tmp_path):
     """`driftlog import plan.hdf`, `source = "auto"` and `source = "hecras"` all read it."""
     import netCDF4

@@ -207,6 +207,34 @@ def test_another_format(tmp_path):
         mike.open(tmp_path / "wl.dfsu")
 
 
+WGS84 = ('GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,'
+         '298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]]')
+
+
+@pytest.mark.parametrize("projection", ["LONG/LAT", WGS84], ids=["long_lat", "wkt_geogcs"])
+def test_geographic_projection_refused(tmp_path, projection):
+    """A dfsu in longitude/latitude (mikeio's ``is_geo``, or a GEOGCS WKT): refused."""
+    nc = GEOM.node_coordinates
+    geo = mikeio.spatial.GeometryFM2D(  # the mesh near 10 E, 55 N, 2e-5 degrees per metre
+        node_coordinates=np.column_stack([10.0 + 2e-5 * nc[:, 0], 55.0 + 2e-5 * nc[:, 1],
+                                          nc[:, 2]]),
+        element_table=GEOM.element_table, projection=projection)
+    assert geo.is_geo == (projection == "LONG/LAT")
+    h = np.ones((TIMES.size, GEOM.n_elements))
+    ds = mikeio.Dataset([mikeio.DataArray(h, time=TIMES, geometry=geo, item=ITEMS[k])
+                         for k in ("h", "u", "v")])
+    p = tmp_path / "geo.dfsu"
+    ds.to_dfs(str(p))
+    shown = "'LONG/LAT'" if projection == "LONG/LAT" else r"'GEOGCS\[\"GCS_WGS_1984"
+    msg = (rf"geo.dfsu: projection = {shown}.*: the coordinates are geographic "
+           r"\(longitude/latitude in degrees\); driftlog needs projected coordinates in metres")
+    with pytest.raises(FlowFileError, match=msg):
+        mike.open(p)
+    with pytest.raises(FlowFileError, match=msg):  # driftlog info
+        mike.describe(p)
+    # the same file in UTM-32 is read (test_mixed_elements_values_and_times)
+
+
 def test_truncated_file(tmp_path):
     raw = write_dfsu(tmp_path / "a.dfsu").read_bytes()
     (tmp_path / "cut.dfsu").write_bytes(raw[:len(raw) - 200])

@@ -186,6 +186,72 @@ def test_ugrid_layout_errors(tmp_path):
         open_flow_source("auto", tmp_path / "junk.nc")
 
 
+GEOGRAPHIC = ("the coordinates are geographic \\(longitude/latitude in degrees\\); driftlog "
+              "needs projected coordinates in metres: reproject")
+
+
+def spherical(tmp_path, name="spherical.nc", standard_name=True):
+    """The D-Flow FM map file as a spherical model writes it: node coordinates in degrees."""
+    p = copy(UGRID, tmp_path, name)
+    with netCDF4.Dataset(p, "a") as ds:
+        for axis, sn in (("x", "longitude"), ("y", "latitude")):
+            for loc in ("node", "face"):
+                var = ds[f"mesh2d_{loc}_{axis}"]
+                var.units = f"degrees_{'east' if axis == 'x' else 'north'}"
+                if standard_name:
+                    var.standard_name = sn
+                else:
+                    var.delncattr("standard_name")
+    return p
+
+
+def test_ugrid_geographic_coordinates_refused(tmp_path):
+    """A spherical D-Flow FM model (degrees): refused, never read as metres."""
+    from driftlog.errors import MeshError
+    from driftlog.mesh import read_mesh
+
+    p = spherical(tmp_path)
+    msg = rf"spherical.nc: mesh2d_node_x:standard_name = 'longitude': {GEOGRAPHIC}"
+    for kind in ("auto", "ugrid"):
+        with pytest.raises(FlowFileError, match=msg):
+            open_flow_source(kind, p)
+    with pytest.raises(MeshError, match=msg):  # as a mesh file (a solver's mesh_file)
+        read_mesh(p)
+    q = spherical(tmp_path, "units_only.nc", standard_name=False)
+    with pytest.raises(FlowFileError, match=r"units_only.nc: mesh2d_node_x:units = "
+                                            rf"'degrees_east': {GEOGRAPHIC}"):
+        open_flow_source("ugrid", q)
+    # the same file in metres (projection_x_coordinate, m) is read (test_dflowfm_map_file)
+    assert open_flow_source("ugrid", UGRID).mesh.n_faces == 15
+
+
+def test_cli_refuses_geographic_coordinates(tmp_path, capsys):
+    """`driftlog import`, `driftlog info` and a scenario's [flow]: the message, status 2."""
+    from driftlog.cli import main
+
+    p = spherical(tmp_path)
+    scen = tmp_path / "scenario.toml"
+    scen.write_text(f"""
+[flow]
+source = "ugrid"
+path = "{p}"
+[time]
+end = 600.0
+[[logs]]
+x = [1.0]
+y = [1.0]
+""")
+    for argv in (["import", str(p), "-o", str(tmp_path / "flow.nc")], ["info", str(p)],
+                 ["scenario", "check", str(scen)]):
+        capsys.readouterr()
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.startswith("driftlog: error: ") and "Traceback" not in err, err
+        assert "mesh2d_node_x:standard_name = 'longitude': the coordinates are geographic" \
+            in err and "projected coordinates in metres" in err, err
+    assert not (tmp_path / "flow.nc").exists()
+
+
 # --------------------------------------------------------------------- ANUGA
 @pytest.mark.parametrize("sww", [SWW_C, SWW_V], ids=["centroids", "vertices"])
 def test_anuga_sww(sww):
@@ -226,6 +292,12 @@ def test_anuga_options_and_errors(tmp_path):
     with netCDF4.Dataset(p, "a") as ds:
         ds.renameVariable("xmomentum", "xmom")
     with pytest.raises(FlowFileError, match=r"variables \['xmomentum'\] are missing"):
+        open_flow_source("anuga", p)
+    p = copy(SWW_C, tmp_path, "degrees.sww")  # ANUGA's georeference: units 'm' (UTM)
+    with netCDF4.Dataset(p, "a") as ds:
+        ds.units = "degrees"
+    with pytest.raises(FlowFileError, match=rf"degrees.sww: global attribute 'units' = "
+                                            rf"'degrees': {GEOGRAPHIC}"):
         open_flow_source("anuga", p)
     p = copy(SWW_C, tmp_path, "nan.sww")
     with netCDF4.Dataset(p, "a") as ds:
@@ -286,7 +358,12 @@ def test_cf_grid_velocities_units_and_errors(tmp_path):
     p4 = copy(GRID, tmp_path, "geo.nc")
     with netCDF4.Dataset(p4, "a") as ds:
         ds["x"].units = "degrees_east"
-    with pytest.raises(FlowFileError, match="geographic"):
+    with pytest.raises(FlowFileError, match=rf"geo.nc: x:units = 'degrees_east': {GEOGRAPHIC}"):
+        open_flow_source("cf_grid", p4)
+    with netCDF4.Dataset(p4, "a") as ds:
+        ds["x"].units = "m"
+        ds["y"].standard_name = "latitude"
+    with pytest.raises(FlowFileError, match=rf"y:standard_name = 'latitude': {GEOGRAPHIC}"):
         open_flow_source("cf_grid", p4)
     # fill values (cells outside the flood) are an error, or dry if asked
     p5 = copy(GRID, tmp_path, "fill.nc")

@@ -40,11 +40,11 @@ def bed(x, y):
     return 5.0 - 0.01 * (x - X0) + 0.005 * (y - Y0)
 
 
-def write(arr, x, y, path, nodata=-9999.0, driver="AAIGrid"):
+def write(arr, x, y, path, nodata=-9999.0, driver="AAIGrid", crs="EPSG:32631"):
     """A raster with cell centres x (west to east) and y (north to south)."""
     da = xr.DataArray(np.asarray(arr, np.float64), dims=("y", "x"), coords={"x": x, "y": y})
     da = da.rio.write_nodata(nodata)
-    da.rio.write_crs("EPSG:32631", inplace=True)
+    da.rio.write_crs(crs, inplace=True)
     da.rio.to_raster(path, driver=driver)
     return path
 
@@ -238,6 +238,31 @@ def test_geotiff_errors(tmp_path):
         open_flow_source("raster", shifted)
     with pytest.raises(FlowFileError, match="no file matches 'x_\\*.tif'"):
         open_flow_source("raster", shifted, variables={"u": "x_*.tif"})
+
+
+def test_geotiff_in_geographic_crs_refused(tmp_path, capsys):
+    """A series in EPSG:4326 (cells in degrees): refused, not read as 1e-4 m cells."""
+    from driftlog.cli import main
+
+    folder = tmp_path / "wgs84"
+    folder.mkdir()
+    lon = 3.0 + 1e-4 * (np.arange(NX) + 0.5)  # ~10 m cells near 3 E, 43 N
+    lat = 43.0 + 1e-4 * (NY - np.arange(NY) - 0.5)
+    X, Y = np.meshgrid(XC, YC)
+    write(bed(X, Y), lon, lat, folder / "dem.tif", driver="GTiff", crs="EPSG:4326")
+    for t in (0, 60):
+        for name, arr in (("depth", depth(X, Y, t)), ("u", u(X, Y, t)), ("v", v(X, Y, t))):
+            write(arr, lon, lat, folder / f"{name}_{t}.tif", driver="GTiff", crs="EPSG:4326")
+    msg = (r"dem.tif: CRS = 'EPSG:4326': the coordinates are geographic \(longitude/latitude "
+           r"in degrees\); driftlog needs projected coordinates in metres")
+    with pytest.raises(FlowFileError, match=msg):
+        open_flow_source("raster", folder)
+    with pytest.raises(FlowFileError, match=msg):
+        open_flow_source("auto", folder / "depth_0.tif")
+    assert main(["info", str(folder / "depth_0.tif")]) == 2
+    assert "dem.tif: CRS = 'EPSG:4326': the coordinates are geographic" in \
+        capsys.readouterr().err
+    # the same series in EPSG:32631 is read (test_geotiff_series)
 
 
 def test_import_and_track_on_a_lisflood_run(tmp_path):
