@@ -271,6 +271,8 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
                  flow_source=getattr(flow, "name", str(flow)))
     names = getattr(contact, "obstacle_names", ()) if contact is not None else ()
     kw = dict(resume=True) if resume else {}
+    if writer is None and coupling is not None:  # flushed with each flow snapshot
+        kw["flush_every_record"] = True
     until = None
     if resume and coupling is not None:  # the logs where the coupled flow's restart is
         until = kw["until"] = coupling.resumed["t"]

@@ -83,9 +83,24 @@ HIT_KEYS = (("time", "hit_time"), ("log_id", "hit_log"), ("other", "hit_other"),
 # entry and a compressor call per 4 kB), and the whole dimension in one chunk in the final
 # file (each block written there recompressed all of it)
 OBS_CHUNK = 1 << 16
+# the running file's smallest chunk: each sync compresses the chunk being filled again, so a
+# run that flushes few observations at a time (a coupled run flushes every record) gets chunks
+# of about four flushes (``running_chunk``), not OBS_CHUNK
+MIN_RUNNING_CHUNK = 1 << 12
 
 
-def _obs_storage(ds, partial, nobs=None):
+def running_chunk(n_logs, records_per_flush):
+    """Observations per chunk of a ``.partial`` file flushed every ``records_per_flush`` records.
+
+    About four flushes' worth (a power of two from ``MIN_RUNNING_CHUNK`` to ``OBS_CHUNK``): at
+    each sync HDF5 compresses the partly filled chunk again, so a chunk much larger than a
+    flush costs a compression of up to ``OBS_CHUNK`` observations per record written.
+    """
+    want = 4 * max(1, int(n_logs)) * max(1, int(records_per_flush))
+    return int(min(OBS_CHUNK, max(MIN_RUNNING_CHUNK, 1 << (want - 1).bit_length())))
+
+
+def _obs_storage(ds, partial, nobs=None, chunk=None):
     """The storage arguments (to ``createVariable``) of an obs variable of ``ds``.
 
     The final file: zlib level 1 with shuffle, which every netCDF-4 reader decodes.  The
@@ -95,7 +110,8 @@ def _obs_storage(ds, partial, nobs=None):
     zlib where it has not.  (Blosc's LZ4 was as fast, but its HDF5 filter prints an error
     for every chunk it cannot shrink.)
     """
-    chunk = OBS_CHUNK if nobs is None else max(1, min(OBS_CHUNK, nobs))
+    if chunk is None:
+        chunk = OBS_CHUNK if nobs is None else max(1, min(OBS_CHUNK, nobs))
     kw = dict(chunksizes=(chunk,), complevel=1, shuffle=True, compression="zlib")
     if partial and ds.has_zstd_filter():
         kw.update(compression="zstd", shuffle=False)  # netCDF4 sets no shuffle with zstd
@@ -168,6 +184,9 @@ class TrajectoryWriter:
         With ``resume``: continue after the records up to this time only (a coupled run
         resumes where its flow was kept, which may be one output before its last record):
         the records after it are written again by the resumed run.
+    flush_every_record : bool
+        The caller flushes after every record (a coupled run, with its flow file): the
+        running file's chunks are sized for that (``running_chunk``).
     """
 
     # ``keep_counts``' latest entries, and what it reads, for subclasses too whose __init__ of
@@ -177,10 +196,12 @@ class TrajectoryWriter:
     _hbuf = ()
 
     def __init__(self, path, logs, attrs=None, flush_interval=10, resume=False,
-                 obstacle_names=(), until=None):
+                 obstacle_names=(), until=None, flush_every_record=False):
         self.path = Path(path)
         self.partial = self.path.with_name(self.path.name + ".partial")
         self.flush_interval = int(flush_interval)
+        # observations per chunk of the obs variables created here (running_chunk)
+        self._chunk = running_chunk(len(logs), 1 if flush_every_record else flush_interval)
         self._buf = []
         self._nbuf = 0  # observations in _buf
         self._hbuf = []
@@ -190,6 +211,9 @@ class TrajectoryWriter:
             self.ds.set_auto_maskandscale(False)  # times are written on the run's clock
             for v in self.ds.variables.values():
                 _small_chunk_cache(v)
+            chunks = self.ds["time"].chunking()
+            if isinstance(chunks, list):  # the file's own, for obs variables created later
+                self._chunk = int(chunks[0])
             self.nobs = _obs_count(self.ds)
             # hits belong to the records up to their time: those after the last record are
             # recomputed by the resumed run (and overwritten here)
@@ -237,13 +261,14 @@ class TrajectoryWriter:
                     "release_time": logs.release_time, "group": logs.group,
                     "flotation_depth": np.where(np.isfinite(logs.float_depth), logs.float_depth,
                                                 -1.0)}[name]
-        ti = ds.createVariable("trajectory_index", "i8", ("obs",), **_obs_storage(ds, True))
+        obs = _obs_storage(ds, True, chunk=self._chunk)
+        ti = ds.createVariable("trajectory_index", "i8", ("obs",), **obs)
         ti.setncatts(dict(long_name="which trajectory this observation is for",
                           instance_dimension="trajectory"))
-        t = ds.createVariable("time", "f8", ("obs",), **_obs_storage(ds, True))
+        t = ds.createVariable("time", "f8", ("obs",), **obs)
         t.setncatts(dict(standard_name="time", long_name="time", axis="T", **time_attrs))
         for name, (dt, a) in OBS_VARS.items():
-            v = ds.createVariable(name, dt, ("obs",), **_obs_storage(ds, True))
+            v = ds.createVariable(name, dt, ("obs",), **obs)
             v.setncatts(a)
             v.coordinates = "time x y"
         for name, (dt, a) in HIT_VARS.items():
@@ -284,7 +309,8 @@ class TrajectoryWriter:
             if name not in self.ds.variables:  # created with the first record that has it
                 dt, a = EXTRA_OBS_VARS[name]
                 v = _small_chunk_cache(self.ds.createVariable(name, dt, ("obs",),
-                                                              **_obs_storage(self.ds, True)))
+                                                              **_obs_storage(self.ds, True,
+                                                                             chunk=self._chunk)))
                 v.setncatts(a)
                 v.coordinates = "time x y"
                 v.set_auto_maskandscale(False)
@@ -416,7 +442,9 @@ def _recover(partial):
         for name, var in a.variables.items():
             attrs = {k: var.getncattr(k) for k in var.ncattrs() if k != "_FillValue"}
             fill = var.getncattr("_FillValue") if "_FillValue" in var.ncattrs() else None
-            kw = _obs_storage(b, True) if var.dimensions == ("obs",) else _storage_of(var)
+            chunks = var.chunking()
+            kw = (_obs_storage(b, True, chunk=chunks[0] if isinstance(chunks, list) else None)
+                  if var.dimensions == ("obs",) else _storage_of(var))
             v = _small_chunk_cache(b.createVariable(name, var.dtype, var.dimensions,
                                                     fill_value=fill, **kw))
             v.setncatts(attrs)

@@ -502,6 +502,47 @@ def test_steps_across_snapshots_need_the_global_clock():
                 StepOptions(max_step=5.0, clock="per_log", land_on_snapshots=False), t_end=30.0)
 
 
+def test_running_file_chunks_sized_to_its_flushes(tmp_path):
+    """A running file flushed every record gets small chunks; a resumed run keeps the file's.
+
+    HDF5 compresses the partly filled chunk again at every sync: a coupled run (flushed with
+    every flow snapshot) with chunks of OBS_CHUNK observations compressed up to 64k
+    observations per variable at each record, whatever its number of logs.
+    """
+    import netCDF4
+
+    from driftlog import trajectory
+    from driftlog.trajectory import MIN_RUNNING_CHUNK, OBS_CHUNK, running_chunk
+
+    assert running_chunk(1000, 1) == MIN_RUNNING_CHUNK  # 4 x 1000 -> 4096
+    assert running_chunk(3000, 1) == 16384  # 12,000 -> the next power of two
+    assert running_chunk(1000, 10) == OBS_CHUNK  # 40,000 -> 65,536
+    assert running_chunk(10**6, 10) == OBS_CHUNK
+    assert running_chunk(0, 0) == MIN_RUNNING_CHUNK
+    n = 30
+    logs = Logs(np.linspace(0.0, 1.0, n), np.zeros(n))
+    cols = {name: np.zeros(n, dt) for name, (dt, _) in trajectory.OBS_VARS.items()}
+    for every, want in ((True, MIN_RUNNING_CHUNK), (False, running_chunk(n, 10**4))):
+        path = tmp_path / f"t{int(every)}.nc"
+        w = trajectory.TrajectoryWriter(path, logs, flush_interval=10**4,
+                                        flush_every_record=every)
+        w.record(0.0, np.arange(n), cols)
+        w.flush()
+        w.close(finalize=False)
+        with netCDF4.Dataset(w.partial) as ds:
+            assert {ds[v].chunking()[0] for v in ("time", "x", "trajectory_index")} == {want}
+    # resumed with other settings: new obs variables take the file's chunks
+    w = trajectory.TrajectoryWriter(tmp_path / "t1.nc", logs, flush_interval=10**4,
+                                    resume=True)
+    w.record(1.0, np.arange(n), dict(cols, log_density=np.full(n, 700.0)))
+    w.flush()
+    assert w.ds["log_density"].chunking() == [MIN_RUNNING_CHUNK]
+    path = w.close()
+    with netCDF4.Dataset(path) as ds:  # the final file as before: every record, in order
+        np.testing.assert_array_equal(ds["rowSize"][:], np.full(n, 2))
+        assert ds["log_density"][:].size == 2 * n
+
+
 def test_trajectory_file_chunks_bounded_running_file_fast_compressed(tmp_path, monkeypatch):
     """Observations are stored in chunks of at most OBS_CHUNK, compressed, and read back exact.
 
