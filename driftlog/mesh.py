@@ -516,10 +516,13 @@ def read_ugrid_mesh(path, topology: str | None = None) -> Mesh:
         for name, var in ds.variables.items():
             attrs = var.ncattrs()
             if var.dimensions == ds.variables[xname].dimensions and name not in (xname, yname):
-                if ("location" in attrs and var.getncattr("location") == "node") or name.endswith(
-                        ("node_z", "node_bed_level")):
-                    fz, note = length_unit_factor(path, name,
-                                                  {k: var.getncattr(k) for k in attrs})
+                named = name.endswith(("node_z", "node_bed_level"))
+                if named or ("location" in attrs and var.getncattr("location") == "node"):
+                    vat = {k: var.getncattr(k) for k in attrs}
+                    unit = " ".join(str(vat.get("units", "")).lower().split())
+                    if not named and unit and unit not in LENGTH_UNITS:
+                        continue  # another node variable (not a length): not the bed
+                    fz, note = length_unit_factor(path, name, vat)
                     notes += [note] if note else []
                     z = var[:].astype(float) * fz
                     break
