@@ -13,20 +13,18 @@ import numpy as np
 
 from driftlog.errors import FlowFileError, geographic_error
 from driftlog.flow import time_in_seconds
-from driftlog.mesh import geographic_attribute
+from driftlog.mesh import LENGTH_UNITS, geographic_attribute
 
 __all__ = ["select_times", "unit_factor", "SubsetSnapshots", "find_variable",
            "time_in_seconds", "time_reference_attrs", "check_values", "DRIFTLOG_NAMES",
            "reference_epoch", "geographic_error", "geographic_attribute", "wkt_is_geographic",
-           "refuse_geographic_wkt"]
+           "refuse_geographic_wkt", "crs_length_unit"]
 
 #: driftlog's names for the quantities an adapter looks for (keys of ``[flow] variables``)
 DRIFTLOG_NAMES = ("depth", "level", "bed", "u", "v", "hu", "hv", "alpha")
 
 # units -> factor to SI, per kind of quantity
-_LENGTH = {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0,
-           "cm": 0.01, "centimeter": 0.01, "centimeters": 0.01, "mm": 1e-3,
-           "millimeter": 1e-3, "millimeters": 1e-3, "km": 1e3}
+_LENGTH = LENGTH_UNITS  # one table with the mesh reader's node coordinates (km, ft...)
 _VELOCITY = {"m s-1": 1.0, "m/s": 1.0, "m s^-1": 1.0, "m.s-1": 1.0, "ms-1": 1.0, "m/sec": 1.0,
              "cm s-1": 0.01, "cm/s": 0.01, "cm s^-1": 0.01, "cm.s-1": 0.01,
              "mm s-1": 1e-3, "mm/s": 1e-3, "mm s^-1": 1e-3}
@@ -208,3 +206,30 @@ def refuse_geographic_wkt(wkt, where, what):
     """Raise ``geographic_error`` if the WKT ``wkt`` (``what``: where it was read) is geographic."""
     if wkt_is_geographic(wkt):
         raise geographic_error(where, what, wkt)
+
+
+def crs_length_unit(crs):
+    """(unit name, metres per unit) of a projected CRS's horizontal coordinates, or None.
+
+    ``crs``: WKT text (OGC, ESRI, WKT2), or a CRS object ``pyproj.CRS.from_user_input`` takes
+    (rioxarray's ``rio.crs``).  The unit is pyproj's: ``axis_info[0]`` (a compound CRS: its
+    horizontal part first; a bound CRS: its source).  None where there is nothing to say:
+    no CRS, text that is not WKT (a MIKE name such as 'UTM-32'), a CRS pyproj cannot read, a
+    geographic one (refused on its own), or axes without a unit: the coordinates are then
+    taken as metres.  Metadata only: the coordinates are never looked at.
+    """
+    if crs is None or (isinstance(crs, str) and not crs.strip()):
+        return None
+    try:
+        from pyproj import CRS
+
+        c = CRS.from_wkt(crs.strip()) if isinstance(crs, str) else CRS.from_user_input(crs)
+        if c.is_geographic or not c.axis_info:
+            return None
+        axis = c.axis_info[0]
+        factor = float(axis.unit_conversion_factor)
+    except Exception:  # noqa: BLE001 - not a CRS pyproj reads: nothing said of its unit
+        return None
+    if not np.isfinite(factor) or factor <= 0.0:
+        return None
+    return str(axis.unit_name), factor

@@ -23,7 +23,12 @@ dry (depth and discharge 0) for that step.
 Times are seconds since the first time step, kept as the reference epoch
 (``attrs["time_reference"]``); the projection string is kept in ``attrs["projection"]``.
 Geographic coordinates (projection 'LONG/LAT', or a WKT that is a GEOGCS) are refused:
-driftlog needs projected metres.
+driftlog needs projected metres.  Node x, y are in the projection's unit: a WKT projected in
+another unit (a State Plane in US survey feet...) is converted to metres with a note, and the
+WKT is then kept as ``attrs["crs_wkt"]`` with ``attrs["crs_note"]`` giving the factor (not as
+``projection``, which ``write`` would put back on the metre coordinates); MIKE's own names
+('UTM-32', 'NON-UTM') are metres.  Node Z is in the file's Z unit (meter, feet; undefined:
+metres), converted the same way.
 3D (layered), vertical-profile and spectral dfsu files are refused with a clear error.
 """
 
@@ -38,6 +43,7 @@ from driftlog.flow import MeshFlowField, check_times
 
 from ._common import (
     SubsetSnapshots,
+    crs_length_unit,
     geographic_error,
     reference_epoch,
     refuse_geographic_wkt,
@@ -114,6 +120,7 @@ class _Header:
             self.x = np.asarray(f.X, dtype=np.float64)
             self.y = np.asarray(f.Y, dtype=np.float64)
             self.z = np.asarray(f.Z, dtype=np.float64)
+            self.z_unit = _eum(mikeio.EUMUnit, int(f.ZUnit))  # meter, feet or undefined
             self.element_table = f.ElementTable  # node numbers from 1
             self.n_elements, self.n_nodes = int(f.NumberOfElements), int(f.NumberOfNodes)
             self.items = [_Item(it.Name, _eum(mikeio.EUMType, it.Quantity.Item),
@@ -204,6 +211,21 @@ def _factor(item, role, path, notes):
     f = table[unit]
     if f != 1.0:
         notes.append(f"{item.name}: converted from {unit} to SI (x {f:g})")
+    return f
+
+
+def _z_factor(dfs, path, notes):
+    """Metres per unit of the node Z (the file's Z unit; undefined: metres, as MIKE's default)."""
+    unit = dfs.z_unit.name
+    if unit == "undefined":
+        return 1.0
+    table = UNITS["length"]
+    if unit not in table:
+        raise FlowFileError(f"{path}: the node Z unit is {unit!r}, not a unit of length "
+                            f"(expected one of {', '.join(table)})")
+    f = table[unit]
+    if f != 1.0:
+        notes.append(f"node Z: converted from {unit} to m (x {f:g})")
     return f
 
 
@@ -329,10 +351,16 @@ def _open(dfs, path, time_range, mapping, dry_depth):
     fn = np.full((lens.size, nmax), -1, dtype=np.int64)
     fn[np.repeat(np.arange(lens.size), lens), np.arange(flat.size) - np.repeat(starts, lens)] = flat
     notes = []
+    unit = crs_length_unit(dfs.projection)  # node x, y are in the projection's unit
+    fxy = 1.0 if unit is None or abs(unit[1] - 1.0) <= 1e-12 else unit[1]
+    if fxy != 1.0:
+        notes.append(f"node x, y: converted from the projection's {unit[0]} to m "
+                     f"(x {fxy:.10g})")
+    fz = _z_factor(dfs, path, notes)
     try:
         from driftlog.mesh import Mesh
 
-        mesh = Mesh(dfs.x, dfs.y, fn, node_z=dfs.z)
+        mesh = Mesh(dfs.x * fxy, dfs.y * fxy, fn, node_z=dfs.z * fz)
     except MeshError as exc:
         raise FlowFileError(f"{path}: the elements do not make a valid mesh: {exc}") from None
     if mesh.n_reversed:
@@ -388,7 +416,10 @@ def _open(dfs, path, time_range, mapping, dry_depth):
              "data_location": "face",
              "time_reference": "seconds since " + t0.strftime("%Y-%m-%d %H:%M:%S"),
              "import_notes": "; ".join(notes)}
-    if dfs.projection:
+    if dfs.projection and fxy != 1.0:  # not a projection of the (metre) coordinates any more
+        attrs["crs_wkt"] = dfs.projection
+        attrs["crs_note"] = f"x, y are the projection's coordinates x {fxy:.10g} (metres)"
+    elif dfs.projection:
         attrs["projection"] = dfs.projection
     return MeshFlowField(mesh, bed, source, dry_depth=dry_depth, name=str(path), attrs=attrs)
 
@@ -404,6 +435,9 @@ def describe(path) -> list[str]:
     lines = [f"{path}: MIKE dfsu ({dfs.kind}), projection {dfs.projection[:40] or '?'}",
              f"  mesh: {dfs.n_nodes} nodes, {dfs.n_elements} elements ({shape}; data on "
              "elements)"]
+    unit = crs_length_unit(dfs.projection)
+    if unit is not None and abs(unit[1] - 1.0) > 1e-12:
+        lines.append(f"  coordinates: in {unit[0]}, read in metres (x {unit[1]:.10g})")
     if dfs.n_timesteps:
         lines.append(f"  times: {dfs.n_timesteps} steps, {dfs.time[0]} to {dfs.time[-1]}")
     else:

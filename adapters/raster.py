@@ -26,7 +26,11 @@ GeoTIFF series
     corners of the cells (``layout = "node"``: the domain ends at the outermost values).
 
 A raster whose CRS is geographic (EPSG:4326...: cells in degrees) is refused: driftlog needs
-projected coordinates in metres.
+projected coordinates in metres.  So is a raster whose projected CRS has another unit (a
+State Plane in US survey feet, EPSG:2272...): its coordinates could be converted, but a
+raster does not say the units of its values (depths and velocities in ft and ft/s, or m and
+m/s?), and the reader has no option to say them: reproject the rasters to a CRS in metres.
+A raster without a CRS (an ASCII grid without .prj) is taken as metres.
 
 Nodata (the raster's nodata value, or NaN): with ``fill = "dry"`` (the default for rasters,
 whose nodata marks cells outside the flood extent or the model) a dry cell (depth 0, velocity
@@ -46,7 +50,7 @@ from driftlog.flow import check_times
 from driftlog.gridflow import GridFlowField
 from driftlog.schema import Key
 
-from ._common import SubsetSnapshots, geographic_error, select_times
+from ._common import SubsetSnapshots, crs_length_unit, geographic_error, select_times
 from ._netcdf import NEGATIVE_DEPTH_TOLERANCE
 
 __all__ = ["KIND", "SUFFIXES", "OPTIONS", "can_open", "open", "open_raster_series",
@@ -110,6 +114,9 @@ def _read(path, what="raster"):
             pass
         if geographic:  # EPSG:4326...: cells in degrees
             raise geographic_error(path, "CRS", crs)
+        unit = crs_length_unit(rcrs)
+        if unit is not None and abs(unit[1] - 1.0) > 1e-12:  # a State Plane in feet...
+            raise _length_unit_error(path, crs, *unit)
         point = str(da.attrs.get("AREA_OR_POINT", "Area"))
     if x.size > 1 and not np.allclose(np.diff(x), x[1] - x[0], rtol=1e-6):
         raise FlowFileError(f"{path}: the columns are not evenly spaced (a rotated or warped "
@@ -118,6 +125,23 @@ def _read(path, what="raster"):
     dy = abs(y[1] - y[0]) if y.size > 1 else None
     geo = dict(x=x, y=y, dx=dx, dy=dy, crs=crs, point=point)
     return arr, (None if nodata is None else float(nodata)), geo
+
+
+def _length_unit_error(path, crs, unit, factor):
+    """The error refusing a raster whose projected CRS is not in metres (feet, km...).
+
+    The coordinates could be converted, but a raster says nothing of the units of its values:
+    depths and velocities next to a CRS in feet may be in ft and ft/s (a US model's export) or
+    in m and m/s, and reading them wrong moves the logs by the wrong distance.
+    """
+    text = " ".join(str(crs).split())
+    shown = text if len(text) <= 80 else text[:77] + "..."
+    return FlowFileError(f"{path}: CRS = {shown!r}: the coordinates are in {unit} "
+                         f"({factor:.10g} m), not metres, and a raster does not say the units "
+                         "of its values (depths, velocities: feet too?); driftlog needs "
+                         "projected coordinates in metres: reproject the rasters to a CRS in "
+                         "metres (e.g. gdalwarp -t_srs with the UTM zone), with depths in m "
+                         "and velocities in m/s, then read those")
 
 
 def _bad(arr, nodata):

@@ -8,7 +8,9 @@ the same way: variables are found by ``standard_name``, then by known names (``R
 ``_netcdf``), and any can be named by the user (``variables = {depth = "...", ...}``).
 
 Depth is taken from the depth variable, or level minus bed; velocity from u, v, or unit
-discharges hu, hv.  Snapshots are read one time at a time.
+discharges hu, hv.  Snapshots are read one time at a time.  Node coordinates (and node
+elevations) whose ``units`` are another length (km, ft, US_survey_foot...) are converted to
+metres with a note (``driftlog.mesh.read_ugrid_mesh``); unknown units are refused.
 """
 
 from __future__ import annotations
@@ -118,7 +120,7 @@ def _open(ds, path, time_range, mapping, dry_depth, topology, fill, units_overri
                                 f"({tdim!r}, {face_dim!r}) ({len(ds.dimensions[tdim])}, "
                                 f"{mesh.n_faces})")
     roles = find_roles(fvars, mapping, where, need_bed=True)
-    notes = []
+    notes = list(getattr(mesh, "unit_notes", ()))  # node coordinates converted to metres
     merged, tol = getattr(mesh, "merged_nodes", (0, 0.0))
     if merged:
         notes.append(f"{merged} coincident nodes merged (closer than {tol:g} x the local edge "

@@ -24,7 +24,7 @@ from driftlog.nodal import lsq_node_operators
 from driftlog.seams import FILL, SEAM_TOLERANCE, merge_coincident_nodes
 
 __all__ = ["Mesh", "read_mesh", "read_ugrid_mesh", "merge_coincident_nodes", "mesh_merging_seams",
-           "SEAM_TOLERANCE", "geographic_attribute"]
+           "SEAM_TOLERANCE", "geographic_attribute", "LENGTH_UNITS", "length_unit_factor"]
 
 DEFAULT_TAG = "wall"
 
@@ -441,11 +441,42 @@ def geographic_attribute(name, attrs):
     return None
 
 
+#: metres per unit of length, by UDUNITS name (lower case): node coordinates here, and every
+#: length the adapters read (``driftlog.adapters._common.unit_factor``)
+LENGTH_UNITS = {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0,
+                "cm": 0.01, "centimeter": 0.01, "centimeters": 0.01, "mm": 1e-3,
+                "millimeter": 1e-3, "millimeters": 1e-3, "km": 1e3, "kilometer": 1e3,
+                "kilometers": 1e3, "kilometre": 1e3, "kilometres": 1e3,
+                "ft": 0.3048, "foot": 0.3048, "feet": 0.3048, "international_foot": 0.3048,
+                "us_survey_foot": 1200.0 / 3937.0, "us_survey_feet": 1200.0 / 3937.0}
+
+
+def length_unit_factor(where, name, attrs, error=MeshError):
+    """(metres per unit, note or None) of a variable of lengths, from its ``units`` attribute.
+
+    No ``units`` (or empty): metres.  A unit of ``LENGTH_UNITS`` other than the metre: its
+    factor and a note saying what was converted; anything else is refused with ``error``
+    naming ``where`` (the file), ``name:units`` and the value.  Metadata only: the values are
+    never looked at.
+    """
+    units = str(attrs.get("units", "")).strip()
+    if not units:
+        return 1.0, None
+    f = LENGTH_UNITS.get(" ".join(units.lower().split()))
+    if f is None:
+        raise error(f"{where}: {name}:units = {units!r}: not a unit of length driftlog knows "
+                    "(m, km, cm, mm, ft, US_survey_foot); driftlog reads lengths in metres: "
+                    "correct the attribute, or convert the file to metres")
+    return f, (None if f == 1.0 else f"{name}: converted from {units!r} to m (x {f:.10g})")
+
+
 def read_ugrid_mesh(path, topology: str | None = None) -> Mesh:
     """Read the 2D mesh of a UGRID NetCDF file (0- or 1-based, any ``_FillValue``).
 
     Node coordinates that say they are geographic (``geographic_attribute``) are refused:
-    driftlog's meshes are in projected metres.
+    driftlog's meshes are in projected metres.  Node coordinates and node elevations in
+    another unit of length (``units`` km, ft...: ``length_unit_factor``) are converted to
+    metres; the mesh's ``unit_notes`` say which (the ugrid reader adds them to its notes).
     """
     import netCDF4
 
@@ -465,11 +496,15 @@ def read_ugrid_mesh(path, topology: str | None = None) -> Mesh:
         for v in (xname, yname, fname):
             if v not in ds.variables:
                 raise MeshError(f"{path}: variable {v!r} named by {topo.name!r} is missing")
+        factors, notes = {}, []
         for v in (xname, yname):
             var = ds.variables[v]
-            geo = geographic_attribute(v, {k: var.getncattr(k) for k in var.ncattrs()})
+            attrs = {k: var.getncattr(k) for k in var.ncattrs()}
+            geo = geographic_attribute(v, attrs)
             if geo is not None:
                 raise geographic_error(path, *geo, error=MeshError)
+            factors[v], note = length_unit_factor(path, v, attrs)
+            notes += [note] if note else []
         fv = ds.variables[fname]
         fill = fv.getncattr("_FillValue") if "_FillValue" in fv.ncattrs() else FILL
         start = int(fv.getncattr("start_index")) if "start_index" in fv.ncattrs() else 0
@@ -481,20 +516,28 @@ def read_ugrid_mesh(path, topology: str | None = None) -> Mesh:
         for name, var in ds.variables.items():
             attrs = var.ncattrs()
             if var.dimensions == ds.variables[xname].dimensions and name not in (xname, yname):
-                if ("location" in attrs and var.getncattr("location") == "node") or name.endswith(
-                        ("node_z", "node_bed_level")):
-                    z = var[:].astype(float)
+                named = name.endswith(("node_z", "node_bed_level"))
+                if named or ("location" in attrs and var.getncattr("location") == "node"):
+                    vat = {k: var.getncattr(k) for k in attrs}
+                    unit = " ".join(str(vat.get("units", "")).lower().split())
+                    if not named and unit and unit not in LENGTH_UNITS:
+                        continue  # another node variable (not a length): not the bed
+                    fz, note = length_unit_factor(path, name, vat)
+                    notes += [note] if note else []
+                    z = var[:].astype(float) * fz
                     break
-        node_x = np.asarray(ds.variables[xname][:], np.float64)
-        node_y = np.asarray(ds.variables[yname][:], np.float64)
+        node_x = np.asarray(ds.variables[xname][:], np.float64) * factors[xname]
+        node_y = np.asarray(ds.variables[yname][:], np.float64) * factors[yname]
     for name, a in ((xname, node_x), (yname, node_y)):
         bad = np.flatnonzero(~np.isfinite(a))
         if bad.size:
             raise MeshError(f"{path}: the node coordinate {name}[{int(bad[0])}] = "
                             f"{a[bad[0]]}: node coordinates must be finite numbers "
                             f"({bad.size} of {a.size} are not)")
-    return mesh_merging_seams(node_x, node_y, face_nodes, fill_value=int(fill),
+    mesh = mesh_merging_seams(node_x, node_y, face_nodes, fill_value=int(fill),
                               start_index=start, node_z=z)
+    mesh.unit_notes = notes
+    return mesh
 
 
 def mesh_merging_seams(node_x, node_y, face_nodes, fill_value=FILL, start_index=0,

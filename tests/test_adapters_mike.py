@@ -68,7 +68,8 @@ ITEMS = {"eta": mikeio.ItemInfo("Surface elevation", E.Surface_Elevation, U.mete
          "v": mikeio.ItemInfo("V velocity", E.v_velocity_component, U.meter_per_sec)}
 
 
-def write_dfsu(path, keep=("eta", "h", "u", "v"), items=None, times=TIMES, factor=None):
+def write_dfsu(path, keep=("eta", "h", "u", "v"), items=None, times=TIMES, factor=None,
+               geometry=GEOM):
     sec = (times - times[0]).total_seconds().to_numpy()
     vals = {"eta": [], "h": [], "u": [], "v": []}
     for t in sec:
@@ -79,7 +80,7 @@ def write_dfsu(path, keep=("eta", "h", "u", "v"), items=None, times=TIMES, facto
         vals["v"].append(v)
     items = dict(ITEMS, **(items or {}))
     das = [mikeio.DataArray(np.array(vals[k]) * (factor or {}).get(k, 1.0), time=times,
-                            geometry=GEOM, item=items[k]) for k in keep]
+                            geometry=geometry, item=items[k]) for k in keep]
     mikeio.Dataset(das).to_dfs(str(path))
     return path
 
@@ -233,6 +234,61 @@ def test_geographic_projection_refused(tmp_path, projection):
     with pytest.raises(FlowFileError, match=msg):  # driftlog info
         mike.describe(p)
     # the same file in UTM-32 is read (test_mixed_elements_values_and_times)
+
+
+USFT = 1200.0 / 3937.0  # the US survey foot in metres
+PA_SOUTH_FT = (  # EPSG:2272, NAD83 / Pennsylvania South (ftUS), as ESRI WKT (MIKE's form)
+    'PROJCS["NAD_1983_StatePlane_Pennsylvania_South_FIPS_3702_Feet",GEOGCS['
+    '"GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,'
+    '298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],'
+    'PROJECTION["Lambert_Conformal_Conic"],PARAMETER["False_Easting",1968500.0],'
+    'PARAMETER["False_Northing",0.0],PARAMETER["Central_Meridian",-77.75],'
+    'PARAMETER["Standard_Parallel_1",40.9666666666667],PARAMETER["Standard_Parallel_2",'
+    '39.9333333333333],PARAMETER["Latitude_Of_Origin",39.3333333333333],'
+    'UNIT["US survey foot",0.304800609601219]]')
+
+
+@pytest.mark.parametrize("z_feet", [False, True], ids=["z_meter", "z_feet"])
+def test_projection_in_feet_converted(tmp_path, rng, monkeypatch, z_feet):
+    """Node x, y in a State Plane in US survey feet (the projection's unit) and node Z in the
+    file's Z unit (mikeio writes meter; MIKE may write feet): read in metres, the same flow as
+    the metre file at the same metre positions."""
+    nc = GEOM.node_coordinates
+    zf = 0.3048 if z_feet else 1.0
+    feet = mikeio.spatial.GeometryFM2D(
+        node_coordinates=np.column_stack([nc[:, 0] / USFT, nc[:, 1] / USFT, nc[:, 2] / zf]),
+        element_table=GEOM.element_table, projection=PA_SOUTH_FT)
+    if z_feet:  # as MIKE Zero writes a mesh in feet (mikeio always says meter)
+        from mikecore.DfsuBuilder import DfsuBuilder
+        from mikecore.eum import eumUnit
+
+        set_z_unit = DfsuBuilder.SetZUnit
+        monkeypatch.setattr(DfsuBuilder, "SetZUnit",
+                            lambda self, unit: set_z_unit(self, eumUnit.eumUfeet))
+    keep = ("eta", "u", "v")  # the bed is the mean of the node Z: Z's unit matters
+    f = mike.open(write_dfsu(tmp_path / "ft.dfsu", keep=keep, geometry=feet))
+    monkeypatch.undo()
+    ref = mike.open(write_dfsu(tmp_path / "m.dfsu", keep=keep))
+    np.testing.assert_allclose(f.mesh.node_x, ref.mesh.node_x, rtol=1e-12)
+    np.testing.assert_allclose(f.mesh.node_y, ref.mesh.node_y, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(f.bed, ref.bed, atol=1e-5)  # float32 node Z
+    notes = f.attrs["import_notes"]
+    assert "node x, y: converted from the projection's US survey foot to m (x 0.3048006096)" \
+        in notes, notes
+    assert ("node Z: converted from feet to m (x 0.3048)" in notes) == z_feet, notes
+    # the WKT is not the projection of the metre coordinates: kept as crs_wkt, with the factor
+    assert "projection" not in f.attrs and f.attrs["crs_wkt"] == PA_SOUTH_FT
+    assert f.attrs["crs_note"] == "x, y are the projection's coordinates x 0.3048006096 (metres)"
+    x, y, t = rng.uniform(0, 12, 300), rng.uniform(0, 8, 300), 2700.0  # metres
+    s, r = f.sample(x, y, t), ref.sample(x, y, t)
+    eta, u, v = linear(x, y, t)
+    np.testing.assert_allclose(s.u, u, atol=1e-5)
+    for k in ("eta", "h", "u", "v", "jacobian"):
+        np.testing.assert_allclose(getattr(s, k), getattr(r, k), atol=1e-5)
+    assert any("US survey foot, read in metres" in line for line in mike.describe(
+        tmp_path / "ft.dfsu"))
+    # MIKE's own names (UTM-32 here) are metres: nothing converted (the tests above)
+    assert "converted" not in ref.attrs["import_notes"] and ref.attrs["projection"] == "UTM-32"
 
 
 def test_truncated_file(tmp_path):

@@ -225,6 +225,52 @@ def test_ugrid_geographic_coordinates_refused(tmp_path):
     assert open_flow_source("ugrid", UGRID).mesh.n_faces == 15
 
 
+@pytest.mark.parametrize("units, factor", [("km", 1e3), ("ft", 0.3048),
+                                           ("US_survey_foot", 1200.0 / 3937.0)])
+def test_ugrid_node_coordinates_in_other_units_converted(tmp_path, rng, units, factor):
+    """Node x, y (and node z) in km or feet: converted to metres, with a note; the same flow
+    as the metre file at the same metre positions (values, gradients, bed)."""
+    from driftlog.mesh import read_mesh
+
+    p = copy(UGRID, tmp_path, "other_units.nc")
+    with netCDF4.Dataset(p, "a") as ds:
+        for name in ("mesh2d_node_x", "mesh2d_node_y", "mesh2d_node_z"):
+            ds[name][:] = ds[name][:] / factor
+            ds[name].units = units
+    ref = open_flow_source("ugrid", UGRID)
+    f = open_flow_source("ugrid", p)
+    np.testing.assert_allclose(f.mesh.node_x, ref.mesh.node_x, rtol=1e-14, atol=1e-13)
+    np.testing.assert_allclose(f.mesh.node_y, ref.mesh.node_y, rtol=1e-14, atol=1e-13)
+    np.testing.assert_allclose(f.mesh.node_z, ref.mesh.node_z, rtol=1e-14, atol=1e-13)
+    np.testing.assert_allclose(f.mesh.face_area, ref.mesh.face_area, rtol=1e-12)
+    notes = f.attrs["import_notes"]
+    for name in ("mesh2d_node_x", "mesh2d_node_y", "mesh2d_node_z"):
+        assert f"{name}: converted from {units!r} to m (x {factor:.10g})" in notes, notes
+    x, y = rng.uniform(0, 4, 200), rng.uniform(0, 3, 200)  # metres
+    for t in (0.0, 450.0):
+        s, r = f.sample(x, y, t), ref.sample(x, y, t)
+        np.testing.assert_allclose(s.u, 0.3 + 0.05 * y + 1e-5 * t, atol=1e-12)
+        for k in ("h", "eta", "u", "v", "jacobian"):
+            np.testing.assert_allclose(getattr(s, k), getattr(r, k), atol=1e-12)
+    m = read_mesh(p)  # as a mesh file (a solver's mesh_file): the same conversion
+    np.testing.assert_allclose(m.node_x, ref.mesh.node_x, rtol=1e-14, atol=1e-13)
+
+
+def test_ugrid_node_coordinates_in_unknown_units_refused(tmp_path):
+    from driftlog.errors import MeshError
+    from driftlog.mesh import read_mesh
+
+    p = copy(UGRID, tmp_path, "furlong.nc")
+    with netCDF4.Dataset(p, "a") as ds:
+        ds["mesh2d_node_y"].units = "furlong"
+    msg = (r"furlong.nc: mesh2d_node_y:units = 'furlong': not a unit of length driftlog knows "
+           r"\(m, km, cm, mm, ft, US_survey_foot\); driftlog reads lengths in metres")
+    with pytest.raises(FlowFileError, match=msg):
+        open_flow_source("ugrid", p)
+    with pytest.raises(MeshError, match=msg):
+        read_mesh(p)
+
+
 def test_cli_refuses_geographic_coordinates(tmp_path, capsys):
     """`driftlog import`, `driftlog info` and a scenario's [flow]: the message, status 2."""
     from driftlog.cli import main
@@ -383,6 +429,24 @@ def test_cf_grid_velocities_units_and_errors(tmp_path):
 
 
 # --------------------------------------------------------------------- registry, scenario, CLI
+def test_cf_grid_coordinates_in_feet_converted(tmp_path, rng):
+    """x, y in ft (the length table the UGRID mesh reader shares): converted, edge discharges
+    divided by edge lengths in metres, the same flow at the same metre positions."""
+    p = copy(GRID, tmp_path, "feet.nc")
+    with netCDF4.Dataset(p, "a") as ds:
+        for n in ("x", "y"):
+            ds[n][:] = ds[n][:] / 0.3048
+            ds[n].units = "ft"
+    f, ref = open_flow_source("cf_grid", p), open_flow_source("cf_grid", GRID)
+    np.testing.assert_allclose(f.grid, ref.grid, rtol=1e-12)
+    assert "x: converted from 'ft' to m (x 0.3048)" in f.attrs["import_notes"]
+    nx, ny, x0, y0, dx, dy = ref.grid
+    x, y = x0 + nx * dx * rng.random(100), y0 + ny * dy * rng.random(100)
+    for k in ("h", "u", "v"):
+        np.testing.assert_allclose(getattr(f.sample(x, y, 1800.0), k),
+                                   getattr(ref.sample(x, y, 1800.0), k), atol=1e-12)
+
+
 def test_open_flow_source_errors(tmp_path):
     with pytest.raises(FlowFileError, match="format 'hdf' unknown"):
         open_flow_source("hdf", UGRID)

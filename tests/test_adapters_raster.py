@@ -265,6 +265,52 @@ def test_geotiff_in_geographic_crs_refused(tmp_path, capsys):
     # the same series in EPSG:32631 is read (test_geotiff_series)
 
 
+FEET = (r"the coordinates are in US survey foot \(0.3048006096 m\), not metres, and a raster "
+        r"does not say the units of its values \(depths, velocities: feet too\?\); driftlog "
+        "needs projected coordinates in metres: reproject the rasters to a CRS in metres")
+
+
+@pytest.mark.parametrize("crs", ["EPSG:2272", "EPSG:6565"])
+def test_geotiff_in_feet_crs_refused(tmp_path, capsys, crs):
+    """A series in a State Plane in US survey feet: refused (are the depths and velocities in
+    feet too? a raster does not say), never read as metres; `driftlog import` says so."""
+    from driftlog.cli import main
+
+    folder = tmp_path / "feet"
+    folder.mkdir()
+    xf, yf = XC / 0.3048006096012192, YC / 0.3048006096012192  # the metre grid, in feet
+    X, Y = np.meshgrid(XC, YC)
+    write(bed(X, Y), xf, yf, folder / "dem.tif", driver="GTiff", crs=crs)
+    for t in (0, 60):
+        for name, arr in (("depth", depth(X, Y, t)), ("u", u(X, Y, t)), ("v", v(X, Y, t))):
+            write(arr, xf, yf, folder / f"{name}_{t}.tif", driver="GTiff", crs=crs)
+    msg = rf"dem.tif: CRS = '{crs}': {FEET}"
+    with pytest.raises(FlowFileError, match=msg):
+        open_flow_source("raster", folder)
+    with pytest.raises(FlowFileError, match=msg):
+        open_flow_source("auto", folder / "depth_0.tif")
+    out = tmp_path / "flow.nc"
+    capsys.readouterr()
+    assert main(["import", str(folder / "depth_0.tif"), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("driftlog: error: ") and "Traceback" not in err, err
+    assert f"dem.tif: CRS = '{crs}': the coordinates are in US survey foot" in err, err
+    assert not out.exists()
+    # the same series in EPSG:32631 (metres) is read (test_geotiff_series)
+
+
+def test_lisflood_ascii_with_a_feet_prj_refused(tmp_path):
+    """A LISFLOOD-FP run whose DEM's .prj is a State Plane in feet: refused (elevations in
+    feet too? LISFLOOD-FP itself takes the cell size as metres)."""
+    par = write_lisflood(tmp_path / "run")
+    X, Y = np.meshgrid(XC, YC)
+    dem = tmp_path / "run" / "dem.asc"
+    write(bed(X, Y), XC / 0.3048006096012192, YC / 0.3048006096012192, dem, crs="EPSG:2272")
+    assert dem.with_suffix(".prj").is_file()
+    with pytest.raises(FlowFileError, match=rf"dem.asc: CRS = .*: {FEET}"):
+        open_flow_source("raster", par)
+
+
 def test_import_and_track_on_a_lisflood_run(tmp_path):
     """`driftlog import` of a LISFLOOD run, and a tracer on it moving with the flow."""
     from driftlog.cli import main
