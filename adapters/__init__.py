@@ -244,10 +244,11 @@ def import_flow(source, output, kind="auto", compress=True, progress=None, keep_
                 deepest = max(deepest, float(h.max(initial=0.0)))
                 if progress is not None:
                     progress(i + 1, field.times.size)
-        if 0.0 < deepest < field.dry_depth:  # every velocity zeroed: not a flow any more
+        if 0.0 < deepest <= field.dry_depth:  # every velocity zeroed: not a flow any more
             raise FlowFileError(f"{output}: not written: dry_depth = {field.dry_depth:g} m is "
-                                f"above the deepest water of {source} ({deepest:g} m), every "
-                                "face would be dry; give a dry depth below it (--dry-depth)")
+                                f"at or above the deepest water of {source} ({deepest:g} m), "
+                                "every face would be dry; give a dry depth below it "
+                                "(--dry-depth)")
         os.replace(tmp, output)
     finally:
         tmp.unlink(missing_ok=True)

@@ -8,6 +8,7 @@ lengths converted to metres.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -18,9 +19,11 @@ import scipy.sparse as sp
 from driftlog.errors import FlowFileError, MeshError
 
 __all__ = ["FT", "MAX_SIDES", "AREAS", "HecrasGeometry", "read_geometry", "open_h5", "read_dataset",
-           "area_table", "units", "as_text", "HDF5_SIGNATURE", "check_projection"]
+           "area_table", "units", "foot", "projection_unit", "as_text", "HDF5_SIGNATURE",
+           "check_projection"]
 
-FT = 0.3048  # international foot (HEC-RAS US Customary lengths) in metres
+FT = 0.3048  # international foot in metres: US Customary lengths without a foot in the Projection
+US_FT = 1200.0 / 3937.0  # US survey foot (State Plane coordinates in feet)
 MAX_SIDES = 8  # cells with more nodes (perimeter points) are split into triangles
 
 AREAS = "Geometry/2D Flow Areas"
@@ -216,7 +219,8 @@ class HecrasGeometry:
     vel_x, vel_y : scipy.sparse.csr_matrix (n_cells, n_hec_faces)
         Least-squares reconstruction: cell velocity = (vel_x @ v_n, vel_y @ v_n).
     length_factor : float
-        Metres per file length unit (0.3048 for US Customary, 1 for SI).
+        Metres per file length unit (1 for SI; for US Customary the foot of the file's
+        Projection, e.g. the US survey foot 0.3048006096, else the international foot 0.3048).
     """
 
     mesh: object
@@ -246,13 +250,53 @@ class HecrasGeometry:
         return self.vel_x @ vn, self.vel_y @ vn
 
 
+# a WKT unit: WKT1 UNIT["name", factor], WKT2 LENGTHUNIT["name", factor] (not ANGLEUNIT)
+_WKT_UNIT = re.compile(r'\b(?:LENGTH)?UNIT\[\s*"([^"]*)"\s*,\s*([-+0-9.eE]+)')
+_ANGULAR = re.compile(r"degree|radian|grad|gon|arc|second|minute", re.IGNORECASE)
+
+
+def projection_unit(wkt):
+    """(name, metres) of the last linear unit of a WKT projection, None without one.
+
+    The last ``UNIT[...]`` (``LENGTHUNIT[...]`` in WKT2) that is not an angle: in a PROJCS the
+    outermost one, the unit of the projected coordinates (the GEOGCS's degrees come before
+    it).
+    """
+    found = [(name, float(value)) for name, value in _WKT_UNIT.findall(wkt or "")
+             if not _ANGULAR.search(name)]
+    if not found or not (found[-1][1] > 0 and np.isfinite(found[-1][1])):
+        return None
+    return found[-1]
+
+
+def foot(f):
+    """(metres per foot, in words) of a US Customary file: the Projection's foot, else 0.3048.
+
+    HEC-RAS's coordinates are the projection's: a State Plane projection in US survey feet
+    (``UNIT["Foot_US",0.3048006096012192]``) at x ~ 2e6 ft puts a point 1.2 m further than
+    the international foot would.  A Projection whose unit is not a foot (or none) leaves the
+    international foot, 0.3048 m.
+    """
+    wkt = as_text(f.attrs.get("Projection", b""))
+    unit = projection_unit(wkt)
+    if unit is not None and abs(unit[1] / FT - 1.0) < 1e-4:
+        kind = ("the international foot" if abs(unit[1] / FT - 1.0) < 1e-9 else
+                "the US survey foot" if abs(unit[1] / US_FT - 1.0) < 1e-9 else "the foot")
+        return unit[1], f"1 ft = {unit[1]!r} m, {kind} of the Projection's UNIT[{unit[0]!r}]"
+    why = (f"the Projection's unit {unit[0]!r} ({unit[1]!r} m) is not a foot" if unit
+           else "the file names no projection unit")
+    return FT, f"1 ft = {FT} m, the international foot ({why})"
+
+
 def units(f, path):
+    """(metres per length unit of the file, units system in words) of a HEC-RAS file."""
     system = as_text(f.attrs.get("Units System", b""))
     if system == "" and "Geometry" in f:
         si = as_text(f["Geometry"].attrs.get("SI Units", b""))
         system = "SI Units" if si.lower() == "true" else ("US Customary" if si else "")
     if system.lower().startswith("us"):
-        return FT, "US Customary"
+        factor, words = foot(f)
+        return factor, f"US Customary ({words})"
     if system.lower().startswith("si") or system == "":
         return 1.0, system or "SI Units (assumed: no 'Units System' attribute)"
     raise FlowFileError(f"{path}: 'Units System' = {system!r} not understood (expected "
@@ -456,11 +500,15 @@ def read_geometry(path, areas=None, f=None) -> HecrasGeometry:
         cell_area = np.bincount(cell_of_face[order], mesh.face_area, nc)
         attrs = {"hecras_file": str(path), "hecras_areas": ", ".join(names[i] for i in sel),
                  "hecras_units_system": system, "hecras_length_factor": factor}
+        words = foot(f)[1] if factor != 1.0 else ""
+        if words:  # which foot: 2 ppm is 1.2 m at State Plane coordinates of 2e6 ft
+            attrs["import_notes"] = f"US Customary lengths converted to metres with {words}"
         proj = f.attrs.get("Projection")
         if proj is not None and as_text(proj):
             attrs["crs_wkt"] = as_text(proj)
-            attrs["crs_note"] = (f"x, y are the projection's coordinates x {factor} (metres)"
-                                 if factor != 1.0 else "x, y are the projection's coordinates")
+            attrs["crs_note"] = (f"x, y are the projection's coordinates x {factor!r} (metres; "
+                                 f"{words})" if words
+                                 else "x, y are the projection's coordinates")
         return HecrasGeometry(mesh, cell_of_face[order], [names[i] for i in sel], sel,
                               np.asarray(cell_start), np.asarray(face_start),
                               [counts[i] for i in sel], cell_area, np.concatenate(normals),

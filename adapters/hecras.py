@@ -25,8 +25,11 @@ face (HEC-RAS stores no cell velocity vector; RAS Mapper reconstructs one).  Thi
   flow, applied as two precomputed sparse operators (one matrix product per snapshot);
 - reads the time axis from ``Time Date Stamp`` (times in seconds since the first stamp, kept as
   ``attrs["time_reference"] = "seconds since YYYY-MM-DDTHH:MM:SS"``);
-- converts US Customary files (ft, ft/s) to SI, coordinates included (x_m = 0.3048 x_ft), and
-  keeps the projection (WKT) and the factor in the flow's attributes;
+- converts US Customary files (ft, ft/s) to SI, coordinates included, with the foot of the
+  file's Projection (the last UNIT of its WKT: a State Plane projection in US survey feet,
+  x_m = 0.3048006096 x_ft, is 1.2 m from the international foot at 2e6 ft), else the
+  international foot (x_m = 0.3048 x_ft); keeps the projection (WKT), the factor and which
+  foot it is (``import_notes``) in the flow's attributes.
 - refuses a file whose ``Projection`` WKT is geographic (longitude/latitude in degrees), and a
   terrain raster in a geographic CRS: driftlog needs projected coordinates.
 

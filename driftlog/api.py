@@ -195,7 +195,8 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         Trajectory file (default: the scenario's output.path).
     resume : bool
         Continue a stopped run from its ``.partial`` file (its last record) instead of
-        starting afresh; the result is the same as an uninterrupted run.
+        starting afresh; the result is the same as an uninterrupted run.  Without a
+        ``.partial`` file the run starts afresh, with a ``DriftlogWarning`` saying so.
     writer : callable, optional
         ``writer(path, logs, attrs=, flush_interval=, obstacle_names=)`` returning an object
         with the ``TrajectoryWriter`` interface (``record``, ``hits``, ``flush``, ``set_attrs``,
@@ -213,6 +214,10 @@ def track(scenario, flow=None, output=None, progress=False, overrides=None,
         estimate_run(scen, out)
     coupling = None
     partial = out.with_name(out.name + ".partial")
+    if resume and writer is None and not partial.is_file():
+        from driftlog.files import nothing_to_resume
+
+        nothing_to_resume(partial)
     resume = resume and writer is None and partial.is_file()
     if scen["coupling"]["enabled"]:  # the logs act on the flow: solver and tracker together
         from driftlog.coupling import resume_coupling, start_coupling

@@ -958,9 +958,9 @@ def resume_coupling(scenario, trajectory_path):
     import netCDF4
 
     from driftlog.errors import FlowFileError
+    from driftlog.files import reopen_partial
     from driftlog.solver.config import build_solver, estimate_mesh
     from driftlog.solver.run import load_restart
-    from driftlog.trajectory import reopen_partial
 
     sec = scenario["solver"]
     estimate_mesh(sec)

@@ -7,6 +7,8 @@ instead of a backend's traceback.  :func:`check_output` refuses an output path t
 written (parent is a file, read-only or missing folder, the input itself) before a run starts;
 :func:`atomic_output` writes a file under a temporary name and renames it when it is complete,
 so that an interrupted write never leaves a truncated file under the final name.
+:func:`reopen_partial` makes the ``.partial`` file a killed run left (trajectories, flow) safe
+to append to on resume; :func:`nothing_to_resume` says when ``--resume`` found none.
 
 Kinds (``sniff(path).kind``):
 
@@ -41,9 +43,11 @@ from pathlib import Path
 from driftlog.errors import DriftlogError, InputFileError, OutputPathError
 
 __all__ = ["FileKind", "sniff", "require", "check_output", "atomic_output", "read_text",
-           "DESCRIPTIONS", "register_reader"]
+           "DESCRIPTIONS", "register_reader", "nothing_to_resume", "left_open", "reopen_partial",
+           "recover_killed"]
 
-NETCDF_MAGIC = (b"CDF\x01", b"CDF\x02", b"CDF\x05", b"\x89HDF\r\n\x1a\n")
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+NETCDF_MAGIC = (b"CDF\x01", b"CDF\x02", b"CDF\x05", HDF5_SIGNATURE)
 MESH_SUFFIXES = (".msh", ".vtu", ".vtk", ".2dm", ".ply", ".obj", ".off", ".stl", ".xdmf",
                  ".xmf", ".med", ".mesh", ".inp", ".dat", ".su2", ".h5m", ".bdf", ".f3grid")
 
@@ -406,3 +410,115 @@ def atomic_output(path):
     if not tmp.exists():
         raise DriftlogError(f"{p}: nothing was written")
     os.replace(tmp, p)
+
+
+def nothing_to_resume(path, what="partial output", start="the run starts from the beginning"):
+    """Warn that ``--resume`` found no ``what`` at ``path`` (the CLI prints one line).
+
+    The run starts afresh, as resumable tools do, but not silently: a ``DriftlogWarning``.
+    """
+    import warnings
+
+    from driftlog.errors import DriftlogWarning
+
+    warnings.warn(DriftlogWarning(f"--resume: no {what} found at {path}; {start}"),
+                  stacklevel=3)
+
+
+# --------------------------------------------------------------------- files a killed run left
+def left_open(path):
+    """Whether an HDF5 file is marked open for writing (left so by a killed process).
+
+    Read from the superblock's file consistency flags (versions 2 and 3; netCDF-4 writes
+    version 2: bit 0 write access, bit 2 SWMR); None for a file without them.  Opening such a
+    file for writing may fail (HDF5 refuses a version-3 superblock so marked; HDF5 2.2 opens a
+    version-2 one, unless this process already holds the file open for reading), and a failed
+    open left an HDF5 file object behind: a later file that the system gave the same inode
+    (the killed file's copy, once the killed file was removed) was taken by HDF5 for that
+    file, and closing it crashed the process (``nc_close`` reporting the other's open objects;
+    tests/test_coupling.py's killed run under pytest-xdist).
+    """
+    with open(path, "rb") as f:
+        head = f.read(12)
+    if len(head) < 12 or head[:8] != HDF5_SIGNATURE or head[8] < 2:
+        return None
+    return bool(head[11] & 0x05)
+
+
+def reopen_partial(partial, storage=None, prepare=None):
+    """Make a ``.partial`` netCDF-4 file writable again; True if a killed process had left it open.
+
+    Such a file (:func:`left_open`) is copied to a fresh one (:func:`recover_killed`, which
+    ``storage`` and ``prepare`` go to) without first trying to open it for writing: the
+    trajectory writer's and the solver's resume (``driftlog.trajectory``,
+    ``driftlog.solver.run``) and a coupled run's flow file call this before appending.
+    """
+    import netCDF4
+
+    mark = left_open(partial)
+    if not mark:  # no flags to read, or the file is open elsewhere in this process: try
+        try:
+            netCDF4.Dataset(partial, "a").close()
+        except OSError:
+            mark = True
+    if mark:
+        recover_killed(partial, storage, prepare)
+    return bool(mark)
+
+
+def recover_killed(partial, storage=None, prepare=None):
+    """Copy a ``.partial`` netCDF-4 file left by a killed process into a fresh one, in place.
+
+    HDF5 marks a file open for writing; after a SIGKILL the mark stays and the file can be
+    read, but opening it for writing may fail (:func:`left_open`).  Everything readable is
+    copied (the records, hits or snapshots up to the last flush), each variable with its own
+    chunking and compression, or with ``storage(new dataset, variable)``'s ``createVariable``
+    keywords where it returns them (the trajectory file's obs variables); ``prepare(new
+    variable)`` is called on each variable created (a chunk cache).  The old file is kept as
+    ``.partial.killed`` until the copy is complete, and put back if the copy fails.
+    """
+    import netCDF4
+
+    partial = Path(partial)
+    old = partial.with_name(partial.name + ".killed")
+    os.replace(partial, old)
+    tmp = partial.with_name(partial.name + ".tmp")
+    try:
+        with netCDF4.Dataset(old) as a, netCDF4.Dataset(tmp, "w", format="NETCDF4") as b:
+            a.set_auto_maskandscale(False)
+            b.setncatts({k: a.getncattr(k) for k in a.ncattrs()})
+            for name, dim in a.dimensions.items():
+                b.createDimension(name, None if dim.isunlimited() else len(dim))
+            for name, var in a.variables.items():
+                attrs = {k: var.getncattr(k) for k in var.ncattrs() if k != "_FillValue"}
+                fill = var.getncattr("_FillValue") if "_FillValue" in var.ncattrs() else None
+                kw = storage(b, var) if storage is not None else None
+                v = b.createVariable(name, var.dtype, var.dimensions, fill_value=fill,
+                                     **(_storage_of(var) if kw is None else kw))
+                if prepare is not None:
+                    prepare(v)
+                v.setncatts(attrs)
+                v.set_auto_maskandscale(False)
+                if var.size:
+                    v[:] = var[:]
+    except BaseException:  # unreadable (not netCDF-4), interrupted: the file as it was
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        os.replace(old, partial)
+        raise
+    os.replace(tmp, partial)
+    os.remove(old)
+
+
+def _storage_of(var):
+    """The chunking and compression of a variable, as ``createVariable`` keywords."""
+    kw = {}
+    chunks = var.chunking()
+    if isinstance(chunks, list):
+        kw["chunksizes"] = chunks
+    f = var.filters() or {}
+    if f.get("zlib"):
+        kw.update(zlib=True, complevel=f.get("complevel", 4))
+    if f.get("shuffle"):
+        kw["shuffle"] = True
+    return kw

@@ -76,13 +76,19 @@ __all__ = [
     "FlowField", "FlowSample", "MeshFlowField", "MeshKernel", "InMemorySnapshots", "SAMPLE_COLUMNS",
     "sample_point", "sample_point_columns",
     "H", "U", "V", "DUDT", "DVDT", "DUDX", "DUDY", "DVDX", "DVDY", "DETADX", "DETADY", "ETA",
-    "NVAR", "OUTSIDE", "DRY", "WET", "time_in_seconds",
+    "NVAR", "OUTSIDE", "DRY", "WET", "time_in_seconds", "DRY_DEPTH_MAX",
 ]
 
 # names of the columns of a sample (driftlog.columns H ... ETA), as written to files
 SAMPLE_COLUMNS = ("water_depth", "velocity_x", "velocity_y", "dudt", "dvdt", "dudx", "dudy",
                   "dvdx", "dvdy", "detadx", "detady", "water_level")
 FLAG_MEANINGS = "outside dry wet"
+
+DRY_DEPTH_MAX = 1.0
+"""Largest dry depth (m) a scenario may give ([flow] and [solver] dry_depth, ``driftlog import
+--dry-depth``).  A dry depth is a thin-film threshold (hydro models use 1e-6 to 0.1 m): at 1 m
+most logs already float, and above it every face of a river would count as dry (1e6 m silently
+stranded every log)."""
 
 
 @dataclass

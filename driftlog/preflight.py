@@ -395,6 +395,41 @@ def run_end(scen, flow=None):
     return None
 
 
+def _log_keys(scen, most=3) -> str:
+    """The [[logs]] keys that give the run its logs, largest groups first, with their values.
+
+    ``[logs[0].count] = 10000000``, ``[logs[1].x] = 3 positions``: what a size message names.
+    """
+    sizes = []
+    for i, g in enumerate(scen["logs"]):
+        if g.get("seeding", "list") == "list":
+            x = g.get("x")
+            k = len(x) if isinstance(x, (list, tuple)) else 1
+            sizes.append((k, f"[logs[{i}].x] = {k} positions"))
+        else:
+            sizes.append((int(g.get("count") or 0), f"[logs[{i}].count] = {g.get('count')}"))
+    sizes.sort(key=lambda s: -s[0])
+    shown = [s for _, s in sizes[:most]]
+    if len(sizes) > most:
+        shown.append(f"{len(sizes) - most} more groups")
+    return ", ".join(shown) or "no [[logs]]"
+
+
+def _record_keys(scen, end) -> str:
+    """The keys that give the run its records, with their values (a size message names them)."""
+    tm = scen["time"]
+    every = f"[time.output_interval] = {tm['output_interval']:g} s"
+    if end is None:
+        return f"{every}; the end is not known before the flow is read"
+    if tm["end"] is not None:
+        until = f"[time.end] = {end:g} s"
+    elif scen["flow"]["source"] == "solver" or scen["coupling"]["enabled"]:
+        until = f"[solver.end] = {end:g} s"
+    else:
+        until = f"the flow's end, {end:g} s"
+    return f"{every} from [time.start] = {tm['start']:g} s to {until}"
+
+
 def estimate_run(scen, output=None, flow=None):
     """Refuse (``SizeError``) a run too large for this machine, before anything is allocated.
 
@@ -422,8 +457,9 @@ def estimate_run(scen, output=None, flow=None):
     mem = n * 2000.0 + 85.0 * buffered + 16.0 * nobs
     advice = ("fewer logs (count), a longer [time] output_interval, or an ensemble "
               "(driftlog ensemble) that runs the logs in members")
-    check_fits(mem, f"tracking {n:.3g} logs over {records} records ({nobs:.3g} observations)",
-               advice)
+    what = (f"tracking {n:.3g} logs ({_log_keys(scen)}) over {records} records "
+            f"({_record_keys(scen, end)})")
+    check_fits(mem, f"{what} ({nobs:.3g} observations)", advice)
     out = Path(output or scen["output"]["path"])
     try:
         free = shutil.disk_usage(out.parent if out.parent.exists() else Path.cwd()).free
@@ -432,7 +468,7 @@ def estimate_run(scen, output=None, flow=None):
     if free is not None and 2 * 85.0 * nobs > 0.9 * free:
         from driftlog.errors import SizeError
 
-        raise SizeError(f"tracking {n:.3g} logs over {records} records writes about "
+        raise SizeError(f"{what} writes about "
                         f"{2 * 85 * nobs / 2**30:.3g} GiB, more than the {free / 2**30:.3g} GiB "
                         f"free on the disk of {out.parent}; {advice}")
     return n, nobs, mem

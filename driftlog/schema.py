@@ -62,6 +62,15 @@ class Key:
             rule.append(f"<= {self.max}")
         return "; ".join(rule)
 
+    def bounds(self) -> str:
+        """The key's allowed range with its units (``> 0.0 and <= 1.0 m``), '' without bounds."""
+        rule = []
+        if self.min is not None:
+            rule.append(f"{'>' if self.exclusive_min else '>='} {self.min}")
+        if self.max is not None:
+            rule.append(f"<= {self.max}")
+        return " and ".join(rule) + (f" {self.units}" if rule and self.units else "")
+
 
 @dataclass
 class Section:
@@ -100,11 +109,9 @@ def _check_number(k: Key, key, value, integer=False):
         raise _type_error(key, value, "an integer")
     if not math.isfinite(value):
         raise _type_error(key, value, "a finite number")
-    if k.min is not None and (value <= k.min if k.exclusive_min else value < k.min):
-        raise ScenarioError(key, value, f"must be {'>' if k.exclusive_min else '>='} {k.min}"
-                            + (f" {k.units}" if k.units else ""))
-    if k.max is not None and value > k.max:
-        raise ScenarioError(key, value, f"must be <= {k.max}" + (f" {k.units}" if k.units else ""))
+    below = k.min is not None and (value <= k.min if k.exclusive_min else value < k.min)
+    if below or (k.max is not None and value > k.max):  # the whole range when it has two ends
+        raise ScenarioError(key, value, f"must be {k.bounds()}")
     return int(value) if integer else float(value)
 
 

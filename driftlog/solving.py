@@ -86,6 +86,15 @@ def solve_scenario(scenario, output=None, resume=False, progress=False):
     if sec["engine"] != "driftlog":
         from driftlog.adapters.openfoam_engine import solve_with_shallow_water_foam
 
+        if resume:  # an OpenFOAM run is not continued: not silently
+            import warnings
+
+            from driftlog.errors import DriftlogWarning
+
+            warnings.warn(DriftlogWarning(f"--resume: a run of the engine {sec['engine']!r} "
+                                          f"cannot be continued; {path} is computed from the "
+                                          "beginning"), stacklevel=2)
+
         return solve_with_shallow_water_foam(sec, path, attrs, build_solver,
                                              progress=progress), path
     from driftlog.errors import FlowFileError
@@ -96,6 +105,11 @@ def solve_scenario(scenario, output=None, resume=False, progress=False):
                                 f"[solver] section (solver_hash differs from {digest}); run "
                                 "without --resume")
         os.replace(path, partial)  # a finished flow extended to a later end
+    if resume and not partial.exists():
+        from driftlog.files import nothing_to_resume
+
+        nothing_to_resume(partial, "partial flow file", "the flow is computed from the "
+                          "beginning")
     resume = resume and partial.exists()
     if resume and stored_flow(partial, digest)[0] is None:
         raise FlowFileError(f"{partial}: cannot resume: it was not computed from this [solver] "

@@ -7,6 +7,7 @@ from pathlib import Path
 import driftlog.adapters as adapters
 from driftlog.analytic import FreeVortex, SolidBodyRotation, UniformFlow
 from driftlog.errors import ScenarioError
+from driftlog.flow import DRY_DEPTH_MAX
 from driftlog.schema import Key, Section
 
 __all__ = ["flow_from_scenario", "FLOW_SECTION"]
@@ -95,8 +96,9 @@ FLOW_SECTION = Section("flow", [
     Key("center", "point", [0.0, 0.0], "centre of rotation", "m"),
     Key("depth", "float", 1.0, "water depth of analytic flows", "m", min=0.0,
         exclusive_min=True),
-    Key("dry_depth", "float", 1e-3, "depth below which a face is dry", "m", min=0.0,
-        exclusive_min=True),
+    Key("dry_depth", "float", 1e-3, "depth below which a face is dry: no velocity there and "
+        "the logs strand (a thin-film threshold: hydro models use 1e-6 to 0.1 m)", "m",
+        min=0.0, exclusive_min=True, max=DRY_DEPTH_MAX),
     Key("steady_at", "float", None, "freeze the flow at this time and treat it as steady", "s"),
     Key("variables", "table", {}, "map of driftlog names (depth, level, u, v, hu, hv, bed) to "
         "the variable names of an imported file"),

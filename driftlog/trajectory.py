@@ -381,92 +381,23 @@ class TrajectoryWriter:
         return self.partial
 
 
-HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
-
-
-def _left_open(path):
-    """Whether an HDF5 file is marked open for writing (left so by a killed process).
-
-    Read from the superblock's file consistency flags (versions 2 and 3, which netCDF-4
-    writes: bit 0 write access, bit 2 SWMR); None for a file without them.  Trying to open
-    such a file for writing fails, and the failed open left an HDF5 file object behind: a
-    later file that the system gave the same inode (the killed file's copy, once the killed
-    file was removed) was taken by HDF5 for that file, and closing it crashed the process
-    (``nc_close`` reporting the other's open objects; tests/test_coupling.py's killed run
-    under pytest-xdist).
-    """
-    with open(path, "rb") as f:
-        head = f.read(12)
-    if len(head) < 12 or head[:8] != HDF5_SIGNATURE or head[8] < 2:
-        return None
-    return bool(head[11] & 0x05)
-
-
 def reopen_partial(partial):
-    """Make a ``.partial`` file writable again; True if a killed process had left it open.
+    """Make a ``.partial`` trajectory file writable again; True if a killed process left it open.
 
-    Such a file (``_left_open``) is copied to a fresh one (``_recover``) without first
-    trying to open it for writing.
+    ``driftlog.files.reopen_partial``: such a file is copied to a fresh one, each obs variable
+    with the running file's storage and a small chunk cache.
     """
-    mark = _left_open(partial)
-    if not mark:  # no flags to read, or the file is open elsewhere in this process: try
-        try:
-            netCDF4.Dataset(partial, "a").close()
-        except OSError:
-            mark = True
-    if mark:
-        _recover(partial)
-    return bool(mark)
+    from driftlog.files import reopen_partial as reopen
+
+    return reopen(partial, storage=_copy_storage, prepare=_small_chunk_cache)
 
 
-def _recover(partial):
-    """Copy a ``.partial`` file left by a killed process into a fresh one, in place.
-
-    Also the partial flow file of a killed coupled run (``driftlog.coupling.resume_coupling``):
-    each variable keeps its chunking and compression.
-
-    HDF5 marks a file open for writing; after a SIGKILL the mark stays and the file can be
-    read but not opened for writing again.  Everything readable is copied (the records and
-    hits up to the last flush); the old file is kept as ``.partial.killed`` until the copy is
-    complete.
-    """
-    partial = Path(partial)
-    old = partial.with_name(partial.name + ".killed")
-    os.replace(partial, old)
-    tmp = partial.with_name(partial.name + ".tmp")
-    with netCDF4.Dataset(old) as a, netCDF4.Dataset(tmp, "w", format="NETCDF4") as b:
-        a.set_auto_maskandscale(False)
-        b.setncatts({k: a.getncattr(k) for k in a.ncattrs()})
-        for name, dim in a.dimensions.items():
-            b.createDimension(name, None if dim.isunlimited() else len(dim))
-        for name, var in a.variables.items():
-            attrs = {k: var.getncattr(k) for k in var.ncattrs() if k != "_FillValue"}
-            fill = var.getncattr("_FillValue") if "_FillValue" in var.ncattrs() else None
-            chunks = var.chunking()
-            kw = (_obs_storage(b, True, chunk=chunks[0] if isinstance(chunks, list) else None)
-                  if var.dimensions == ("obs",) else _storage_of(var))
-            v = _small_chunk_cache(b.createVariable(name, var.dtype, var.dimensions,
-                                                    fill_value=fill, **kw))
-            v.setncatts(attrs)
-            v.set_auto_maskandscale(False)
-            if var.size:
-                v[:] = var[:]
-    os.replace(tmp, partial)
-    os.remove(old)
-
-
-def _storage_of(var):
-    """The chunking and compression of a variable, as ``createVariable`` keywords."""
-    kw = {}
-    chunks = var.chunking()
-    if isinstance(chunks, list):
-        kw["chunksizes"] = chunks
-    f = var.filters() or {}
-    if f.get("zlib"):
-        kw.update(zlib=True, complevel=f.get("complevel", 4))
-    if f.get("shuffle"):
-        kw["shuffle"] = True
-    return kw
+def _copy_storage(ds, var):
+    """The storage of ``var`` in the copy of a killed ``.partial`` file (None: its own)."""
+    if var.dimensions != ("obs",):
+        return None
+    chunks = var.chunking()  # the file's own chunks (sized to its flushes: running_chunk)
+    return _obs_storage(ds, True, chunk=chunks[0] if isinstance(chunks, list) else None)
 
 
 _BLOCK = 1 << 20  # observations per write when rewriting contiguous

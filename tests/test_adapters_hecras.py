@@ -29,7 +29,11 @@ TS = "Results/Unsteady/Output/Output Blocks/Base Output/Unsteady Time Series"
 
 pytestmark = pytest.mark.skipif(not os.path.isfile(MUNCIE) or not os.path.isfile(SERIES),
                                 reason="HEC-RAS data (../shared/data/hecras) not found")
-FT = 0.3048
+FT = 0.3048  # the international foot: the synthetic files, which name no projection
+# the files' own feet, from the last UNIT of their Projection (WKT): State Plane coordinates in
+# US survey feet, 2 ppm longer than the international foot (1.1 m at Muncie's y ~ 1.8e6 ft)
+MUNCIE_FT = 0.304800609601219  # UNIT["US survey foot",0.304800609601219]
+PLAN_FT = 0.3048006096012192  # UNIT["Foot_US",0.3048006096012192]
 
 
 @pytest.fixture(scope="module")
@@ -53,7 +57,7 @@ def test_muncie_cell_areas_equal_hecras_surface_area(muncie):
     assert muncie.n_real == [5271, 519]
     with h5py.File(MUNCIE) as f:
         for name, (c0, c1, _, _) in _areas(muncie):
-            ref = f[f"{AREAS}/{name}/Cells Surface Area"][: c1 - c0].astype(float) * FT ** 2
+            ref = f[f"{AREAS}/{name}/Cells Surface Area"][: c1 - c0].astype(float) * MUNCIE_FT ** 2
             # HEC-RAS stores float32: agreement to its round-off, perimeter cells included
             np.testing.assert_allclose(muncie.cell_area[c0:c1], ref, rtol=1e-6)
     # the mesh faces tile the cells exactly (split cells included)
@@ -66,10 +70,10 @@ def test_muncie_face_normals_and_lengths(muncie):
         for name, (_, _, f0, f1) in _areas(muncie):
             ref = f[f"{AREAS}/{name}/Faces NormalUnitVector and Length"][()].astype(float)
             np.testing.assert_allclose(muncie.face_normal[f0:f1], ref[:, :2], atol=1e-7)
-            np.testing.assert_allclose(muncie.face_length[f0:f1], ref[:, 2] * FT, rtol=1e-6)
+            np.testing.assert_allclose(muncie.face_length[f0:f1], ref[:, 2] * MUNCIE_FT, rtol=1e-6)
             # HEC-RAS's normal points from the face's cell 0 to its cell 1
             cells = f[f"{AREAS}/{name}/Faces Cell Indexes"][()]
-            cc = f[f"{AREAS}/{name}/Cells Center Coordinate"][()] * FT
+            cc = f[f"{AREAS}/{name}/Cells Center Coordinate"][()] * MUNCIE_FT
             d = cc[cells[:, 1]] - cc[cells[:, 0]]
             assert np.all(np.einsum("ij,ij->i", d, muncie.face_normal[f0:f1]) > 0)
 
@@ -81,7 +85,7 @@ def test_muncie_polygons_of_3_to_8_sides(muncie):
     with h5py.File(MUNCIE) as f:
         name, (c0, c1, _, _) = _areas(muncie)[0]
         cfp = f[f"{AREAS}/{name}/Cells FacePoint Indexes"][: c1 - c0]
-        fp = f[f"{AREAS}/{name}/FacePoints Coordinate"][()] * FT
+        fp = f[f"{AREAS}/{name}/FacePoints Coordinate"][()] * MUNCIE_FT
         perim = f[f"{AREAS}/{name}/Faces Perimeter Info"][()][:, 1] > 0
         vals = f[f"{AREAS}/{name}/Cells Face and Orientation Values"][()][:, 0]
         info = f[f"{AREAS}/{name}/Cells Face and Orientation Info"][: c1 - c0]
@@ -100,6 +104,41 @@ def test_muncie_polygons_of_3_to_8_sides(muncie):
     assert checked > 300
 
 
+def test_feet_are_the_projections_own(muncie):
+    """US Customary coordinates are converted with the foot of the file's Projection (WKT):
+    these State Plane projections are in US survey feet, and the international foot (0.3048
+    m) put every point of Muncie 1.1 m off (2 ppm of y ~ 1.8e6 ft), logs and obstacles placed
+    from GIS data in the wrong cell."""
+    assert muncie.length_factor == MUNCIE_FT
+    with h5py.File(MUNCIE) as f:
+        fp = np.concatenate([f[f"{AREAS}/{name}/FacePoints Coordinate"][()]
+                             for name in muncie.areas])
+    y = muncie.mesh.node_y  # the face points (and perimeter points) in metres
+    assert np.isin(fp[:, 1] * MUNCIE_FT, y).mean() > 0.9
+    assert not np.isin(fp[:, 1] * FT, y).any()
+    assert y.max() - y.max() / MUNCIE_FT * FT > 1.0  # metres: what the other foot made of it
+    notes = muncie.attrs["import_notes"]
+    assert "0.304800609601219 m, the US survey foot of the Projection's UNIT['US survey " \
+        "foot']" in notes
+    assert "x 0.304800609601219 (metres; 1 ft = 0.304800609601219 m, the US survey foot" \
+        in muncie.attrs["crs_note"]
+    assert "US survey foot" in hecras.describe(MUNCIE)[0]
+    plan = hecras.read_geometry(PLAN)
+    assert plan.length_factor == PLAN_FT and "UNIT['Foot_US']" in plan.attrs["import_notes"]
+
+
+def test_projection_unit_of_wkt():
+    from driftlog.adapters._hecras_geometry import projection_unit
+
+    assert projection_unit('PROJCRS["x",BASEGEOGCRS["y",ANGLEUNIT["degree",0.0174532925199433]]'
+                           ',CS[Cartesian,2],LENGTHUNIT["US survey foot",0.304800609601219]]') \
+        == ("US survey foot", 0.304800609601219)
+    assert projection_unit('GEOGCS["x",UNIT["Degree",0.0174532925199433]]') is None
+    assert projection_unit('PROJCS["a",GEOGCS["b",UNIT["Degree",0.01745]],UNIT["Meter",1.0]]') \
+        == ("Meter", 1.0)
+    assert projection_unit("") is None
+
+
 @pytest.mark.parametrize("path", [MUNCIE, PLAN])
 def test_uniform_flow_is_reconstructed_to_round_off(path):
     geom = hecras.read_geometry(path)
@@ -115,7 +154,7 @@ def test_linear_flow_reconstruction_is_first_order(muncie):
     with h5py.File(MUNCIE) as f:
         mids = []
         for name, _ in _areas(g):
-            fp = f[f"{AREAS}/{name}/FacePoints Coordinate"][()] * FT
+            fp = f[f"{AREAS}/{name}/FacePoints Coordinate"][()] * MUNCIE_FT
             ffp = f[f"{AREAS}/{name}/Faces FacePoint Indexes"][()]
             mids.append(0.5 * (fp[ffp[:, 0]] + fp[ffp[:, 1]]))
     mid = np.concatenate(mids)
@@ -147,7 +186,7 @@ def test_bald_eagle_time_series(bald_eagle):
     h, hu, hv = fl.read_snapshot(20)
     bed_cells = np.zeros(g.n_cells)
     bed_cells[g.cell_of_face] = fl.bed
-    np.testing.assert_allclose(h, np.maximum(ws * FT - bed_cells, 0)[g.cell_of_face],
+    np.testing.assert_allclose(h, np.maximum(ws * PLAN_FT - bed_cells, 0)[g.cell_of_face],
                                atol=1e-9)
     assert h.max() > 5.0  # the dam-break flood
     # the bed is the lowest water surface: no snapshot goes below it
@@ -201,7 +240,7 @@ path = "{tmp_path / 'be.nc'}"
     with h5py.File(PLAN) as f:
         s = "Results/Unsteady/Output/Output Blocks/Base Output/Summary Output/2D Flow Areas"
         peak = np.concatenate([f[f"{s}/BaldEagleCr/Maximum Water Surface"][0, :3359],
-                               f[f"{s}/Upper 2D Area/Maximum Water Surface"][0, :1066]]) * FT
+                               f[f"{s}/Upper 2D Area/Maximum Water Surface"][0, :1066]]) * PLAN_FT
     cells = fl.source.geom.cell_of_face[fl.sample(x, y, 72000.0).face]
     assert np.hypot(x[-1] - x[0], y[-1] - y[0]) > 2000.0
     assert np.all(np.diff(peak[cells]) <= 0.0) and peak[cells[-1]] < peak[cells[0]] - 1.0
@@ -267,7 +306,7 @@ def test_terrain_bed_is_the_lowest_pixel_in_each_cell(tmp_path, muncie):
     from rasterio.transform import from_origin
 
     mesh = muncie.mesh
-    x0, y0, x1, y1 = np.asarray(mesh.bounds) / FT
+    x0, y0, x1, y1 = np.asarray(mesh.bounds) / MUNCIE_FT
     res = 10.0  # ft pixels, cells are ~50 ft across
     nx, ny = int((x1 - x0) / res) + 2, int((y1 - y0) / res) + 2
     tr = from_origin(x0 - res, y1 + res, res, res)
@@ -282,15 +321,15 @@ def test_terrain_bed_is_the_lowest_pixel_in_each_cell(tmp_path, muncie):
     # on a plane, the lowest pixel centre in a cell lies between the lowest and the highest
     # point of the cell's polygon (nodes), and mostly within one pixel's rise of the lowest
     fn = mesh.face_nodes
-    zn = 900.0 + 0.01 * (mesh.node_x / FT - x0) - 0.02 * (mesh.node_y / FT - y0)
+    zn = 900.0 + 0.01 * (mesh.node_x / MUNCIE_FT - x0) - 0.02 * (mesh.node_y / MUNCIE_FT - y0)
     zmin = np.where(fn >= 0, zn[np.maximum(fn, 0)], np.inf).min(axis=1)
     zmax = np.where(fn >= 0, zn[np.maximum(fn, 0)], -np.inf).max(axis=1)
     low, high = np.full(muncie.n_cells, np.inf), np.full(muncie.n_cells, -np.inf)
     np.minimum.at(low, muncie.cell_of_face, zmin)
     np.maximum.at(high, muncie.cell_of_face, zmax)
-    assert np.all(bed >= low * FT - 1e-9) and np.all(bed <= high * FT + 1e-9)
-    rise = np.hypot(0.01, 0.02) * res * np.sqrt(2) * FT
-    assert np.mean(bed <= low * FT + rise) > 0.99
+    assert np.all(bed >= low * MUNCIE_FT - 1e-9) and np.all(bed <= high * MUNCIE_FT + 1e-9)
+    rise = np.hypot(0.01, 0.02) * res * np.sqrt(2) * MUNCIE_FT
+    assert np.mean(bed <= low * MUNCIE_FT + rise) > 0.99
 
 
 WGS84 = ('GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,'
@@ -335,7 +374,7 @@ def test_terrain_in_geographic_crs_refused(tmp_path, muncie):
         hecras._bed_from_terrain(p, muncie, MUNCIE)
 
 
-def test_import_cli_auto_and_scenario_source(tmp_path):
+def test_import_cli_auto_and_scenario_source(tmp_path, capsys):
     """`driftlog import plan.hdf`, `source = "auto"` and `source = "hecras"` all read it."""
     import netCDF4
     from driftlog.adapters import detect_format
@@ -348,6 +387,8 @@ def test_import_cli_auto_and_scenario_source(tmp_path):
     out = tmp_path / "flow.nc"
     assert main(["import", PLAN, "-o", str(out), "--option", f"results={SERIES}",
                  "--option", "bed=min_water_surface"]) == 0
+    assert "  note: US Customary lengths converted to metres with 1 ft = 0.3048006096012192 " \
+        "m, the US survey foot of the Projection's UNIT['Foot_US']" in capsys.readouterr().out
     with netCDF4.Dataset(out) as ds:
         assert ds["time"].units == "seconds since 1999-01-01T12:00:00"
         assert ds["time"].size == 37 and "Pennsylvania" in ds.crs_wkt
@@ -478,3 +519,19 @@ def test_plan_with_its_own_bed_and_a_geometry_file(tmp_path):
     np.testing.assert_allclose(flu.mesh.face_area, fl.mesh.face_area * FT ** 2, rtol=1e-12)
     np.testing.assert_allclose(flu.read_snapshot(0)[1], fl.read_snapshot(0)[1] * FT ** 2,
                                rtol=1e-6)
+    # the foot: the international one without a foot in the Projection, else the Projection's
+    assert "the international foot (the file names no projection unit)" in \
+        flu.attrs["import_notes"]
+    flu.source.close()
+    for wkt, factor, words in (
+            ('PROJCS["p",GEOGCS["g",UNIT["Degree",0.0174532925199433]],UNIT["Meter",1.0]]',
+             FT, "the Projection's unit 'Meter' (1.0 m) is not a foot"),
+            ('PROJCS["p",GEOGCS["g",UNIT["Degree",0.0174532925199433]],'
+             'UNIT["Foot_US",0.3048006096012192]]', PLAN_FT, "the US survey foot"),
+            ('PROJCS["p",GEOGCS["g",UNIT["Degree",0.0174532925199433]],UNIT["Foot",0.3048]]',
+             FT, "the international foot of the Projection's UNIT['Foot']")):
+        with h5py.File(us, "a") as f:
+            f.attrs["Projection"] = np.bytes_(wkt)
+        g = hecras.read_geometry(us)
+        assert g.length_factor == factor and words in g.attrs["import_notes"], g.attrs
+        np.testing.assert_allclose(g.mesh.node_x.max(), 60.0 * factor, rtol=1e-15)

@@ -173,7 +173,8 @@ def test_distributions(tmp_path, flow_file):
     ('"physics.level" = { values = ["tracer"], weights = [1, 2] }', "", "weights",
      "list of 1"),
     ('"logs.length" = { range = [1, 0.5, 0.1] }', "", "range", "stop >= start"),
-    ('"contact.restitution" = { uniform = [0.5, 1.5] }', "", "uniform", "must be <= 1.0"),
+    ('"contact.restitution" = { uniform = [0.5, 1.5] }', "", "uniform",
+     "must be >= 0.0 and <= 1.0"),
 ])
 def test_bad_ensemble_config_names_key_value_and_rule(tmp_path, flow_file, vary, extra, key,
                                                       words):

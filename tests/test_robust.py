@@ -260,6 +260,34 @@ def test_non_finite_and_negative_numbers(tmp_path, capsys):
     assert "non-finite h values" in err and "snapshot 1" in err
 
 
+def test_dry_depths_have_an_upper_bound(files, tmp_path, capsys):
+    """A dry depth is a thin-film threshold: 1e6 m made every face dry and stranded every log
+    without a word; [flow], [solver] and import --dry-depth share one range."""
+    from driftlog.mesher import channel_mesh
+    from driftlog.scenario import load_scenario
+    from driftlog.solver.model import ShallowWaterSolver
+
+    s = tmp_path / "dry.toml"
+    s.write_text(UNIFORM.replace("depth = 1.0\n[time]", "depth = 1.0\ndry_depth = 1e6\n[time]"))
+    err = _err(capsys, ["scenario", "check", s])
+    assert f"{s}: [flow.dry_depth] = 1000000.0: must be > 0.0 and <= 1.0 m" in err, err
+    err = _err(capsys, ["track", files["scenario"], "-o", tmp_path / "t.nc", "--set",
+                        "flow.dry_depth=0"])
+    assert "[flow.dry_depth] = 0: must be > 0.0 and <= 1.0 m" in err, err
+    assert load_scenario(UNIFORM.replace("[time]", "dry_depth = 1.0\n[time]", 1))[
+        "flow"]["dry_depth"] == 1.0  # the bound itself is allowed
+    with pytest.raises(ScenarioError, match=r"\[solver.dry_depth\] = 2.0: must be > 0.0 and "
+                                            r"<= 1.0 m"):
+        load_scenario(SOLVER_SCENARIO.replace("[solver]\n", "[solver]\ndry_depth = 2.0\n"))
+    with pytest.raises(ScenarioError, match=r"\[solver.dry_depth\] = 1000000.0: must be > 0.0 "
+                                            r"and <= 1.0 m"):
+        ShallowWaterSolver(channel_mesh(20.0, 4.0, 2.0), dry_depth=1e6)
+    err = _err(capsys, ["import", files["flow"], "-o", tmp_path / "o.nc", "--dry-depth", "1e6"])
+    assert "--dry-depth 1e+06: must be a finite number > 0.0 and <= 1.0 m, as [flow] " \
+        "dry_depth" in err, err
+    assert not (tmp_path / "o.nc").exists()
+
+
 def test_solver_never_writes_non_finite_depths(tmp_path):
     from driftlog.solver.config import build_solver
     from driftlog.solver.run import run_solver
@@ -287,7 +315,16 @@ def test_sizes_that_do_not_fit_are_refused_before_allocating(tmp_path, capsys):
                  .replace("end = 4.0", "end = 5000.0"))
     err = _err(capsys, ["track", s, "-o", tmp_path / "big.nc"])
     assert "tracking 1e+07 logs" in err and "GiB" in err
+    # the keys that make the size, with their values
+    assert "([logs[0].count] = 10000000) over 5002 records ([time.output_interval] = 1 s " \
+        "from [time.start] = 0 s to [time.end] = 5000 s)" in err, err
     assert not list(tmp_path.glob("big.nc*"))  # nothing half-written
+    # the records this time (5e10 of them, 1.6 TB to sort at the end)
+    err = _err(capsys, ["track", s, "-o", tmp_path / "big.nc", "--set", "logs.count=2",
+                        "--set", "time.output_interval=1e-7"])
+    assert "tracking 2 logs ([logs[0].count] = 2) over " in err, err
+    assert "records ([time.output_interval] = 1e-07 s from [time.start] = 0 s to [time.end] " \
+        "= 5000 s)" in err, err
     from driftlog.mesher import polygon_mesh
     from driftlog.solver.config import estimate_mesh
 
@@ -536,6 +573,123 @@ def test_sigkill_then_resume_loses_no_hit_and_no_record(tmp_path):
             np.testing.assert_array_equal(res[v].values, full[v].values, err_msg=v)
 
 
+SOLVE_KILLER = """
+import os, signal, sys
+import driftlog.solver.run as run
+from driftlog.cli import main
+real, count = run._write, [0]
+
+def killed(w, solver, sync=True, momentum=None):
+    real(w, solver, sync, momentum)
+    count[0] += 1
+    if count[0] == int(sys.argv[3]):  # after this snapshot, the file still open for writing
+        os.kill(os.getpid(), signal.SIGKILL)
+
+run._write = killed
+main(["solve", sys.argv[1], "-o", sys.argv[2], "--quiet"])
+"""
+
+
+def test_solve_resumes_a_flow_file_left_open_by_a_killed_process(tmp_path, capsys):
+    """A SIGKILLed solve leaves its .partial marked open for writing in the HDF5 superblock:
+    --resume copies it (driftlog.files.reopen_partial), as the trajectory writer does, instead
+    of opening it with "a".  HDF5 2.2 opens such a file (superblock version 2) with "a" when
+    nothing else holds it, but not while this process holds it open for reading (the partial
+    inspected first, as in test_sigkill_then_resume_loses_no_hit_and_no_record): solve
+    --resume failed with "NetCDF: HDF error", and the failed open leaked an HDF5 file object
+    (the segfault under pytest-xdist that the trajectory writer's copy fixed)."""
+    from driftlog.files import left_open
+
+    s = tmp_path / "solver.toml"
+    s.write_text(SOLVER_SCENARIO)
+    full = tmp_path / "full.nc"
+    assert main(["solve", str(s), "-o", str(full), "--quiet"]) == 0
+    (tmp_path / "killer.py").write_text(SOLVE_KILLER)
+    out = tmp_path / "r.nc"
+    p = subprocess.run([sys.executable, str(tmp_path / "killer.py"), str(s), str(out), "3"],
+                       env=dict(os.environ, PYTHONPATH=str(REPO)), capture_output=True,
+                       text=True)
+    assert p.returncode == -signal.SIGKILL, p.stderr
+    partial = Path(f"{out}.partial")
+    assert left_open(partial) and not out.exists()  # as the killed process left it
+    killed = partial.read_bytes()
+    capsys.readouterr()
+    for held in (True, False):
+        partial.write_bytes(killed)
+        out.unlink(missing_ok=True)
+        reader = netCDF4.Dataset(partial) if held else None
+        try:
+            if reader is not None:
+                assert reader["time"][:].tolist() == [0.0, 5.0, 10.0]  # 3 snapshots kept
+            rc = main(["solve", str(s), "-o", str(out), "--resume", "--quiet"])
+            assert rc == 0, capsys.readouterr().err
+        finally:
+            if reader is not None:
+                reader.close()
+        assert not partial.exists() and not list(tmp_path.glob("r.nc.partial*"))
+        assert left_open(out) is False
+        with netCDF4.Dataset(full) as a, netCDF4.Dataset(out) as b:
+            for name in ("time", "water_depth", "velocity_x", "volume", "max_water_depth"):
+                np.testing.assert_array_equal(b[name][:], a[name][:], err_msg=name)
+
+
+def _stderr_lines(capsys):
+    return [line for line in capsys.readouterr().err.splitlines()
+            if line.startswith("driftlog: ")]
+
+
+def test_resume_without_a_partial_says_it_starts_afresh(tmp_path, capsys):
+    """--resume with nothing to continue starts afresh (as resumable tools do), with one line
+    on stderr naming where it looked: track, run, solve and ensemble."""
+    s = tmp_path / "u.toml"
+    s.write_text(UNIFORM)
+    out = tmp_path / "t.nc"
+    assert main(["track", str(s), "-o", str(out), "--resume", "--quiet"]) == 0
+    assert _stderr_lines(capsys) == [f"driftlog: warning: --resume: no partial output found at "
+                                     f"{out}.partial; the run starts from the beginning"]
+    assert out.is_file()
+    run = tmp_path / "run"
+    assert main(["run", str(s), "--out", str(run), "--resume", "--quiet", "--no-figure",
+                 "--no-animation"]) == 0
+    assert _stderr_lines(capsys) == [f"driftlog: warning: --resume: no partial output found at "
+                                     f"{run / 'trajectories.nc.partial'}; the run starts from "
+                                     "the beginning"]
+    assert (run / "trajectories.nc").is_file()
+    sv = tmp_path / "solver.toml"
+    sv.write_text(SOLVER_SCENARIO)
+    flow = tmp_path / "f.nc"
+    assert main(["solve", str(sv), "-o", str(flow), "--resume", "--quiet"]) == 0
+    assert _stderr_lines(capsys) == [f"driftlog: warning: --resume: no partial flow file found "
+                                     f"at {flow}.partial; the flow is computed from the "
+                                     "beginning"]
+    # a finished flow is extended (to a later end): resumed, no line
+    assert main(["solve", str(sv), "-o", str(flow), "--resume", "--quiet"]) == 0
+    assert _stderr_lines(capsys) == []
+    (tmp_path / "base.toml").write_text(UNIFORM)
+    e = tmp_path / "ens.toml"
+    e.write_text(textwrap.dedent("""
+        [ensemble]
+        base = "base.toml"
+        members = 2
+        workers = 0
+        grid_cell = 0.5
+        grid_origin = [-1.0, -2.0]
+        grid_size = [6.0, 4.0]
+        [ensemble.vary]
+        "logs.length" = { uniform = [0.3, 1.0] }
+        """))
+    ens = tmp_path / "ens"
+    assert main(["ensemble", str(e), "--out", str(ens), "--resume", "--quiet",
+                 "--no-figures"]) == 0
+    assert _stderr_lines(capsys) == [f"driftlog: warning: --resume: no finished member found at "
+                                     f"{ens.resolve() / 'members'}; the ensemble starts from "
+                                     "the beginning"]
+    assert main(["ensemble", str(e), "--out", str(ens), "--resume", "--quiet",
+                 "--no-figures"]) == 0
+    out = capsys.readouterr()
+    assert "(0 run now, 2 resumed)" in out.out and "driftlog: warning" not in out.err
+
+
 def test_outputs_are_complete_or_absent(files, tmp_path, capsys):
     from driftlog import plots
 
@@ -770,6 +924,17 @@ def test_export_checks_its_output(tmp_path, capsys):
     err = _err(capsys, ["export", tmp_path / "x.slf", "-o", tmp_path / "x.slf"])
     assert "the selafin file is the input file itself" in err
     assert (tmp_path / "x.slf").read_bytes() == slf
+    # a missing folder is created, as import, solve and track create theirs (selafin said
+    # "cannot write the selafin file ([Errno 2] ... '.x.tmp<pid>.slf')", dfsu created it)
+    for name in ("x.slf", "x.dfsu"):
+        out = tmp_path / "new" / name.split(".")[1] / name
+        assert main(["export", str(flow), "-o", str(out)]) == 0, capsys.readouterr().err
+        assert [p.name for p in out.parent.iterdir()] == [name]  # no temporary left
+    assert main(["import", str(flow), "-o", str(tmp_path / "new" / "nc" / "f.nc")]) == 0
+    assert (tmp_path / "new" / "nc" / "f.nc").is_file()
+    # a parent that is a file is refused before anything is read
+    err = _err(capsys, ["export", flow, "-o", tmp_path / "x.slf" / "y.slf"])
+    assert f"cannot write the selafin file: {tmp_path / 'x.slf'} is a file, not a folder" in err
 
 
 def test_compare_names_each_flow_once(tmp_path, capsys):
@@ -796,9 +961,11 @@ def test_import_arguments(files, tmp_path, capsys):
     out = tmp_path / "o.nc"
     for value in ("-1", "nan", "0"):
         err = _err(capsys, ["import", files["flow"], "-o", out, "--dry-depth", value])
-        assert f"--dry-depth {float(value):g}: must be a finite number > 0.0 m" in err
-    err = _err(capsys, ["import", files["flow"], "-o", out, "--dry-depth", "1e308"])
-    assert "dry_depth = 1e+308 m is above the deepest water" in err and "(1 m)" in err
+        assert f"--dry-depth {float(value):g}: must be a finite number > 0.0 and <= 1.0 m" \
+            in err
+    # the flow's deepest water is 1 m: a dry depth of 1 m leaves no wet face (h > dry_depth)
+    err = _err(capsys, ["import", files["flow"], "-o", out, "--dry-depth", "1"])
+    assert "dry_depth = 1 m is at or above the deepest water" in err and "(1 m)" in err
     err = _err(capsys, ["import", files["flow"], "-o", out, "--var", "bogus=x"])
     assert "--var bogus=x: 'bogus' is not a name driftlog knows; one of depth, level" in err
     assert not list(tmp_path.iterdir())  # nothing written

@@ -242,8 +242,9 @@ def test_cli_export(flows, capsys, rng):
     capsys.readouterr()
     assert main(["export", src, "-o", str(d / "cli.xyz")]) == 2
     assert "give --format selafin or --format dfsu" in capsys.readouterr().err
-    assert main(["export", src, "-o", str(d / "nodir" / "a.slf")]) == 2
-    assert "cannot write the selafin file" in capsys.readouterr().err
+    # a missing folder is created, as import, solve and track create theirs
+    assert main(["export", src, "-o", str(d / "nodir" / "a.slf")]) == 0
+    assert [p.name for p in (d / "nodir").iterdir()] == ["a.slf"]
 
 
 def test_ensemble_members_read_node_data_from_the_source(flows, tmp_path):

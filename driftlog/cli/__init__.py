@@ -86,8 +86,11 @@ def main(argv=None) -> int:
         sys.stderr.close()
         return 0
     except MemoryError:
-        print("driftlog: error: out of memory; reduce the run's size (logs, cells, output "
-              "records) or use a machine with more memory", file=sys.stderr)
+        # not foreseen by the estimates made before allocating (driftlog.preflight.estimate_run,
+        # solver.config.estimate_mesh), which name the keys and their values
+        print("driftlog: error: out of memory; reduce the run's size: the logs ([[logs]] count "
+              "or x), the records ([time] output_interval), the mesh ([solver] cell_size), or "
+              "use a machine with more memory", file=sys.stderr)
         return 2
     except OSError as exc:
         if exc.filename is None:

@@ -100,7 +100,7 @@ def cmd_import(args):
         check_value(key, "flow.dry_depth", args.dry_depth, Path.cwd())
     except ScenarioError:
         raise DriftlogError(f"--dry-depth {args.dry_depth:g}: must be a finite number "
-                            f"{key.describe()} {key.units}, as [flow] dry_depth") from None
+                            f"{key.bounds()}, as [flow] dry_depth") from None
     t0 = time.perf_counter()
     bar = None
 
@@ -161,9 +161,9 @@ def cmd_export(args):
             raise DriftlogError(f"{out}: format not known from the suffix {out.suffix!r}: give "
                                 "--format selafin or --format dfsu")
     # the suffix of the format (mikeio writes .dfsu only), never over the source; a missing
-    # folder is not created (the writers refuse it below, as before)
+    # folder is created, as import, solve, track and plot create theirs
     check_output(out, f"{fmt} file", inputs=[args.source],
-                 suffixes=selafin.SUFFIXES if fmt == "selafin" else mike.SUFFIXES, create=False)
+                 suffixes=selafin.SUFFIXES if fmt == "selafin" else mike.SUFFIXES)
     field = open_flow_source("auto", args.source)
     try:
         with atomic_output(out) as tmp:  # renamed when complete: never a truncated file

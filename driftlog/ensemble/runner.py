@@ -440,6 +440,11 @@ def run_ensemble(ensemble, workers=None, scheduler=None, client=None, resume=Fal
         agg.add(MemberSummary.from_npz(members_dir / f"member_{i:06d}.npz"))
     wanted = range(n) if members is None else sorted(set(int(i) for i in members))
     todo = [i for i in wanted if agg.member_state[i] != 1]
+    if resume and not done_before:  # once the ensemble is checked and about to run
+        from driftlog.files import nothing_to_resume
+
+        nothing_to_resume(members_dir, "finished member", "the ensemble starts from the "
+                          "beginning")
     options = dict(grid=grid, trajectories=str(out / "trajectories")
                    if sec["keep_trajectories"] else None, blocked_gap=sec["blocked_gap"])
     if options["trajectories"]:

@@ -46,6 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from driftlog.errors import ScenarioError
+from driftlog.flow import DRY_DEPTH_MAX
 from driftlog.schema import Key, Section
 from driftlog.solver.boundaries import KINDS, as_boundary
 
@@ -399,8 +400,8 @@ SOLVER_SECTION = Section("solver", [
         "fraction of the neighbourhood's speed and head ranges", min=0.0),
     Key("cfl", "float", None, "fraction of the positivity-preserving time step (default 0.9 "
         "at order 1, 0.8 at order 2)", min=0.0, max=1.0, exclusive_min=True),
-    Key("dry_depth", "float", 1e-6, "depth below which a face has no velocity", "m", min=0.0,
-        exclusive_min=True),
+    Key("dry_depth", "float", 1e-6, "depth below which a face has no velocity (a thin-film "
+        "threshold, as [flow] dry_depth)", "m", min=0.0, exclusive_min=True, max=DRY_DEPTH_MAX),
     Key("arrival_depth", "float", 0.05, "depth marking the flood's arrival at a face "
         "(arrival_time output)", "m", min=0.0, exclusive_min=True),
     Key("start", "float", 0.0, "start time", "s"),

@@ -18,6 +18,7 @@ import numpy as np
 
 from driftlog._numba import workers_spin, written_zeros
 from driftlog.errors import ScenarioError
+from driftlog.flow import DRY_DEPTH_MAX
 from driftlog.solver.boundaries import DEPTH, DISCHARGE, LEVEL, WALL, BoundarySet
 from driftlog.solver.extremes import ARRIVAL_DEPTH, Extremes, volume_sum
 from driftlog.solver.fluxes import (
@@ -182,8 +183,9 @@ class ShallowWaterSolver:
         if not (np.isfinite(energy_widen) and energy_widen >= 0):
             raise ScenarioError("solver.energy_widen", energy_widen, "must be a fraction >= 0")
         self.energy_widen = energy_widen
-        if not dry_depth > 0:
-            raise ScenarioError("solver.dry_depth", dry_depth, "must be > 0 m")
+        if not 0 < dry_depth <= DRY_DEPTH_MAX:
+            raise ScenarioError("solver.dry_depth", dry_depth,
+                                f"must be > 0.0 and <= {DRY_DEPTH_MAX} m")
         self.mesh = mesh
         nf = mesh.n_faces
         bed_from_nodes = bed is None and mesh.node_z is not None

@@ -29,6 +29,7 @@ import netCDF4
 import numpy as np
 
 from driftlog.errors import FlowFileError
+from driftlog.files import reopen_partial
 from driftlog.flowfile import FACE_DIM, FlowFileWriter
 from driftlog.solver.extremes import EXTREME_FIELDS
 
@@ -230,6 +231,9 @@ def run_solver(solver, t_end, output=None, output_interval=None, progress=False,
     if output is not None:
         output = Path(output)
         if resume and output.exists():
+            # a file a killed process left open is copied first: opened with "a", HDF5 may
+            # refuse it and leak a file object that crashed a later close (driftlog.files)
+            reopen_partial(output)
             n_snap = load_restart(solver, output)
             with netCDF4.Dataset(output) as ds:
                 t_origin = float(ds.getncattr("output_origin"))
