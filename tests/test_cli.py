@@ -177,3 +177,34 @@ def test_cases_list(capsys):
     assert main(["cases", "list"]) == 0
     assert "vortex" in capsys.readouterr().out
     assert main(["run", "no_such_case"]) == 2
+
+
+def test_info_and_vtk_know_other_models_files_in_a_fresh_process(tmp_path):
+    """`driftlog info` / `vtk --flow` on a HEC-RAS or MIKE file, each in a new interpreter.
+
+    The readers tell ``driftlog.files.sniff`` about their files when ``driftlog.adapters`` is
+    imported; ``info`` sniffed before anything imported it, so a HEC-RAS file was "a NetCDF
+    file of an unknown layout" (and a dfsu "binary") in a fresh process, while in a test
+    process that had imported the adapters it passed.
+    """
+    import pytest
+
+    data = Path(__file__).resolve().parents[2] / "shared" / "data" / "hecras"
+    muncie = data / "Muncie.g05.hdf"
+    if muncie.is_file():
+        out = run("info", str(muncie))
+        assert out.returncode == 0, out.stderr
+        assert "HEC-RAS file" in out.stdout and "2D Interior Area" in out.stdout
+    pytest.importorskip("mikeio")
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    try:
+        from test_adapters_mike import write_dfsu
+    finally:
+        sys.path.pop(0)
+    dfsu = write_dfsu(tmp_path / "model.dfsu")
+    out = run("info", str(dfsu))
+    assert out.returncode == 0, out.stderr
+    assert "MIKE dfsu" in out.stdout
+    out = run("vtk", str(dfsu), "--flow", "--out", str(tmp_path / "vtk"))
+    assert out.returncode == 0, out.stderr
+    assert (tmp_path / "vtk" / "flow.pvd").is_file() or list((tmp_path / "vtk").glob("*.pvd"))
