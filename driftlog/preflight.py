@@ -175,6 +175,29 @@ def _check_landings(scen, flow):
     check_landings(tm["start"], end, tm["output_interval"], tm["hydro_step"] if steady else None)
 
 
+def _dry_flow_note(scen, flow):
+    """A note when no face of the flow at the run's start is deeper than its dry depth.
+
+    ``[flow] dry_depth`` is a thin-film threshold; set above the deepest water of the flow
+    (a depth in the wrong unit, a decimal point) it makes every face dry: no log floats and
+    the run records logs resting where they were released.  Checked on the snapshot at the
+    start (one read), for flows stored as snapshots.
+    """
+    times = np.asarray(getattr(flow, "times", ()), float)
+    read = getattr(flow, "read_snapshot", None)
+    dd = getattr(flow, "dry_depth", None)
+    if read is None or dd is None or times.size == 0:
+        return None
+    i = int(np.clip(np.searchsorted(times, float(scen["time"]["start"])), 0, times.size - 1))
+    h = np.asarray(read(i)[0], float)
+    if h.size == 0 or float(h.max()) > dd:
+        return None
+    return (f"[flow] dry_depth = {dd:g} m is at or above the deepest water of the flow at "
+            f"t = {times[i]:g} s ({float(h.max()):.3g} m): every face counts as dry there "
+            "(velocity zero, no log floats); dry_depth is a thin-film threshold (1e-4 to "
+            "1e-2 m in flood models)")
+
+
 def check_start(scen, flow, logs, mesh=None, warn=True):
     """Logs against the flow's mesh and the obstacles at the start (the module's rule).
 
@@ -206,6 +229,9 @@ def check_start(scen, flow, logs, mesh=None, warn=True):
         if out.size:
             raise outside_error(flow if flow is not None else _MeshOnly(mesh), logs, out)
     notes = []
+    dry = _dry_flow_note(scen, flow) if flow is not None else None
+    if dry:
+        notes.append(dry)
     obst = scen["obstacles"]
     contact = scen["contact"]["enabled"]
     if obst and not contact:

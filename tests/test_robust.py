@@ -288,6 +288,26 @@ def test_dry_depths_have_an_upper_bound(files, tmp_path, capsys):
     assert not (tmp_path / "o.nc").exists()
 
 
+def test_dry_depth_above_the_flows_water_is_named(tmp_path, capsys):
+    """A dry depth within its bounds but above every face's water at the start: a warning.
+
+    5 cm of water everywhere and ``dry_depth = 0.1`` (m): every face counts as dry, the logs
+    never float and the run would record them resting; `scenario check` and `track` say so.
+    """
+    flow = _flow_file(tmp_path / "shallow.nc", depth=0.05)
+    s = _scenario_on_file(tmp_path, flow)
+    dry = tmp_path / "dry.toml"
+    dry.write_text(s.read_text().replace('source = "file"', 'source = "file"\ndry_depth = 0.1'))
+    want = ("warning: [flow] dry_depth = 0.1 m is at or above the deepest water of the flow at "
+            "t = 0 s (0.05 m): every face counts as dry")
+    for argv in (["scenario", "check", dry], ["track", s, "--set", "flow.dry_depth=0.1"]):
+        rc = main([str(a) for a in argv])
+        err = capsys.readouterr().err
+        assert rc == 0 and want in err, (argv, err)
+    assert main(["track", str(s), "--set", "flow.dry_depth=0.01"]) == 0  # below the water
+    assert "dry_depth" not in capsys.readouterr().err
+
+
 def test_solver_never_writes_non_finite_depths(tmp_path):
     from driftlog.solver.config import build_solver
     from driftlog.solver.run import run_solver
