@@ -653,6 +653,24 @@ def test_solve_resumes_a_flow_file_left_open_by_a_killed_process(tmp_path, capsy
                 np.testing.assert_array_equal(b[name][:], a[name][:], err_msg=name)
 
 
+def _small_ensemble(tmp_path, members):
+    """An ensemble file of ``members`` members on UNIFORM (log lengths 0.3-1 m)."""
+    (tmp_path / "base.toml").write_text(UNIFORM)
+    e = tmp_path / "ens.toml"
+    e.write_text(textwrap.dedent(f"""
+        [ensemble]
+        base = "base.toml"
+        members = {members}
+        workers = 0
+        grid_cell = 0.5
+        grid_origin = [-1.0, -2.0]
+        grid_size = [6.0, 4.0]
+        [ensemble.vary]
+        "logs.length" = {{ uniform = [0.3, 1.0] }}
+        """))
+    return e
+
+
 def _stderr_lines(capsys):
     return [line for line in capsys.readouterr().err.splitlines()
             if line.startswith("driftlog: ")]
@@ -685,19 +703,7 @@ def test_resume_without_a_partial_says_it_starts_afresh(tmp_path, capsys):
     # a finished flow is extended (to a later end): resumed, no line
     assert main(["solve", str(sv), "-o", str(flow), "--resume", "--quiet"]) == 0
     assert _stderr_lines(capsys) == []
-    (tmp_path / "base.toml").write_text(UNIFORM)
-    e = tmp_path / "ens.toml"
-    e.write_text(textwrap.dedent("""
-        [ensemble]
-        base = "base.toml"
-        members = 2
-        workers = 0
-        grid_cell = 0.5
-        grid_origin = [-1.0, -2.0]
-        grid_size = [6.0, 4.0]
-        [ensemble.vary]
-        "logs.length" = { uniform = [0.3, 1.0] }
-        """))
+    e = _small_ensemble(tmp_path, 2)
     ens = tmp_path / "ens"
     assert main(["ensemble", str(e), "--out", str(ens), "--resume", "--quiet",
                  "--no-figures"]) == 0
@@ -1002,19 +1008,7 @@ def test_import_arguments(files, tmp_path, capsys):
 
 
 def test_ensemble_arguments(tmp_path, capsys):
-    (tmp_path / "base.toml").write_text(UNIFORM)
-    e = tmp_path / "ens.toml"
-    e.write_text(textwrap.dedent("""
-        [ensemble]
-        base = "base.toml"
-        members = 3
-        workers = 0
-        grid_cell = 0.5
-        grid_origin = [-1.0, -2.0]
-        grid_size = [6.0, 4.0]
-        [ensemble.vary]
-        "logs.length" = { uniform = [0.3, 1.0] }
-        """))
+    e = _small_ensemble(tmp_path, 3)
     out = tmp_path / "o"
     err = _err(capsys, ["ensemble", e, "--out", out, "--workers", "-1"])
     assert "--workers -1: must be >= 0" in err
