@@ -27,11 +27,17 @@ DRIFTLOG_NAMES = ("depth", "level", "bed", "u", "v", "hu", "hv", "alpha")
 _LENGTH = LENGTH_UNITS  # one table with the mesh reader's node coordinates (km, ft...)
 _VELOCITY = {"m s-1": 1.0, "m/s": 1.0, "m s^-1": 1.0, "m.s-1": 1.0, "ms-1": 1.0, "m/sec": 1.0,
              "cm s-1": 0.01, "cm/s": 0.01, "cm s^-1": 0.01, "cm.s-1": 0.01,
-             "mm s-1": 1e-3, "mm/s": 1e-3, "mm s^-1": 1e-3}
+             "mm s-1": 1e-3, "mm/s": 1e-3, "mm s^-1": 1e-3,
+             # US models' exports (the international foot, as HEC-RAS's ft/s) and knots
+             "ft s-1": 0.3048, "ft/s": 0.3048, "ft s^-1": 0.3048, "ft.s-1": 0.3048,
+             "ft/sec": 0.3048, "fps": 0.3048, "knot": 1852.0 / 3600.0,
+             "knots": 1852.0 / 3600.0, "kt": 1852.0 / 3600.0}
 _UNIT_DISCHARGE = {"m2 s-1": 1.0, "m2/s": 1.0, "m^2/s": 1.0, "m^2 s^-1": 1.0, "m2.s-1": 1.0,
-                   "m**2 s-1": 1.0, "cm2 s-1": 1e-4, "cm2/s": 1e-4}
+                   "m**2 s-1": 1.0, "cm2 s-1": 1e-4, "cm2/s": 1e-4,
+                   "ft2 s-1": 0.3048 ** 2, "ft2/s": 0.3048 ** 2, "ft^2/s": 0.3048 ** 2}
 _DISCHARGE = {"m3 s-1": 1.0, "m3/s": 1.0, "m^3/s": 1.0, "m^3 s^-1": 1.0, "m3.s-1": 1.0,
-              "m**3 s-1": 1.0, "cumecs": 1.0}
+              "m**3 s-1": 1.0, "cumecs": 1.0, "ft3 s-1": 0.3048 ** 3, "ft3/s": 0.3048 ** 3,
+              "ft^3/s": 0.3048 ** 3, "cfs": 0.3048 ** 3}
 _KINDS = {"length": _LENGTH, "velocity": _VELOCITY, "unit_discharge": _UNIT_DISCHARGE,
           "discharge": _DISCHARGE, "fraction": {"1": 1.0, "": 1.0, "-": 1.0}}
 _SI = {"length": "m", "velocity": "m s-1", "unit_discharge": "m2 s-1", "discharge": "m3 s-1",

@@ -101,10 +101,19 @@ def test_ugrid_units_converted_with_a_note_or_refused(tmp_path, rng):
     for k in ("h", "u", "v"):
         np.testing.assert_allclose(f.snapshot(2)[k], ref.snapshot(2)[k], rtol=1e-14)
     f.source.close()  # the lazy source keeps the file open for reading
-    with netCDF4.Dataset(p, "a") as ds:
+    with netCDF4.Dataset(p, "a") as ds:  # a US model's export: feet per second
         ds["mesh2d_ucy"].units = "ft s-1"
-    with pytest.raises(FlowFileError, match=r"dflowfm_map.nc: mesh2d_ucy: units 'ft s-1' are "
-                                            r"not units of velocity \(expected m s-1"):
+        ds["mesh2d_ucy"][:] = ds["mesh2d_ucy"][:] / 0.3048
+    f = open_flow_source("ugrid", p)
+    assert "mesh2d_ucy: converted from 'ft s-1' to m s-1 (x 0.3048)" in f.attrs["import_notes"]
+    np.testing.assert_allclose(f.snapshot(2)["v"], ref.snapshot(2)["v"], rtol=1e-13,
+                               atol=1e-15)
+    f.source.close()
+    with netCDF4.Dataset(p, "a") as ds:
+        ds["mesh2d_ucy"].units = "furlong fortnight-1"
+    with pytest.raises(FlowFileError, match=r"dflowfm_map.nc: mesh2d_ucy: units 'furlong "
+                                            r"fortnight-1' are not units of velocity "
+                                            r"\(expected m s-1"):
         open_flow_source("ugrid", p)
 
 
