@@ -112,10 +112,8 @@ def detect_format(path) -> str:
 
     fk = sniff(p)  # what it is, when no reader opens it: a clearer message than "unknown"
     if fk.kind in ("trajectories", "partial", "scenario", "empty", "binary", "ensemble",
-                   "mesh"):  # (truncated NetCDF and text: the NetCDF opener says why below)
-        raise FlowFileError(f"{p}: {fk.describe()}; a hydro source must be a driftlog flow "
-                            "file, another model's output (" + ", ".join(KINDS[1:])
-                            + ") or an OpenFOAM case")
+                   "mesh", "mesh_file"):  # (truncated NetCDF, text: the NetCDF opener says why)
+        raise _not_a_hydro_source(fk)
     if p.is_dir():
         raise FlowFileError(f"{p}: unknown layout: a directory that is not an OpenFOAM case "
                             "(no system/controlDict, constant/polyMesh or processor*)")
@@ -124,6 +122,12 @@ def detect_format(path) -> str:
     raise FlowFileError(f"{p}: unknown layout: not a UGRID mesh (no cf_role = mesh_topology), "
                         f"not an ANUGA sww (x, y, volumes, stage), not a CF grid (1-D x, y "
                         f"coordinates); variables: {names}")
+
+
+def _not_a_hydro_source(fk):
+    return FlowFileError(f"{fk.path}: {fk.describe()}; a hydro source must be a driftlog flow "
+                         "file, another model's output (" + ", ".join(KINDS[1:])
+                         + ") or an OpenFOAM case")
 
 
 def check_options(kind, options: dict, path) -> dict:
@@ -160,7 +164,8 @@ def open_flow_source(kind, path, time_range=None, variables=None, dry_depth=1e-3
         anuga ``use_centroids``.
     """
     path = Path(path)
-    if kind in (None, "auto"):
+    auto = kind in (None, "auto")
+    if auto:
         kind = detect_format(path)
     if kind not in KINDS:
         raise FlowFileError(f"{path}: format {kind!r} unknown; one of {', '.join(KINDS)} "
@@ -170,8 +175,17 @@ def open_flow_source(kind, path, time_range=None, variables=None, dry_depth=1e-3
     if unknown:
         raise FlowFileError(f"{path}: variables {unknown}: not names driftlog knows (one of "
                             f"{', '.join(VARIABLE_NAMES)})")
-    return reader(kind).open(path, time_range=time_range, variables=dict(variables or {}),
-                             dry_depth=dry_depth, **options)
+    try:
+        return reader(kind).open(path, time_range=time_range, variables=dict(variables or {}),
+                                 dry_depth=dry_depth, **options)
+    except FlowFileError:
+        if auto and kind == "ugrid":  # a UGRID mesh without a flow: said so, not "unknown layout"
+            from driftlog.files import sniff
+
+            fk = sniff(path)
+            if fk.kind == "mesh":
+                raise _not_a_hydro_source(fk) from None
+        raise
 
 
 def check_flow_options(section: dict, prefix: str, base_dir: Path) -> dict:

@@ -87,6 +87,13 @@ _LISFLOOD_RESULT = re.compile(r"^(?P<root>.+)-(?P<k>\d{4,})\.(?P<ext>wd|Vx|Vy)$"
 # --------------------------------------------------------------------- raster reading
 def _read(path, what="raster"):
     """(array float64 (rows, cols) as stored, nodata value or None, geometry dict)."""
+    import rasterio
+
+    with rasterio.Env():  # GDAL's messages (a file cut short...) to logging, not to stderr
+        return _read_raster(path, what)
+
+
+def _read_raster(path, what):
     import rioxarray
 
     path = Path(path)
@@ -101,7 +108,12 @@ def _read(path, what="raster"):
         if da.sizes.get("band", 1) != 1:
             raise FlowFileError(f"{path}: {da.sizes['band']} bands; driftlog reads one raster "
                                 "per quantity and time (one band)")
-        arr = np.asarray(da.values[0] if "band" in da.dims else da.values, np.float64)
+        try:
+            arr = np.asarray(da.values[0] if "band" in da.dims else da.values, np.float64)
+        except Exception as exc:  # noqa: BLE001 - a file cut short: GDAL's read errors
+            raise FlowFileError(f"{path}: a {what} whose values cannot be read: truncated or "
+                                "damaged (an interrupted copy or download?) "
+                                f"({exc.__cause__ or exc})") from None
         x = np.asarray(da.x.values, np.float64)
         y = np.asarray(da.y.values, np.float64)
         nodata = da.rio.nodata

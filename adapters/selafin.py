@@ -397,7 +397,9 @@ def write(field, path, precision="double", title=None):
     Node values are the ones the sampler interpolates (``MeshFlowField.node_snapshot``): the
     data themselves for a node-located flow, the nodes' least-squares fits of the face values
     for a face-located one, so that the file read back is sampled with the same depth and
-    velocity (the recovered gradients differ: see ``driftlog.nodal``).  Variables WATER
+    velocity (the recovered gradients differ: see ``driftlog.nodal``); for a cell-centred
+    grid (CF grids, rasters), whose bilinear interpolant is not P1 on triangles, the nodes'
+    fits of the cell values, as for a face-located mesh flow.  Variables WATER
     DEPTH, VELOCITY U, VELOCITY V, FREE SURFACE and BOTTOM; quadrilaterals are split into the
     sampler's two triangles.  Frames are computed one at a time while writing.
 
@@ -423,7 +425,7 @@ def write(field, path, precision="double", title=None):
     times = np.asarray(field.times, dtype=np.float64)
     if np.any(np.abs(times - np.round(times)) > 1e-6):
         raise FlowFileError(f"{path}: the flow's times are not whole seconds (e.g. "
-                            f"{times[np.abs(times - np.round(times)) > 1e-6][0]!r} s); "
+                            f"{times[np.abs(times - np.round(times)) > 1e-6][0]:g} s); "
                             "xarray-selafin writes whole seconds after the header date")
     epoch = reference_epoch(field.attrs, str(path)) or np.datetime64("1900-01-01T00:00:00",
                                                                       "us")
@@ -436,10 +438,23 @@ def write(field, path, precision="double", title=None):
     else:
         bed = mesh.node_operators()[0] @ field.bed
     dtype = np.float64 if precision == "double" else np.float32
+    # a cell-centred grid (CF grid, raster: GridFlowField) holds its values at the cells'
+    # centres, which are not its mesh's nodes: the nodes' fits of the cell values, as for a
+    # face-located mesh flow
+    cells = getattr(field, "layout", None) == "cell"
+
+    def node_snapshot(i):
+        if not cells:
+            return field.node_snapshot(i)
+        h, hu, hv = field.read_snapshot(i)
+        u, v = field._velocity(h, hu, hv)
+        nodes = mesh.node_operators()[0] @ np.column_stack([h, u, v, h + field.bed])
+        return {"h": np.maximum(nodes[:, 0], 0.0), "u": nodes[:, 1], "v": nodes[:, 2],
+                "eta": nodes[:, 3]}
 
     def frame(key, block_info=None):
         i = block_info[None]["chunk-location"][0]
-        snap = field.node_snapshot(i)
+        snap = node_snapshot(i)
         val = snap[key] if key != "B" else bed
         if key == "eta":
             val = snap["h"] + bed

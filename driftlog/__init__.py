@@ -41,6 +41,7 @@ from pathlib import Path
 from driftlog._cache import set_numba_cache_dir
 from driftlog._version import __version__
 from driftlog.errors import DriftlogError, FlowFileError, MeshError, ScenarioError
+from driftlog.files import register_loader as _register_loader
 
 set_numba_cache_dir(Path(__file__).resolve().parent)
 
@@ -115,3 +116,11 @@ def _mount_adapters() -> None:
 
 
 _mount_adapters()
+
+
+def _load_adapters() -> None:
+    """Import ``driftlog.adapters``: its readers tell ``driftlog.files.sniff`` their files."""
+    importlib.import_module("driftlog.adapters")
+
+
+_register_loader(_load_adapters)  # run by the first sniff, not now: import stays cheap

@@ -464,7 +464,7 @@ def _markdown(report):
         lines += ["", "| log | end (x, y) " + ref + " | end (x, y) " + name + " | distance (m) "
                   "| status | " + " | ".join(f"arrival {g} (s)" for g in gates) +
                   (" | " if gates else "") + "hits " + ref + " | hits " + name + " |",
-                  "|---" * (6 + len(gates)) + "|"]
+                  "|---" * (7 + len(gates)) + "|"]
         for r in c["logs"]:
             ea, eb = r["end_reference"], r["end_other"]
             arr = [f"{_fmt(r['arrival'][g][0])} / {_fmt(r['arrival'][g][1])}" for g in gates]

@@ -43,8 +43,8 @@ from pathlib import Path
 from driftlog.errors import DriftlogError, InputFileError, OutputPathError
 
 __all__ = ["FileKind", "sniff", "require", "check_output", "atomic_output", "read_text",
-           "DESCRIPTIONS", "register_reader", "nothing_to_resume", "left_open", "reopen_partial",
-           "recover_killed"]
+           "DESCRIPTIONS", "register_reader", "register_loader", "nothing_to_resume", "left_open",
+           "reopen_partial", "recover_killed"]
 
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 NETCDF_MAGIC = (b"CDF\x01", b"CDF\x02", b"CDF\x05", HDF5_SIGNATURE)
@@ -81,12 +81,20 @@ _HINTS = {
     ("flow", "trajectories"): "plot, animate and vtk take the trajectory file written by "
                               "driftlog track or run; for a flow use driftlog info or "
                               "driftlog vtk --flow",
+    ("model_output", "trajectories"): "plot, animate and vtk take the trajectory file written "
+                                      "by driftlog track or run; for a flow use driftlog info "
+                                      "or driftlog vtk --flow",
+    ("openfoam", "trajectories"): "plot, animate and vtk take the trajectory file written by "
+                                  "driftlog track or run; for a flow use driftlog info or "
+                                  "driftlog vtk --flow",
     ("mesh", "trajectories"): "plot, animate and vtk take the trajectory file written by "
                               "driftlog track or run",
     ("scenario", "trajectories"): "run it first: driftlog track SCENARIO, then give the "
                                   "trajectory file it prints",
     ("trajectories", "flow"): "a trajectory file holds logs, not a flow; the flow file is "
                               "the scenario's [flow] path",
+    ("mesh", "flow"): "a mesh holds no flow; a flow file is written by driftlog solve or "
+                      "driftlog import",
     ("model_output", "flow"): "convert it first (driftlog import SRC -o flow.nc), or set "
                               "[flow] source to its format",
     ("openfoam", "flow"): "convert it first (driftlog import CASE -o flow.nc), or set "
@@ -135,7 +143,8 @@ def _netcdf_kind(path: Path) -> FileKind:
         names = set(ds.variables)
         attrs = set(ds.ncattrs())
         info = {"variables": sorted(names), "dimensions": {k: len(v) for k, v in
-                                                           ds.dimensions.items()}}
+                                                           ds.dimensions.items()},
+                "attributes": sorted(attrs)}
         if getattr(ds, "featureType", "") == "trajectory" or "trajectory_index" in names:
             if "rowSize" in names:
                 return FileKind("trajectories", path, info=info)
@@ -164,15 +173,38 @@ def _netcdf_kind(path: Path) -> FileKind:
 
 # Registered from above (this module sits at the bottom of the import layers and imports
 # nothing of driftlog but its errors): ``driftlog.adapters`` adds its readers' ``can_open``
-# probes and the NetCDF-3 size check when it is imported.
+# probes and the NetCDF-3 size check when it is imported, and the package (``driftlog``'s
+# ``__init__``) registers that import as a loader, which the first ``sniff`` runs: every
+# process knows other models' files, whatever it imported before.
 READER_PROBES = []  # (kind, can_open(path) -> bool), the readers of other models' files
 CONTENT_CHECKS = []  # check(path): raises a DriftlogError for a NetCDF-3 file cut short
+READER_LOADERS = []  # load(): registers probes and checks; each run once, by the first sniff
 
 
 def register_reader(kind, can_open):
     """Let :func:`sniff` recognise another model's files (``driftlog.adapters`` does this)."""
     if all(k != kind for k, _ in READER_PROBES):
         READER_PROBES.append((kind, can_open))
+
+
+def register_loader(load):
+    """Have the first :func:`sniff` call ``load()``, which registers readers (``register_reader``).
+
+    The package registers the import of ``driftlog.adapters``: without it a process that had
+    not imported the adapters yet took a HEC-RAS file for "a NetCDF file of an unknown layout",
+    a dfsu for "a binary file" and a truncated sww for another model's output.
+    """
+    if load not in READER_LOADERS:
+        READER_LOADERS.append(load)
+
+
+def _load_readers():
+    while READER_LOADERS:
+        load = READER_LOADERS.pop(0)  # popped first: a loader that sniffs does not recurse
+        try:
+            load()
+        except ImportError:  # a reader's library missing: its files stay unknown
+            pass
 
 
 def _is_openfoam_case(p: Path) -> bool:
@@ -196,6 +228,7 @@ def _reader_of(path) -> str:
 
 def sniff(path) -> FileKind:
     """What the file at ``path`` is (see the module's table of kinds); never raises."""
+    _load_readers()
     p = Path(path)
     try:
         if not p.exists():
@@ -301,12 +334,14 @@ def read_text(path, role: str = "scenario file") -> str:
         raise InputFileError(f"{p}: cannot read the {role} ({exc.strerror or exc})") from None
     if not data.strip():
         raise InputFileError(f"{p}: the {role} is empty ({len(data)} bytes)")
-    if data.startswith(NETCDF_MAGIC):
-        fk = sniff(p)
-        raise InputFileError(f"{p}: {fk.describe()}, not {_a(role)} (a TOML text file)"
-                             + (f": {_HINTS.get((fk.kind, 'scenario'))}"
-                                if (fk.kind, "scenario") in _HINTS else ""))
-    if b"\0" in data[:65536]:
+    binary = b"\0" in data[:65536]
+    if data.startswith(NETCDF_MAGIC) or binary or p.suffix.lower() != ".toml":
+        fk = sniff(p)  # another model's file (a dfsu, a LISFLOOD-FP .par...), a mesh, NetCDF
+        if fk.kind not in ("scenario", "text", "binary"):
+            raise InputFileError(f"{p}: {fk.describe()}, not {_a(role)} (a TOML text file)"
+                                 + (f": {_HINTS.get((fk.kind, 'scenario'))}"
+                                    if (fk.kind, "scenario") in _HINTS else ""))
+    if binary:
         raise InputFileError(f"{p}: a binary file (NUL bytes), not {_a(role)} (a TOML text "
                              "file)")
     try:

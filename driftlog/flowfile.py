@@ -282,7 +282,8 @@ def _read_mesh(path: Path) -> Mesh:
 
     if not path.is_file() and not path.is_dir():
         raise FlowFileError(f"{path}: flow file not found")
-    require(path, ("flow", "model_output", "netcdf"), "flow file", error=FlowFileError)
+    require(path, ("flow", "model_output", "netcdf"), "flow file", error=FlowFileError,
+            expected="a driftlog flow file")  # (the others: what is missing is said below)
     try:
         return read_ugrid_mesh(path)
     except MeshError as exc:

@@ -115,8 +115,6 @@ def describe(path) -> str:
 
     Raises a ``DriftlogError`` for files driftlog does not read.
     """
-    import driftlog.adapters  # noqa: F401 - registers the readers' probes: sniff knows their files
-
     fk = require(path, READABLE, "file for driftlog info",
                  hint="driftlog info reads flow, trajectory (.partial too), mesh, scenario and "
                       "ensemble files, OpenFOAM cases, UGRID, ANUGA and CF grid outputs")

@@ -64,6 +64,24 @@ def stored_flow(path, digest):
         return None, None
 
 
+def _cannot_resume(path, digest):
+    """The error for a file ``--resume`` cannot continue: what it is, or whose flow it is.
+
+    Another kind of file (a trajectory file, another model's output, a truncated file...) is
+    named as such, not as a flow of another [solver] section.
+    """
+    from driftlog.errors import FlowFileError, InputFileError
+    from driftlog.files import sniff
+
+    fk = sniff(path)
+    if fk.kind != "flow":
+        return InputFileError(f"{path}: {fk.describe()}; the file driftlog solve --resume "
+                              "continues must be a flow file of driftlog solve (the .partial of "
+                              "a stopped run): run without --resume (or remove the file)")
+    return FlowFileError(f"{path}: cannot resume: it was not computed from this [solver] "
+                         f"section (solver_hash differs from {digest}); run without --resume")
+
+
 def solve_scenario(scenario, output=None, resume=False, progress=False):
     """Run the solver of a validated scenario; returns (SolveResult, path of the flow file)."""
     sec = scenario["solver"]
@@ -97,13 +115,9 @@ def solve_scenario(scenario, output=None, resume=False, progress=False):
 
         return solve_with_shallow_water_foam(sec, path, attrs, build_solver,
                                              progress=progress), path
-    from driftlog.errors import FlowFileError
-
     if resume and not partial.exists() and path.exists():
         if stored_flow(path, digest)[0] is None:
-            raise FlowFileError(f"{path}: cannot resume: it was not computed from this "
-                                f"[solver] section (solver_hash differs from {digest}); run "
-                                "without --resume")
+            raise _cannot_resume(path, digest)
         os.replace(path, partial)  # a finished flow extended to a later end
     if resume and not partial.exists():
         from driftlog.files import nothing_to_resume
@@ -112,8 +126,7 @@ def solve_scenario(scenario, output=None, resume=False, progress=False):
                           "beginning")
     resume = resume and partial.exists()
     if resume and stored_flow(partial, digest)[0] is None:
-        raise FlowFileError(f"{partial}: cannot resume: it was not computed from this [solver] "
-                            f"section (solver_hash differs from {digest}); run without --resume")
+        raise _cannot_resume(partial, digest)
     estimate_mesh(sec)
     if progress:
         from driftlog._numba import announce_compile

@@ -37,6 +37,7 @@ def flow_from_scenario(scenario, progress=False):
     elif src == "file":
         from driftlog.flowfile import open_flow
 
+        _refuse_other_models_output(sec["path"])
         field = open_flow(sec["path"], dry_depth=sec["dry_depth"])
     elif src == "solver":
         from driftlog.solving import flow_from_scenario as solve
@@ -52,6 +53,28 @@ def flow_from_scenario(scenario, progress=False):
                                 f"only flows on a mesh can be frozen, not source = {src!r}")
         field = field.freeze(sec["steady_at"])
     return field
+
+
+def _refuse_other_models_output(path):
+    """``[flow] source = 'file'`` given another model's output: one error saying how to read it.
+
+    'file' reads driftlog's own flow files; a HEC-RAS, dfsu, Selafin, raster, UGRID, sww or
+    CF grid file or an OpenFOAM case (not written by driftlog) is read by ``source = 'auto'``
+    or its reader's kind, or converted by ``driftlog import``.
+    """
+    from driftlog.errors import FlowFileError
+    from driftlog.files import sniff
+
+    fk = sniff(path)
+    if fk.kind not in ("model_output", "openfoam") or \
+            "driftlog_version" in fk.info.get("attributes", ()):
+        return  # a flow file, or one written by driftlog: open_flow says what is wrong
+    kind = "openfoam" if fk.kind == "openfoam" else fk.info.get("reader") or next(
+        (r.KIND for r in adapters.READERS if r.KIND != "file" and r.can_open(path)), "")
+    raise FlowFileError(f"{path}: another model's output{f' ({kind})' if kind else ''}, not a "
+                        "driftlog flow file: [flow] source = 'file' reads driftlog's own flow "
+                        "files; set source = 'auto'" + (f" (or {kind!r})" if kind else "")
+                        + f" to read it, or convert it first: driftlog import {path} -o flow.nc")
 
 
 # --------------------------------------------------------------------- the scenario section

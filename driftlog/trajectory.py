@@ -728,7 +728,6 @@ def write_flow_vtk(path, out_dir=None, every=1):
     """
     import meshio
 
-    import driftlog.adapters  # noqa: F401 - registers the readers' probes: sniff knows their files
     from driftlog.files import check_output_dir, require
 
     fk = require(path, ("flow", "model_output", "openfoam"), "flow file",

@@ -208,3 +208,121 @@ def test_info_and_vtk_know_other_models_files_in_a_fresh_process(tmp_path):
     out = run("vtk", str(dfsu), "--flow", "--out", str(tmp_path / "vtk"))
     assert out.returncode == 0, out.stderr
     assert (tmp_path / "vtk" / "flow.pvd").is_file() or list((tmp_path / "vtk").glob("*.pvd"))
+
+
+DATA = Path(__file__).resolve().parent / "data"
+
+
+def test_every_command_knows_other_models_files_in_a_fresh_process(tmp_path):
+    """plot, a scenario argument, --resume: each new interpreter sniffs with the readers' probes.
+
+    Only ``info`` and ``vtk`` imported ``driftlog.adapters`` before sniffing (whose readers
+    register what ``driftlog.files.sniff`` knows): ``driftlog plot`` took a HEC-RAS file for
+    "a NetCDF file of an unknown layout", a dfsu given as a scenario was "a binary file" and a
+    truncated sww, whose size check the adapters register too, "another model's output".  The
+    first sniff of a process now loads them (``files.register_loader``).
+    """
+    muncie = Path(__file__).resolve().parents[2] / "shared" / "data" / "hecras" / "Muncie.g05.hdf"
+    if muncie.is_file():
+        out = run("plot", str(muncie), "-o", str(tmp_path / "p.png"))
+        assert out.returncode == 2 and "Traceback" not in out.stderr
+        assert f"{muncie}: another model's output" in out.stderr and "(hecras)" in out.stderr
+        assert "driftlog vtk --flow" in out.stderr  # what to do with a flow
+    dfsu = DATA / "mike" / "HD2D.dfsu"
+    out = run("track", str(dfsu), "-o", str(tmp_path / "t.nc"))
+    assert out.returncode == 2
+    assert f"{dfsu}: another model's output" in out.stderr and "(dfsu), not a scenario file" \
+        in out.stderr
+    sww = tmp_path / "cut.sww"
+    data = (DATA / "anuga" / "channel_centroids.sww").read_bytes()
+    sww.write_bytes(data[:len(data) // 2])
+    out = run("animate", str(sww), "-o", str(tmp_path / "a.gif"))
+    assert out.returncode == 2
+    assert f"{sww}: a NetCDF/HDF5 file that cannot be read (truncated or corrupt)" in out.stderr
+    assert "header declares" in out.stderr
+
+
+def test_wrong_flow_sources_say_what_they_are(tmp_path):
+    """Flow sources of the wrong kind, each in a fresh process: one line saying what to do.
+
+    ``[flow] source = 'file'`` on a D-Flow FM map file (was: "variable 'water_depth' is
+    missing"); ``import`` of a UGRID mesh without a flow (was: "unknown layout"); ``solve
+    --resume`` where the .partial is another model's output (was: "not computed from this
+    [solver] section (solver_hash differs)"); a GeoTIFF series with a raster cut short.
+    """
+    ugrid = DATA / "ugrid" / "dflowfm_map.nc"
+    s = tmp_path / "s.toml"
+    s.write_text(f'[flow]\nsource = "file"\npath = "{ugrid}"\n[time]\nend = 600.0\n'
+                 "[[logs]]\nx = [1.0]\ny = [1.0]\n")
+    out = run("scenario", "check", str(s))
+    assert out.returncode == 2 and out.stderr.count("driftlog: error:") == 1
+    assert f"{ugrid}: another model's output (ugrid), not a driftlog flow file: [flow] source " \
+           "= 'file' reads driftlog's own flow files; set source = 'auto' (or 'ugrid') to read " \
+           f"it, or convert it first: driftlog import {ugrid} -o flow.nc" in out.stderr
+    import netCDF4
+
+    from driftlog.flowfile import write_mesh
+    from driftlog.mesh import Mesh
+
+    mesh = tmp_path / "mesh.nc"
+    with netCDF4.Dataset(mesh, "w") as ds:
+        write_mesh(ds, Mesh.regular_grid(4, 3, 1.0))
+    out = run("import", str(mesh), "-o", str(tmp_path / "f.nc"))
+    assert out.returncode == 2 and "unknown layout" not in out.stderr
+    assert f"{mesh}: a UGRID mesh file without a flow (no water_depth); a hydro source must " \
+           "be" in out.stderr
+    solver = tmp_path / "solver.toml"
+    solver.write_text('[flow]\nsource = "solver"\n[solver]\nmesh = "channel"\n'
+                      "channel = [0.0, 0.0, 20.0, 4.0]\ncell_size = 2.0\nend = 2.0\n"
+                      '[solver.initial]\ntype = "level"\nvalue = 1.0\n[time]\nend = 2.0\n'
+                      "[[logs]]\nx = [5.0]\ny = [2.0]\n")
+    partial = tmp_path / "flow.nc.partial"
+    partial.write_bytes((DATA / "anuga" / "channel_centroids.sww").read_bytes())
+    out = run("solve", str(solver), "-o", str(tmp_path / "flow.nc"), "--resume", "--quiet")
+    assert out.returncode == 2 and "solver_hash" not in out.stderr
+    assert f"{partial}: another model's output" in out.stderr
+    assert "the file driftlog solve --resume continues must be a flow file of driftlog solve" \
+        in out.stderr
+    # a GeoTIFF series with a raster cut short (was: rasterio's traceback, after GDAL's
+    # "Warning 1: TIFFReadDirectory" on stderr)
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    try:
+        from test_adapters_raster import write_geotiff
+    finally:
+        sys.path.pop(0)
+    tif = write_geotiff(tmp_path / "tif") / "depth_60.tif"
+    data = tif.read_bytes()
+    tif.write_bytes(data[:len(data) // 2])
+    out = run("import", str(tif.parent), "-o", str(tmp_path / "g.nc"))
+    assert out.returncode == 2 and "Warning" not in out.stderr, out.stderr
+    assert f"{tif}: a raster whose values cannot be read: truncated or damaged" in out.stderr
+
+
+def test_export_a_grid_flow_and_name_the_output(tmp_path):
+    """``driftlog export`` of a CF grid to Selafin (was: a traceback from xarray-selafin: the
+    grid's cell values written as node values); an error of the writer names the output the
+    user gave, not its temporary name (was: ``.x.tmp1234.slf``)."""
+    grid = DATA / "cf_grid" / "lisflood.nc"
+    slf = tmp_path / "grid.slf"
+    out = run("export", str(grid), "-o", str(slf))
+    assert out.returncode == 0, out.stderr
+    from driftlog.adapters import open_flow_source
+
+    a, b = open_flow_source("auto", grid), open_flow_source("auto", slf)
+    x0, y0, x1, y1 = a.mesh.bounds
+    x = np.linspace(x0, x1, 9)[2:-2]
+    y = np.linspace(y0, y1, 9)[2:-2]
+    t = float(a.times[1])
+    np.testing.assert_allclose(b.sample(x, y, t).h, a.sample(x, y, t).h, atol=1e-6)
+    from driftlog.flowfile import FlowFileWriter
+    from driftlog.mesh import Mesh
+
+    m = Mesh.regular_grid(4, 2, 1.0)
+    flow = tmp_path / "half.nc"
+    with FlowFileWriter(flow, m, np.zeros(m.n_faces)) as w:
+        for t in (0.0, 0.5):
+            w.write(t, np.ones(m.n_faces), u=np.zeros(m.n_faces), v=np.zeros(m.n_faces))
+    out = run("export", str(flow), "-o", str(tmp_path / "half.slf"))
+    assert out.returncode == 2 and ".tmp" not in out.stderr
+    assert f"{tmp_path / 'half.slf'}: the flow's times are not whole seconds (e.g. 0.5 s)" \
+        in out.stderr

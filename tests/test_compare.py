@@ -65,6 +65,12 @@ def test_faster_flow_moves_logs_further_and_earlier(tmp_path, flows):
     assert c["arrival_difference_mean"] == pytest.approx(28.0 / 1.1 - 28.0)
     for f in ("compare.png", "compare.md", "compare.json"):
         assert (tmp_path / "cmp" / f).is_file()
+    # each table's delimiter row has its header's columns (the per-log table had one less, so
+    # that Markdown did not draw it)
+    rows = (tmp_path / "cmp" / "compare.md").read_text().splitlines()
+    for head, delim in zip(rows, rows[1:], strict=False):
+        if delim.startswith("|---"):
+            assert delim.count("|") == head.count("|"), (head, delim)
 
 
 def test_arrival_by_leaving_the_domain(tmp_path, flows):

@@ -165,12 +165,15 @@ def cmd_export(args):
     check_output(out, f"{fmt} file", inputs=[args.source],
                  suffixes=selafin.SUFFIXES if fmt == "selafin" else mike.SUFFIXES)
     field = open_flow_source("auto", args.source)
+    tmp = None
     try:
         with atomic_output(out) as tmp:  # renamed when complete: never a truncated file
             if fmt == "selafin":
                 selafin.write(field, tmp, precision=args.precision)
             else:
                 mike.write(field, tmp)
+    except DriftlogError as exc:  # the file named as the user gave it, not its temporary name
+        raise DriftlogError(str(exc).replace(str(tmp), str(out))) from None
     except OSError as exc:
         raise DriftlogError(f"{out}: cannot write the {fmt} file ({exc})") from None
     print(f"{args.source} -> {out} ({fmt}, {field.times.size} snapshots, "

@@ -268,7 +268,6 @@ def add_vtk(sub):
 
 
 def cmd_vtk(args):
-    import driftlog.adapters  # noqa: F401 - registers the readers' probes: sniff knows their files
     from driftlog.files import sniff
     from driftlog.trajectory import write_flow_vtk, write_vtk
 
