@@ -14,22 +14,11 @@ from pathlib import Path
 import netCDF4
 import numpy as np
 import pytest
-from test_robust import UNIFORM  # the analytic uniform scenario of the bad-input tests
+from test_robust import UNIFORM, _err  # the bad-input tests' scenario and error check
 
 from driftlog.cli import main
 from driftlog.flowfile import FlowFileWriter
 from driftlog.mesh import Mesh
-
-
-def _err(capsys, argv):
-    """Run the CLI; return its one error line (status 2, no traceback)."""
-    rc = main([str(a) for a in argv])
-    err = capsys.readouterr().err
-    assert rc == 2, (argv, rc, err)
-    lines = [line for line in err.replace("\r", "\n").splitlines()
-             if line.startswith("driftlog: error: ")]
-    assert len(lines) == 1 and "Traceback" not in err, err
-    return lines[0]
 
 
 def _scenario(path, text=UNIFORM, **replace):
